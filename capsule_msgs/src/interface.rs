@@ -1,0 +1,205 @@
+//! The interface files themselves: embedded texts, ROS / DDS type names, `ros2msg` schemas,
+//! and a small parser of the `.msg` / `.srv` syntax (fields and constants).
+
+use crate::{
+    ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
+};
+
+/// `builtin_interfaces/msg/Time` as rosidl defines it.
+pub const TIME_MSG: &str = "int32 sec\nuint32 nanosec\n";
+/// `std_msgs/msg/Header` as rosidl defines it.
+pub const HEADER_MSG: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
+/// The text of `srv/SetMode.srv`.
+pub const SET_MODE_SRV: &str = include_str!("../srv/SetMode.srv");
+
+/// A type with a ROS 2 interface definition.
+pub trait RosInterface {
+    /// Package name.
+    const PACKAGE: &'static str;
+    /// `msg` or `srv`.
+    const KIND: &'static str;
+    /// Type name inside the package (`CapsuleState`, `SetMode_Request`).
+    const NAME: &'static str;
+    /// The interface text (one `.msg` file, or one half of a `.srv` file).
+    fn definition() -> &'static str;
+
+    /// `pkg/msg/Name`, the rosbag2 / MCAP schema name.
+    fn ros_type_name() -> String {
+        format!("{}/{}/{}", Self::PACKAGE, Self::KIND, Self::NAME)
+    }
+
+    /// `pkg::msg::dds_::Name_`, the DDS type name that rmw implementations use.
+    fn dds_type_name() -> String {
+        format!("{}::{}::dds_::{}_", Self::PACKAGE, Self::KIND, Self::NAME)
+    }
+
+    /// The `ros2msg` schema: the definition, then every nested type after a `=` separator line.
+    fn ros2msg_schema() -> String {
+        let mut s = Self::definition().to_string();
+        let mut seen: Vec<String> = Vec::new();
+        append_dependencies(Self::definition(), &mut s, &mut seen);
+        s
+    }
+}
+
+fn append_dependencies(text: &str, out: &mut String, seen: &mut Vec<String>) {
+    for field in parse_definition(text).fields {
+        let base = field.base_type().to_string();
+        if let Some((full, def)) = nested_definition(&base) {
+            if !seen.contains(&full.to_string()) {
+                seen.push(full.to_string());
+                out.push_str(&format!("\n{}\nMSG: {}\n{}", "=".repeat(80), full, def));
+                append_dependencies(def, out, seen);
+            }
+        }
+    }
+}
+
+/// The full name and text of a nested message type this package uses.
+pub fn nested_definition(type_name: &str) -> Option<(&'static str, &'static str)> {
+    match type_name {
+        "std_msgs/Header" | "std_msgs/msg/Header" | "Header" => {
+            Some(("std_msgs/msg/Header", HEADER_MSG))
+        }
+        "builtin_interfaces/Time" | "builtin_interfaces/msg/Time" => {
+            Some(("builtin_interfaces/msg/Time", TIME_MSG))
+        }
+        _ => None,
+    }
+}
+
+/// One field line of an interface file: `type name`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FieldDef {
+    /// The type as written (`float64`, `std_msgs/Header`, `uint8[]`).
+    pub type_name: String,
+    /// The field name.
+    pub name: String,
+}
+
+impl FieldDef {
+    /// The type without array brackets.
+    pub fn base_type(&self) -> &str {
+        self.type_name.split('[').next().unwrap_or(&self.type_name)
+    }
+}
+
+/// One constant line of an interface file: `type NAME=value`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConstantDef {
+    /// The constant's type.
+    pub type_name: String,
+    /// The constant's name.
+    pub name: String,
+    /// The value as written.
+    pub value: String,
+}
+
+/// Fields and constants of one message (or one half of a service).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Definition {
+    /// Fields in order.
+    pub fields: Vec<FieldDef>,
+    /// Constants in order.
+    pub constants: Vec<ConstantDef>,
+}
+
+/// Parses `.msg` syntax: comments (`#`), blank lines, `type name [default]`, `type NAME=value`.
+pub fn parse_definition(text: &str) -> Definition {
+    let mut def = Definition::default();
+    for raw in text.lines() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let mut parts = line.splitn(2, char::is_whitespace);
+        let ty = parts.next().unwrap_or("").to_string();
+        let rest = parts.next().unwrap_or("").trim();
+        if let Some((name, value)) = rest.split_once('=') {
+            def.constants.push(ConstantDef {
+                type_name: ty,
+                name: name.trim().to_string(),
+                value: value.trim().to_string(),
+            });
+        } else {
+            let name = rest.split_whitespace().next().unwrap_or("").to_string();
+            def.fields.push(FieldDef {
+                type_name: ty,
+                name,
+            });
+        }
+    }
+    def
+}
+
+/// Splits a `.srv` text into its request and response halves at the `---` line.
+pub fn split_service(text: &str) -> (&str, &str) {
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        if line.trim() == "---" {
+            return (&text[..offset], &text[offset + line.len()..]);
+        }
+        offset += line.len();
+    }
+    (text, "")
+}
+
+macro_rules! msg_interface {
+    ($ty:ty, $name:literal, $file:literal) => {
+        impl RosInterface for $ty {
+            const PACKAGE: &'static str = "capsule_msgs";
+            const KIND: &'static str = "msg";
+            const NAME: &'static str = $name;
+            fn definition() -> &'static str {
+                include_str!($file)
+            }
+        }
+    };
+}
+
+msg_interface!(CapsuleState, "CapsuleState", "../msg/CapsuleState.msg");
+msg_interface!(ActuatorForce, "ActuatorForce", "../msg/ActuatorForce.msg");
+msg_interface!(
+    ControllerStatus,
+    "ControllerStatus",
+    "../msg/ControllerStatus.msg"
+);
+
+impl RosInterface for SetModeRequest {
+    const PACKAGE: &'static str = "capsule_msgs";
+    const KIND: &'static str = "srv";
+    const NAME: &'static str = "SetMode_Request";
+    fn definition() -> &'static str {
+        split_service(SET_MODE_SRV).0
+    }
+}
+
+impl RosInterface for SetModeResponse {
+    const PACKAGE: &'static str = "capsule_msgs";
+    const KIND: &'static str = "srv";
+    const NAME: &'static str = "SetMode_Response";
+    fn definition() -> &'static str {
+        split_service(SET_MODE_SRV).1
+    }
+}
+
+impl RosInterface for Header {
+    const PACKAGE: &'static str = "std_msgs";
+    const KIND: &'static str = "msg";
+    const NAME: &'static str = "Header";
+    fn definition() -> &'static str {
+        HEADER_MSG
+    }
+}
+
+impl RosInterface for Time {
+    const PACKAGE: &'static str = "builtin_interfaces";
+    const KIND: &'static str = "msg";
+    const NAME: &'static str = "Time";
+    fn definition() -> &'static str {
+        TIME_MSG
+    }
+}
+
+#[cfg(test)]
+mod tests;
