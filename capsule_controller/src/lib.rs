@@ -4,5 +4,6 @@
 //! Everything here is non-dimensional (the paper's units); the ROS nodes convert to SI.
 
 pub mod law;
+pub mod mode;
 
 pub use law::FeedbackLaw;
