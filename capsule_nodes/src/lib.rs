@@ -1,1 +1,9 @@
-//! ROS plumbing
+//! The capsule's ROS 2 layer: the plant and controller nodes (ros2-client on RustDDS).
+//!
+//! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
+//! - [`scale`]: SI <-> non-dimensional conversion, scene values the controller needs
+//! - [`controller`]: the controller node
+
+pub mod controller;
+pub mod ros;
+pub mod scale;

@@ -1,0 +1,432 @@
+//! The controller node: state in, force command out, status, and the mode service.
+//!
+//! [`ControllerCore`] is the whole decision logic without DDS (unit-tested here); [`run`] wires
+//! it to ROS. The controller sees only what a capsule driver publishes (the state topic) and
+//! converts SI back to the paper's units with the [`Scale`] it is given.
+//!
+//! Time: the drive phase is taken from the state sample's stamp (`tau = Omega0 t_stamp`), so a
+//! command depends only on the sample it answers (deterministic in lock-step); the command
+//! carries that stamp and the sample's seq. Status messages are stamped with the node's ROS
+//! time (sim time under `use_sim_time`). The stale-state watchdog runs on a steady clock,
+//! because sim time stops when the plant does.
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use capsule_controller::{
+    mode::{Mode, ModeConfig, ProgressMeter, Staleness},
+    FeedbackLaw,
+};
+use capsule_msgs::{
+    ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
+};
+use futures::StreamExt;
+use tracing::{info, warn};
+
+use crate::{
+    ros::{names, qos, types, RosSettings, Wire},
+    scale::Scale,
+};
+
+/// Everything the controller decides, fed with samples, requests and clock readings.
+#[derive(Debug, Clone)]
+pub struct ControllerCore {
+    scale: Scale,
+    law: FeedbackLaw,
+    config: ModeConfig,
+    mode: Mode,
+    pending: Vec<(i64, Mode, f64)>,
+    meter: ProgressMeter,
+    staleness: Staleness,
+    last: Option<(u64, i64)>,
+    last_command: Option<ActuatorForce>,
+    commanding: bool,
+    commands_sent: u64,
+    ignored_samples: u64,
+}
+
+impl ControllerCore {
+    /// A controller in `mode` with gain `kp`, drive `alpha`, `omega`, and the stale timeout [s].
+    pub fn new(
+        scale: Scale,
+        alpha: f64,
+        omega: f64,
+        mode: Mode,
+        kp: f64,
+        config: ModeConfig,
+        stale_s: f64,
+    ) -> Self {
+        let law = FeedbackLaw { alpha, omega, kp };
+        ControllerCore {
+            scale,
+            law,
+            config,
+            mode,
+            pending: Vec::new(),
+            meter: ProgressMeter::new(law.period()),
+            staleness: Staleness::new(stale_s),
+            last: None,
+            last_command: None,
+            commanding: false,
+            commands_sent: 0,
+            ignored_samples: 0,
+        }
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Current law (drive and gain).
+    pub fn law(&self) -> FeedbackLaw {
+        self.law
+    }
+
+    /// Samples ignored so far (non-finite, out of order).
+    pub fn ignored_samples(&self) -> u64 {
+        self.ignored_samples
+    }
+
+    fn switch(&mut self, mode: Mode, kp: f64) {
+        self.mode = mode;
+        self.law.kp = kp;
+        self.meter.reset();
+    }
+
+    /// Handles a `set_mode` request: refused (mode unchanged) with the reason, applied now, or
+    /// scheduled for `effective_from`.
+    pub fn set_mode(&mut self, req: &SetModeRequest) -> SetModeResponse {
+        match self.config.select(req.mode, req.gain) {
+            Err(e) => SetModeResponse {
+                accepted: false,
+                mode: self.mode.code(),
+                gain: self.law.kp,
+                reason: e.to_string(),
+            },
+            Ok((mode, kp)) => {
+                let at = req.effective_from.to_nanos();
+                let now = self.last.map(|(_, t)| t).unwrap_or(i64::MIN);
+                if req.effective_from.is_zero() || at <= now {
+                    self.pending.clear();
+                    self.switch(mode, kp);
+                    SetModeResponse {
+                        accepted: true,
+                        mode: mode.code(),
+                        gain: kp,
+                        reason: format!("{mode} with k_p = {kp}"),
+                    }
+                } else {
+                    self.pending.retain(|(t, _, _)| *t < at);
+                    self.pending.push((at, mode, kp));
+                    SetModeResponse {
+                        accepted: true,
+                        mode: mode.code(),
+                        gain: kp,
+                        reason: format!(
+                            "{mode} with k_p = {kp} from t = {:.9} s",
+                            req.effective_from.as_secs_f64()
+                        ),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Handles a state sample received at steady time `now` [s]; returns the command to publish.
+    ///
+    /// Samples older than the newest one seen are ignored (a late sample must not rewind the
+    /// controller); a repeat of the newest seq (a lock-step plant re-sending) gets the same
+    /// command again without being counted twice.
+    pub fn on_state(&mut self, s: &CapsuleState, now: f64) -> Option<ActuatorForce> {
+        let stamp = s.header.stamp.to_nanos();
+        let values = [s.mass_position, s.mass_velocity, s.capsule_position, s.capsule_velocity];
+        if values.iter().any(|v| !v.is_finite()) {
+            self.ignored_samples += 1;
+            return None;
+        }
+        if let Some((seq, t)) = self.last {
+            if seq == s.seq && t == stamp {
+                self.staleness.seen(now);
+                return self.last_command.clone();
+            }
+            if stamp < t || (stamp == t && s.seq < seq) {
+                self.ignored_samples += 1;
+                return None;
+            }
+        }
+        self.staleness.seen(now);
+        self.commanding = true;
+        self.last = Some((s.seq, stamp));
+        while let Some(i) = self.pending.iter().position(|(t, _, _)| *t <= stamp) {
+            let (_, mode, kp) = self.pending.remove(i);
+            self.switch(mode, kp);
+        }
+        let tau = s.header.stamp.as_secs_f64() / self.scale.time_s();
+        let x1 = s.mass_position / self.scale.length_m();
+        let x2 = s.capsule_position / self.scale.length_m();
+        let f = self.law.force(tau, x1, x2);
+        if !f.is_finite() {
+            self.ignored_samples += 1;
+            return None;
+        }
+        self.meter.sample(tau, x1, x2, f);
+        let cmd = ActuatorForce {
+            header: Header { stamp: s.header.stamp, frame_id: s.header.frame_id.clone() },
+            state_seq: s.seq,
+            force: f * self.scale.force_n(),
+        };
+        self.last_command = Some(cmd.clone());
+        self.commands_sent += 1;
+        Some(cmd)
+    }
+
+    /// Checks the state watchdog at steady time `now`; returns true when it just went stale.
+    pub fn check_stale(&mut self, now: f64) -> bool {
+        if self.commanding && self.staleness.is_stale(now) {
+            self.commanding = false;
+            return true;
+        }
+        false
+    }
+
+    /// True while fresh state arrives and commands go out.
+    pub fn commanding(&self) -> bool {
+        self.commanding
+    }
+
+    /// The status message, stamped `stamp`.
+    pub fn status(&self, stamp: Time) -> ControllerStatus {
+        let periods = self.meter.periods();
+        let prog = self.meter.progression_per_period();
+        let period_s = self.law.period() * self.scale.time_s();
+        let prog_m = prog * self.scale.length_m();
+        ControllerStatus {
+            header: Header { stamp, frame_id: String::new() },
+            mode: self.mode.code(),
+            mode_name: self.mode.name().to_string(),
+            gain: self.law.kp,
+            drive_amplitude: self.law.alpha,
+            drive_frequency: self.law.omega,
+            drive_amplitude_si: self.law.alpha * self.scale.force_n(),
+            drive_frequency_hz: 1.0 / period_s,
+            commanding: self.commanding,
+            commands_sent: self.commands_sent,
+            periods,
+            progression_per_period: prog,
+            progression_per_period_m: prog_m,
+            mean_speed: if periods > 0 { prog_m / period_s } else { 0.0 },
+            efficiency: self.meter.efficiency(),
+        }
+    }
+}
+
+/// How the controller node is set up (besides the ROS settings).
+#[derive(Debug, Clone)]
+pub struct ControllerOptions {
+    /// The core, configured.
+    pub core: ControllerCore,
+    /// Stale-state check and status period.
+    pub status_period: Duration,
+}
+
+/// Runs the controller node until SIGINT/SIGTERM.
+pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
+    let mut core = opts.core;
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let state_topic = node
+        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .context("state topic")?;
+    let force_topic = node
+        .create_topic(&settings.ros_name(names::FORCE)?, types::force(), &qos::data())
+        .context("force topic")?;
+    let status_topic = node
+        .create_topic(&settings.ros_name(names::STATUS)?, types::status(), &qos::data())
+        .context("status topic")?;
+    let state_sub = node
+        .create_subscription::<CapsuleState>(&state_topic, None)
+        .context("state subscription")?;
+    let force_pub =
+        node.create_publisher::<ActuatorForce>(&force_topic, None).context("force publisher")?;
+    let status_pub = node
+        .create_publisher::<ControllerStatus>(&status_topic, None)
+        .context("status publisher")?;
+    let server = node
+        .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
+            settings.mapping.into(),
+            &settings.ros_name(names::SET_MODE)?,
+            &types::set_mode(),
+            qos::service(),
+            qos::service(),
+        )
+        .context("set_mode service")?;
+    info!(
+        "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
+        settings.describe(),
+        settings.resolve_name(names::STATE),
+        settings.resolve_name(names::FORCE),
+        settings.resolve_name(names::STATUS),
+        settings.resolve_name(names::SET_MODE),
+        core.mode(),
+        core.law().kp
+    );
+
+    let start = Instant::now();
+    let steady = || start.elapsed().as_secs_f64();
+    let states = state_sub.async_stream();
+    tokio::pin!(states);
+    let mut requests = server.receive_request_stream();
+    let mut tick = tokio::time::interval(opts.status_period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let shutdown = crate::ros::shutdown_signal();
+    tokio::pin!(shutdown);
+    let stamp_now = |node: &ros2_client::Node| Time::from_nanos(node.time_now().to_nanos());
+
+    loop {
+        tokio::select! {
+            sig = &mut shutdown => {
+                info!("{}: shutting down", sig?);
+                break;
+            }
+            msg = states.select_next_some() => match msg {
+                Ok((state, _info)) => {
+                    let was = core.commanding();
+                    if let Some(cmd) = core.on_state(&state, steady()) {
+                        if !was {
+                            info!("state fresh at seq {}: commanding", state.seq);
+                        }
+                        if let Err(e) = force_pub.async_publish(cmd).await {
+                            warn!("force command not sent: {e:?}");
+                        }
+                    }
+                }
+                Err(e) => warn!("bad state sample: {e:?}"),
+            },
+            req = requests.select_next_some() => match req {
+                Ok((id, Wire(req))) => {
+                    let resp = core.set_mode(&req);
+                    if resp.accepted {
+                        info!("set_mode accepted: {}", resp.reason);
+                    } else {
+                        warn!("set_mode refused (mode {} gain {}): {}", req.mode, req.gain, resp.reason);
+                    }
+                    if let Err(e) = server.async_send_response(id, Wire(resp)).await {
+                        warn!("set_mode response not sent: {e:?}");
+                    }
+                    let _ = status_pub.async_publish(core.status(stamp_now(&node))).await;
+                }
+                Err(e) => warn!("bad set_mode request: {e:?}"),
+            },
+            _ = tick.tick() => {
+                if core.check_stale(steady()) {
+                    warn!("state stale (no sample for the timeout; plant gone?): stopped commanding");
+                }
+                if let Err(e) = status_pub.async_publish(core.status(stamp_now(&node))).await {
+                    warn!("status not sent: {e:?}");
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scale() -> Scale {
+        Scale { m1_kg: 0.04, k1_n_per_m: 100.0, pf_n: 2.0 }
+    }
+
+    fn core(mode: Mode, kp: f64) -> ControllerCore {
+        ControllerCore::new(scale(), 1.6, 1.1, mode, kp, ModeConfig::default(), 0.5)
+    }
+
+    fn state(seq: u64, t: f64, x1_nd: f64, x2_nd: f64) -> CapsuleState {
+        let l = scale().length_m();
+        CapsuleState {
+            header: Header { stamp: Time::from_secs_f64(t), frame_id: "odom".into() },
+            seq,
+            mass_position: x1_nd * l,
+            capsule_position: x2_nd * l,
+            ..CapsuleState::default()
+        }
+    }
+
+    #[test]
+    fn command_is_the_papers_law_in_si() {
+        let mut c = core(Mode::Forward, 0.2);
+        let t = 0.013;
+        let cmd = c.on_state(&state(0, t, 0.3, -0.1), 0.0).map(|c| c.force).unwrap_or(f64::NAN);
+        let tau = t * scale().omega0();
+        let expected = (1.6 * (1.1 * tau).cos() + 0.2 * 0.4) * 2.0;
+        assert!((cmd - expected).abs() < 1e-12, "{cmd} vs {expected}");
+    }
+
+    #[test]
+    fn refused_requests_leave_the_mode_alone() {
+        let mut c = core(Mode::Forward, 0.2);
+        for (mode, gain) in [(7u8, 0.1), (4, f64::NAN), (4, f64::INFINITY), (4, 5.0), (1, 3.0)] {
+            let r = c.set_mode(&SetModeRequest { mode, gain, ..SetModeRequest::default() });
+            assert!(!r.accepted, "{mode} {gain}");
+            assert!(!r.reason.is_empty());
+            assert_eq!((c.mode(), c.law().kp), (Mode::Forward, 0.2));
+            assert_eq!((r.mode, r.gain), (1, 0.2));
+        }
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::BACKWARD,
+            gain: 0.0,
+            ..Default::default()
+        });
+        assert!(r.accepted);
+        assert_eq!((c.mode(), c.law().kp), (Mode::Backward, -0.2));
+    }
+
+    #[test]
+    fn scheduled_switches_apply_at_their_sample_and_late_samples_are_ignored() {
+        let mut c = core(Mode::Forward, 0.2);
+        assert!(c.on_state(&state(0, 0.0, 0.0, 0.0), 0.0).is_some());
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::OFF,
+            gain: 0.0,
+            effective_from: Time::from_secs_f64(0.02),
+        });
+        assert!(r.accepted);
+        assert_eq!(c.mode(), Mode::Forward);
+        assert!(c.on_state(&state(1, 0.01, 0.0, 0.0), 0.01).is_some());
+        assert_eq!(c.mode(), Mode::Forward);
+        // a late, older sample: ignored, no command
+        assert!(c.on_state(&state(0, 0.0, 0.0, 0.0), 0.011).is_none());
+        assert_eq!(c.ignored_samples(), 1);
+        assert!(c.on_state(&state(2, 0.02, 0.0, 0.0), 0.02).is_some());
+        assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
+    }
+
+    #[test]
+    fn repeated_sample_gets_the_same_command_and_stale_state_stops_commanding() {
+        let mut c = core(Mode::Forward, 0.2);
+        let a = c.on_state(&state(3, 0.03, 0.1, 0.0), 0.0);
+        let b = c.on_state(&state(3, 0.03, 0.1, 0.0), 0.1);
+        assert!(a.is_some());
+        assert_eq!(a, b);
+        assert_eq!(c.status(Time::ZERO).commands_sent, 1);
+        assert!(c.commanding());
+        assert!(!c.check_stale(0.5));
+        assert!(c.check_stale(0.7));
+        assert!(!c.commanding());
+        assert!(!c.status(Time::ZERO).commanding);
+        assert!(!c.check_stale(0.8), "reports going stale once");
+        assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 0.9).is_some());
+        assert!(c.commanding());
+    }
+
+    #[test]
+    fn non_finite_samples_are_ignored() {
+        let mut c = core(Mode::Off, 0.0);
+        let mut s = state(0, 0.0, 0.0, 0.0);
+        s.capsule_position = f64::NAN;
+        assert!(c.on_state(&s, 0.0).is_none());
+        assert_eq!(c.ignored_samples(), 1);
+    }
+}

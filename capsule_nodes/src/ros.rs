@@ -1,0 +1,465 @@
+//! ROS 2 plumbing shared by the nodes: the ROS environment conventions (domain, discovery
+//! range, RMW service mapping), node names and remapping, QoS, and the DDS participant.
+
+use std::{collections::BTreeMap, net::Ipv4Addr, time::Duration};
+
+use anyhow::{bail, Context as _, Result};
+use clap::{Args, ValueEnum};
+use ros2_client::{
+    qos::{Durability, History, WhenFull},
+    Context, Message, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue,
+    QosProfile, ServiceMapping, ServiceTypeName,
+};
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// How far DDS discovery reaches (the ROS 2 `ROS_AUTOMATIC_DISCOVERY_RANGE` idea).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DiscoveryRange {
+    /// Loopback only: the participant uses 127.0.0.1 and nothing else.
+    Localhost,
+    /// Every interface that can multicast (RustDDS's default).
+    Subnet,
+}
+
+/// Which request/reply mapping services use on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Mapping {
+    /// rmw_cyclonedds_cpp's mapping.
+    Cyclone,
+    /// The RPC-over-DDS "enhanced" mapping that rmw_fastrtps_cpp uses.
+    Enhanced,
+    /// The RPC-over-DDS "basic" mapping.
+    Basic,
+}
+
+impl From<Mapping> for ServiceMapping {
+    fn from(m: Mapping) -> Self {
+        match m {
+            Mapping::Cyclone => ServiceMapping::Cyclone,
+            Mapping::Enhanced => ServiceMapping::Enhanced,
+            Mapping::Basic => ServiceMapping::Basic,
+        }
+    }
+}
+
+/// The ROS options every capsule node takes (flags override the environment).
+#[derive(Debug, Clone, Args)]
+pub struct RosArgs {
+    /// DDS domain [default: $ROS_DOMAIN_ID, else 0]
+    #[arg(long, value_parser = clap::value_parser!(u16).range(0..=232))]
+    pub domain_id: Option<u16>,
+    /// Discovery range [default: localhost if $ROS_AUTOMATIC_DISCOVERY_RANGE is LOCALHOST or OFF
+    /// or $ROS_LOCALHOST_ONLY=1, else subnet]
+    #[arg(long, value_enum)]
+    pub discovery_range: Option<DiscoveryRange>,
+    /// Service request/reply mapping [default: from $RMW_IMPLEMENTATION: cyclone for
+    /// rmw_cyclonedds_cpp, enhanced otherwise (rmw_fastrtps_cpp is the ROS 2 default)]
+    #[arg(long, value_enum)]
+    pub service_mapping: Option<Mapping>,
+    /// Node name [default: the node's own]
+    #[arg(long)]
+    pub node_name: Option<String>,
+    /// Node namespace; relative topic names resolve under it
+    #[arg(long, default_value = "/")]
+    pub namespace: String,
+    /// Remap a topic or service name, FROM:=TO (repeatable), as `ros2 run ... -r FROM:=TO`
+    #[arg(short = 'r', long = "remap", value_name = "FROM:=TO")]
+    pub remap: Vec<String>,
+    /// Take time from /clock (the ROS `use_sim_time` parameter)
+    #[arg(long)]
+    pub use_sim_time: bool,
+}
+
+/// The environment a node reads its defaults from (so tests can pass their own).
+#[derive(Debug, Clone, Default)]
+pub struct RosEnv {
+    /// `ROS_DOMAIN_ID`.
+    pub domain_id: Option<String>,
+    /// `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+    pub discovery_range: Option<String>,
+    /// `ROS_LOCALHOST_ONLY`.
+    pub localhost_only: Option<String>,
+    /// `RMW_IMPLEMENTATION`.
+    pub rmw_implementation: Option<String>,
+}
+
+impl RosEnv {
+    /// Reads the process environment.
+    pub fn from_process() -> Self {
+        let get = |k| std::env::var(k).ok().filter(|v: &String| !v.trim().is_empty());
+        RosEnv {
+            domain_id: get("ROS_DOMAIN_ID"),
+            discovery_range: get("ROS_AUTOMATIC_DISCOVERY_RANGE"),
+            localhost_only: get("ROS_LOCALHOST_ONLY"),
+            rmw_implementation: get("RMW_IMPLEMENTATION"),
+        }
+    }
+}
+
+/// Resolved ROS settings of one node.
+#[derive(Debug, Clone)]
+pub struct RosSettings {
+    /// DDS domain.
+    pub domain_id: u16,
+    /// Discovery range.
+    pub range: DiscoveryRange,
+    /// Service mapping.
+    pub mapping: Mapping,
+    /// Node name (base).
+    pub node_name: String,
+    /// Namespace (absolute).
+    pub namespace: String,
+    /// Remaps, resolved FROM -> resolved TO.
+    pub remaps: BTreeMap<String, String>,
+    /// Use /clock.
+    pub use_sim_time: bool,
+}
+
+impl RosSettings {
+    /// Merges flags over the environment; errors name the flag or variable at fault.
+    pub fn resolve(args: &RosArgs, env: &RosEnv, default_node: &str) -> Result<Self> {
+        let domain_id = match (args.domain_id, &env.domain_id) {
+            (Some(d), _) => d,
+            (None, Some(v)) => match v.trim().parse::<u16>() {
+                Ok(d) if d <= 232 => d,
+                _ => bail!("ROS_DOMAIN_ID={v:?} is not a domain id (0..=232)"),
+            },
+            (None, None) => 0,
+        };
+        let range = match args.discovery_range {
+            Some(r) => r,
+            None => {
+                let auto = env.discovery_range.as_deref().map(|s| s.trim().to_ascii_uppercase());
+                match auto.as_deref() {
+                    Some("LOCALHOST") | Some("OFF") => DiscoveryRange::Localhost,
+                    Some("SUBNET") | Some("SYSTEM_DEFAULT") => DiscoveryRange::Subnet,
+                    Some(other) => bail!(
+                        "ROS_AUTOMATIC_DISCOVERY_RANGE={other:?}: expected LOCALHOST, SUBNET, OFF or SYSTEM_DEFAULT"
+                    ),
+                    None if env.localhost_only.as_deref().map(str::trim) == Some("1") => {
+                        DiscoveryRange::Localhost
+                    }
+                    None => DiscoveryRange::Subnet,
+                }
+            }
+        };
+        let mapping = match args.service_mapping {
+            Some(m) => m,
+            None => match env.rmw_implementation.as_deref().map(str::trim) {
+                Some(r) if r.starts_with("rmw_cyclonedds") => Mapping::Cyclone,
+                _ => Mapping::Enhanced,
+            },
+        };
+        let node_name = args.node_name.clone().unwrap_or_else(|| default_node.to_string());
+        if NodeName::new("/", &node_name).is_err() {
+            bail!("--node-name {node_name:?} is not a valid ROS node name");
+        }
+        let namespace = normalize_namespace(&args.namespace)?;
+        let mut settings = RosSettings {
+            domain_id,
+            range,
+            mapping,
+            node_name,
+            namespace,
+            remaps: BTreeMap::new(),
+            use_sim_time: args.use_sim_time,
+        };
+        for r in &args.remap {
+            let Some((from, to)) = r.split_once(":=") else {
+                bail!("--remap {r:?}: expected FROM:=TO");
+            };
+            let from = settings.expand(from.trim());
+            let to = settings.expand(to.trim());
+            for n in [&from, &to] {
+                if Name::parse(n).is_err() {
+                    bail!("--remap {r:?}: {n:?} is not a valid ROS name");
+                }
+            }
+            settings.remaps.insert(from, to);
+        }
+        Ok(settings)
+    }
+
+    /// Expands `~/x` (private), `x` (relative) and `/x` (absolute) to a full name, no remap.
+    pub fn expand(&self, name: &str) -> String {
+        let ns = self.namespace.trim_end_matches('/');
+        if let Some(rest) = name.strip_prefix("~/") {
+            format!("{ns}/{}/{rest}", self.node_name)
+        } else if name.starts_with('/') {
+            name.to_string()
+        } else {
+            format!("{ns}/{name}")
+        }
+    }
+
+    /// The full name a topic or service gets: expanded, then remapped.
+    pub fn resolve_name(&self, name: &str) -> String {
+        let full = self.expand(name);
+        self.remaps.get(&full).cloned().unwrap_or(full)
+    }
+
+    /// The resolved name as a ros2-client [`Name`].
+    pub fn ros_name(&self, name: &str) -> Result<Name> {
+        let full = self.resolve_name(name);
+        Name::parse(&full).map_err(|e| anyhow::anyhow!("bad ROS name {full:?}: {e:?}"))
+    }
+
+    /// Creates the DDS participant (loopback only when the range says so) and the ROS context.
+    pub fn context(&self) -> Result<Context> {
+        let mut builder = rustdds::DomainParticipantBuilder::new(self.domain_id);
+        if self.range == DiscoveryRange::Localhost {
+            builder = builder.with_only_networks([Ipv4Addr::LOCALHOST]);
+        }
+        let participant = builder.build().with_context(|| {
+            format!("cannot create a DDS participant in domain {}", self.domain_id)
+        })?;
+        Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
+    }
+
+    /// Creates the node (with `use_sim_time` declared as asked) and starts its spinner.
+    pub fn node(&self, context: &Context) -> Result<Node> {
+        let name = NodeName::new(&self.namespace, &self.node_name).map_err(|e| {
+            anyhow::anyhow!("bad node name {}/{}: {e:?}", self.namespace, self.node_name)
+        })?;
+        let options = NodeOptions::new()
+            .enable_rosout(true)
+            .declare_parameter("use_sim_time", ParameterValue::Boolean(self.use_sim_time));
+        let mut node = context.new_node(name, options).context("cannot create the ROS node")?;
+        let spinner = node.spinner().context("cannot create the node spinner")?;
+        tokio::spawn(async move {
+            if let Err(e) = spinner.spin().await {
+                tracing::error!("ROS spinner stopped: {e:?}");
+            }
+        });
+        Ok(node)
+    }
+
+    /// One line for the log: where this node talks.
+    pub fn describe(&self) -> String {
+        format!(
+            "node {}/{} domain {} discovery {:?} service mapping {:?}{}",
+            self.namespace.trim_end_matches('/'),
+            self.node_name,
+            self.domain_id,
+            self.range,
+            self.mapping,
+            if self.use_sim_time { " use_sim_time" } else { "" }
+        )
+    }
+}
+
+fn normalize_namespace(ns: &str) -> Result<String> {
+    let ns = ns.trim();
+    let ns = if ns.starts_with('/') { ns.to_string() } else { format!("/{ns}") };
+    if ns != "/" {
+        let trimmed = ns.trim_end_matches('/');
+        let (parent, base) = trimmed.rsplit_once('/').unwrap_or(("", trimmed));
+        let parent = if parent.is_empty() { "/" } else { parent };
+        if Name::new(parent, base).is_err() {
+            bail!("--namespace {ns:?} is not a valid ROS namespace");
+        }
+        return Ok(trimmed.to_string());
+    }
+    Ok(ns)
+}
+
+/// A message carried as is; lets capsule_msgs' plain serde types travel as ros2-client
+/// [`Message`]s without capsule_msgs depending on ROS.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Wire<T>(pub T);
+
+impl<T: Serialize + DeserializeOwned> Message for Wire<T> {}
+
+/// `rosgraph_msgs/msg/Clock`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct Clock {
+    /// The current (simulation) time.
+    pub clock: capsule_msgs::Time,
+}
+
+/// Default names of the capsule graph (relative, so a namespace moves them all).
+pub mod names {
+    /// Plant state topic.
+    pub const STATE: &str = "capsule/state";
+    /// Force command topic.
+    pub const FORCE: &str = "capsule/actuator_force";
+    /// Controller status topic (private to the controller node).
+    pub const STATUS: &str = "~/status";
+    /// Mode service (private to the controller node).
+    pub const SET_MODE: &str = "~/set_mode";
+    /// Simulation clock (absolute, as in ROS).
+    pub const CLOCK: &str = "/clock";
+}
+
+/// ROS type names of the capsule interfaces.
+pub mod types {
+    use super::*;
+    /// `capsule_msgs/msg/CapsuleState`.
+    pub fn state() -> MessageTypeName {
+        MessageTypeName::new("capsule_msgs", "CapsuleState")
+    }
+    /// `capsule_msgs/msg/ActuatorForce`.
+    pub fn force() -> MessageTypeName {
+        MessageTypeName::new("capsule_msgs", "ActuatorForce")
+    }
+    /// `capsule_msgs/msg/ControllerStatus`.
+    pub fn status() -> MessageTypeName {
+        MessageTypeName::new("capsule_msgs", "ControllerStatus")
+    }
+    /// `rosgraph_msgs/msg/Clock`.
+    pub fn clock() -> MessageTypeName {
+        MessageTypeName::new("rosgraph_msgs", "Clock")
+    }
+    /// `capsule_msgs/srv/SetMode`.
+    pub fn set_mode() -> ServiceTypeName {
+        ServiceTypeName::new("capsule_msgs", "SetMode")
+    }
+}
+
+/// QoS of the capsule topics.
+pub mod qos {
+    use super::*;
+    /// State, force and status: reliable (so both reliable and best-effort rclcpp
+    /// subscribers match), volatile, keep last 16; a full window waits at most 5 ms.
+    pub fn data() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 16 })
+    }
+    /// /clock: reliable keep-last 1 (matches rclcpp's best-effort clock subscription too).
+    pub fn clock() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 1 })
+    }
+    /// Services: reliable, volatile, keep last 10 (rmw's services default).
+    pub fn service() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 10 })
+    }
+}
+
+/// Sets up tracing to stderr (`RUST_LOG` filters; default `info`, RustDDS noise at `warn`).
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+        tracing_subscriber::EnvFilter::new("info,rustdds=error,ros2_client=warn")
+    });
+    let _ =
+        tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+}
+
+/// Runs a node's future on a multi-threaded tokio runtime.
+pub fn block_on<F: std::future::Future<Output = Result<()>>>(fut: F) -> Result<()> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the tokio runtime")?
+        .block_on(fut)
+}
+
+/// Prints an error chain as one line (`NAME: error: ...`) and maps it to exit status 2.
+pub fn exit_code(name: &str, result: Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{name}: error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+/// Resolves when the process gets Ctrl-C (SIGINT) or SIGTERM.
+pub async fn shutdown_signal() -> Result<&'static str> {
+    use tokio::signal::unix::{signal, SignalKind};
+    let mut term = signal(SignalKind::terminate()).context("cannot install the SIGTERM handler")?;
+    let mut int = signal(SignalKind::interrupt()).context("cannot install the SIGINT handler")?;
+    tokio::select! {
+        _ = term.recv() => Ok("SIGTERM"),
+        _ = int.recv() => Ok("SIGINT"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct T {
+        #[command(flatten)]
+        ros: RosArgs,
+    }
+
+    fn settings(flags: &[&str], env: RosEnv) -> Result<RosSettings> {
+        let mut argv = vec!["t"];
+        argv.extend_from_slice(flags);
+        let t = T::try_parse_from(argv)?;
+        RosSettings::resolve(&t.ros, &env, "capsule_controller")
+    }
+
+    #[test]
+    fn environment_conventions_map_to_settings_and_flags_win() -> Result<()> {
+        let s = settings(&[], RosEnv::default())?;
+        assert_eq!(
+            (s.domain_id, s.range, s.mapping),
+            (0, DiscoveryRange::Subnet, Mapping::Enhanced)
+        );
+        let env = RosEnv {
+            domain_id: Some("42".into()),
+            discovery_range: Some("localhost".into()),
+            rmw_implementation: Some("rmw_cyclonedds_cpp".into()),
+            ..RosEnv::default()
+        };
+        let s = settings(&[], env.clone())?;
+        assert_eq!(
+            (s.domain_id, s.range, s.mapping),
+            (42, DiscoveryRange::Localhost, Mapping::Cyclone)
+        );
+        let s = settings(&["--domain-id", "7", "--service-mapping", "enhanced"], env)?;
+        assert_eq!((s.domain_id, s.mapping), (7, Mapping::Enhanced));
+        let old = RosEnv { localhost_only: Some("1".into()), ..RosEnv::default() };
+        assert_eq!(settings(&[], old)?.range, DiscoveryRange::Localhost);
+        Ok(())
+    }
+
+    #[test]
+    fn bad_environment_and_flags_are_named() {
+        let env = RosEnv { domain_id: Some("x9".into()), ..RosEnv::default() };
+        let e = settings(&[], env).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("ROS_DOMAIN_ID"), "{e}");
+        let env = RosEnv { discovery_range: Some("GALAXY".into()), ..RosEnv::default() };
+        let e = settings(&[], env).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("ROS_AUTOMATIC_DISCOVERY_RANGE"), "{e}");
+        assert!(settings(&["--domain-id", "300"], RosEnv::default()).is_err());
+        let e =
+            settings(&["-r", "nothing"], RosEnv::default()).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("--remap"), "{e}");
+        let e = settings(&["--node-name", "bad name"], RosEnv::default())
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--node-name"), "{e}");
+    }
+
+    #[test]
+    fn names_resolve_with_namespace_private_names_and_remaps() -> Result<()> {
+        let s = settings(&[], RosEnv::default())?;
+        assert_eq!(s.resolve_name(names::STATE), "/capsule/state");
+        assert_eq!(s.resolve_name(names::SET_MODE), "/capsule_controller/set_mode");
+        assert_eq!(s.resolve_name(names::CLOCK), "/clock");
+        let s = settings(
+            &["--namespace", "robot1", "--node-name", "ctl", "-r", "capsule/state:=/sim/state"],
+            RosEnv::default(),
+        )?;
+        assert_eq!(s.resolve_name(names::STATE), "/sim/state");
+        assert_eq!(s.resolve_name(names::FORCE), "/robot1/capsule/actuator_force");
+        assert_eq!(s.resolve_name(names::STATUS), "/robot1/ctl/status");
+        assert_eq!(s.resolve_name(names::CLOCK), "/clock");
+        Ok(())
+    }
+}
