@@ -3,7 +3,9 @@
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`scale`]: SI <-> non-dimensional conversion, scene values the controller needs
 //! - [`controller`]: the controller node
+//! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
 
 pub mod controller;
+pub mod plant;
 pub mod ros;
 pub mod scale;

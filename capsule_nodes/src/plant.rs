@@ -1,0 +1,604 @@
+//! The plant node: a simulated capsule behind the same topics a real capsule driver would use.
+//!
+//! [`PlantCore`] is the node's logic without DDS (unit-tested here against a stand-in model):
+//! sampling at a fixed rate, the zero-order hold of the last accepted command, command
+//! validation (non-finite refused and counted, older-than-accepted refused: a late command
+//! never rewinds time), the stale-command watchdog (zero force after the timeout, said in the
+//! log and in `CapsuleState.command_stale`), SI conversion through the scene's [`Scale`], and
+//! loop statistics (command latency, steps without an answer). [`run`] wires it to ROS in one of
+//! two pacings:
+//!
+//! - **real time**: sample `k` is published at `start + k / rate` (steady clock, a dedicated
+//!   timer thread); whatever command is held at the next sample drives the next step;
+//! - **lock-step**: sample `k` is published and the plant waits for the command that answers
+//!   seq `k` (re-sending the sample every `retransmit` until it comes), then integrates one step
+//!   with it. The run is then a function of the scene and the controller only: reproducible bit
+//!   for bit, as fast as the loop allows. If no answer comes within the command timeout, that
+//!   step runs with zero force and the plant says so.
+//!
+//! Time on the wire is simulation time (starting at 0), also published on `/clock`.
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
+use futures::StreamExt;
+use tracing::{info, warn};
+
+use crate::{
+    ros::{names, qos, types, Clock, RosSettings},
+    scale::Scale,
+};
+
+/// A non-dimensional sample of the simulated plant (the simulator's snapshot, SI-free).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlantSample {
+    /// Non-dimensional time.
+    pub tau: f64,
+    /// Mass position.
+    pub x1: f64,
+    /// Mass velocity.
+    pub y1: f64,
+    /// Capsule position.
+    pub x2: f64,
+    /// Capsule velocity.
+    pub y2: f64,
+    /// Capsule sticks.
+    pub stuck: bool,
+    /// Mass touches the secondary spring.
+    pub contact: bool,
+    /// Friction force on the capsule.
+    pub friction_force: f64,
+    /// Contact force.
+    pub contact_force: f64,
+    /// Actuator force applied over the last step.
+    pub actuator_force: f64,
+}
+
+/// What the node needs from a simulator: hold a force until a time, and report a sample.
+pub trait PlantSim {
+    /// Integrates to `tau_end` holding the non-dimensional actuator force `force`.
+    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()>;
+    /// The current sample.
+    fn sample(&self) -> PlantSample;
+}
+
+/// How the plant paces its steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pacing {
+    /// One sample per `1/rate` of wall time.
+    Realtime,
+    /// Each step waits for the command answering the last sample.
+    Lockstep,
+}
+
+/// Why a command was not taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandOutcome {
+    /// Taken; held from the next step on.
+    Accepted,
+    /// A repeat of the last accepted command (lock-step re-answers): ignored, not counted.
+    Duplicate,
+    /// Force NaN or infinite: refused and counted.
+    NonFinite,
+    /// Stamped before the last accepted command, or answering an old sample: refused, counted.
+    Late,
+    /// Answering a sample not yet published (lock-step): refused, counted.
+    Future,
+}
+
+/// Loop statistics: command latency (publish of sample to arrival of its answer).
+#[derive(Debug, Clone, Default)]
+pub struct LoopStats {
+    /// Latencies [s] of answered samples.
+    pub latencies: Vec<f64>,
+    /// Samples published.
+    pub published: u64,
+    /// Samples that never got an answer.
+    pub unanswered: u64,
+}
+
+impl LoopStats {
+    /// `(p50, p99, max)` of the latencies [s], `None` if none.
+    pub fn percentiles(&self) -> Option<(f64, f64, f64)> {
+        if self.latencies.is_empty() {
+            return None;
+        }
+        let mut v = self.latencies.clone();
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Some((at(0.5), at(0.99), v[v.len() - 1]))
+    }
+}
+
+/// The plant node's logic around a simulator.
+pub struct PlantCore<S: PlantSim> {
+    sim: S,
+    scale: Scale,
+    rate_hz: f64,
+    command_timeout: f64,
+    frame_id: String,
+    step: u64,
+    held_n: f64,
+    last_accepted: Option<(i64, u64, f64)>,
+    last_command_at: Option<f64>,
+    stale: bool,
+    rejected: u32,
+    answered_current: bool,
+    published_at: Option<f64>,
+    /// Statistics of the loop.
+    pub stats: LoopStats,
+}
+
+impl<S: PlantSim> PlantCore<S> {
+    /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` [s].
+    pub fn new(sim: S, scale: Scale, rate_hz: f64, command_timeout: f64) -> Self {
+        PlantCore {
+            sim,
+            scale,
+            rate_hz,
+            command_timeout,
+            frame_id: "odom".to_string(),
+            step: 0,
+            held_n: 0.0,
+            last_accepted: None,
+            last_command_at: None,
+            stale: true,
+            rejected: 0,
+            answered_current: false,
+            published_at: None,
+            stats: LoopStats::default(),
+        }
+    }
+
+    /// Seq of the current sample.
+    pub fn seq(&self) -> u64 {
+        self.step
+    }
+
+    /// Stamp of sample `k` in nanoseconds of sim time (`k / rate`, rounded).
+    fn stamp_nanos(&self, k: u64) -> i64 {
+        (k as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Stamp of the current sample.
+    pub fn stamp(&self) -> Time {
+        Time::from_nanos(self.stamp_nanos(self.step))
+    }
+
+    /// Force held now [N].
+    pub fn held_force(&self) -> f64 {
+        if self.stale {
+            0.0
+        } else {
+            self.held_n
+        }
+    }
+
+    /// Commands refused so far.
+    pub fn rejected(&self) -> u32 {
+        self.rejected
+    }
+
+    /// True when the watchdog has fallen back to zero force.
+    pub fn stale(&self) -> bool {
+        self.stale
+    }
+
+    /// True once the current sample has been answered (lock-step).
+    pub fn answered(&self) -> bool {
+        self.answered_current
+    }
+
+    /// The current sample as a message (SI).
+    pub fn state(&self) -> CapsuleState {
+        let s = self.sim.sample();
+        let l = self.scale.length_m();
+        let v = self.scale.velocity_m_per_s();
+        let f = self.scale.force_n();
+        CapsuleState {
+            header: Header { stamp: self.stamp(), frame_id: self.frame_id.clone() },
+            seq: self.step,
+            mass_position: s.x1 * l,
+            mass_velocity: s.y1 * v,
+            capsule_position: s.x2 * l,
+            capsule_velocity: s.y2 * v,
+            in_contact: s.contact,
+            stuck: s.stuck,
+            friction_force: s.friction_force * f,
+            contact_force: s.contact_force * f,
+            actuator_force: s.actuator_force * f,
+            command_stale: self.stale,
+            rejected_commands: self.rejected,
+        }
+    }
+
+    /// Notes that the current sample went out at steady time `now`.
+    pub fn published(&mut self, now: f64) {
+        if self.published_at.is_none() {
+            self.published_at = Some(now);
+            self.stats.published += 1;
+        }
+    }
+
+    /// Takes a command received at steady time `now`. `lockstep` requires it to answer the
+    /// current sample.
+    pub fn on_command(&mut self, cmd: &ActuatorForce, now: f64, lockstep: bool) -> CommandOutcome {
+        let stamp = cmd.header.stamp.to_nanos();
+        if let Some((t, seq, f)) = self.last_accepted {
+            if t == stamp && seq == cmd.state_seq && f.to_bits() == cmd.force.to_bits() {
+                return CommandOutcome::Duplicate;
+            }
+        }
+        let outcome = if !cmd.force.is_finite() {
+            CommandOutcome::NonFinite
+        } else if self.last_accepted.is_some_and(|(t, _, _)| stamp < t) {
+            CommandOutcome::Late
+        } else if lockstep && cmd.state_seq < self.step {
+            CommandOutcome::Late
+        } else if lockstep && cmd.state_seq > self.step {
+            CommandOutcome::Future
+        } else {
+            CommandOutcome::Accepted
+        };
+        if outcome != CommandOutcome::Accepted {
+            self.rejected = self.rejected.saturating_add(1);
+            return outcome;
+        }
+        self.last_accepted = Some((stamp, cmd.state_seq, cmd.force));
+        self.held_n = cmd.force;
+        self.last_command_at = Some(now);
+        if self.stale {
+            info!("command received (seq {}): applying commanded force", cmd.state_seq);
+        }
+        self.stale = false;
+        if cmd.state_seq == self.step && !self.answered_current {
+            self.answered_current = true;
+            if let Some(p) = self.published_at {
+                self.stats.latencies.push(now - p);
+            }
+        }
+        outcome
+    }
+
+    /// Watchdog at steady time `now`: true when it just fell back to zero force.
+    pub fn check_watchdog(&mut self, now: f64) -> bool {
+        let fresh = self.last_command_at.is_some_and(|t| now - t <= self.command_timeout);
+        if !fresh && !self.stale {
+            self.stale = true;
+            return true;
+        }
+        false
+    }
+
+    /// Forces the zero-force fallback (lock-step: no answer within the timeout).
+    pub fn force_stale(&mut self) -> bool {
+        let was = self.stale;
+        self.stale = true;
+        !was
+    }
+
+    /// Integrates one sample period with the held force and moves to the next sample.
+    pub fn step(&mut self) -> Result<()> {
+        if !self.answered_current && self.published_at.is_some() {
+            self.stats.unanswered += 1;
+        }
+        let force = self.held_force() / self.scale.force_n();
+        let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
+        self.sim.advance(force, tau_end)?;
+        self.step += 1;
+        self.answered_current = false;
+        self.published_at = None;
+        Ok(())
+    }
+}
+
+/// How the plant node runs.
+#[derive(Debug, Clone)]
+pub struct PlantOptions {
+    /// Pacing.
+    pub pacing: Pacing,
+    /// Stop at this sim time [s] (`None`: run until a signal).
+    pub until_s: Option<f64>,
+    /// Lock-step: re-send an unanswered sample this often.
+    pub retransmit: Duration,
+    /// Lock-step: how long to wait for the very first command.
+    pub startup_timeout: Duration,
+}
+
+/// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
+pub async fn run<S: PlantSim>(
+    settings: RosSettings,
+    mut core: PlantCore<S>,
+    opts: PlantOptions,
+) -> Result<LoopStats> {
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let state_topic = node
+        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .context("state topic")?;
+    let force_topic = node
+        .create_topic(&settings.ros_name(names::FORCE)?, types::force(), &qos::data())
+        .context("force topic")?;
+    let clock_topic = node
+        .create_topic(&settings.ros_name(names::CLOCK)?, types::clock(), &qos::clock())
+        .context("clock topic")?;
+    let state_pub =
+        node.create_publisher::<CapsuleState>(&state_topic, None).context("state publisher")?;
+    let clock_pub =
+        node.create_publisher::<Clock>(&clock_topic, None).context("clock publisher")?;
+    let force_sub = node
+        .create_subscription::<ActuatorForce>(&force_topic, None)
+        .context("force subscription")?;
+    info!(
+        "{}: {:?} at {} Hz, state {} <- force {}, clock {}",
+        settings.describe(),
+        opts.pacing,
+        core.rate_hz,
+        settings.resolve_name(names::STATE),
+        settings.resolve_name(names::FORCE),
+        settings.resolve_name(names::CLOCK),
+    );
+
+    let start = Instant::now();
+    let steady = move || start.elapsed().as_secs_f64();
+    let commands = force_sub.async_stream();
+    tokio::pin!(commands);
+    let shutdown = crate::ros::shutdown_signal();
+    tokio::pin!(shutdown);
+    let lockstep = opts.pacing == Pacing::Lockstep;
+    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
+
+    // real time: a timer thread sends the index of every due sample
+    let (tick_tx, mut tick_rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
+    let stop_timer = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    if !lockstep {
+        let period = Duration::from_secs_f64(1.0 / core.rate_hz);
+        let stop = stop_timer.clone();
+        std::thread::Builder::new()
+            .name("plant-timer".into())
+            .spawn(move || {
+                let t0 = Instant::now();
+                let mut k: u64 = 1;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    let due = t0 + period.mul_f64(k as f64);
+                    let now = Instant::now();
+                    if due > now {
+                        std::thread::sleep(due - now);
+                    }
+                    if tick_tx.send(k).is_err() {
+                        break;
+                    }
+                    k += 1;
+                }
+            })
+            .context("cannot start the timer thread")?;
+    }
+
+    let mut wait_started = steady();
+    let mut resend = tokio::time::interval(opts.retransmit);
+    resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut ever_commanded = false;
+    let mut refused_logged = 0u32;
+    let mut need_publish = true;
+    let result: Result<()> = loop {
+        if need_publish {
+            let stamp = core.stamp();
+            let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
+            if let Err(e) = state_pub.async_publish(core.state()).await {
+                warn!("state not sent: {e:?}");
+            }
+            core.published(steady());
+            need_publish = false;
+            wait_started = steady();
+            resend.reset();
+        }
+        if until_nanos.is_some_and(|u| core.stamp().to_nanos() >= u) {
+            info!("reached the end time {:.3} s", core.stamp().as_secs_f64());
+            break Ok(());
+        }
+        let ready = lockstep && core.answered();
+        if ready {
+            if let Err(e) = core.step() {
+                break Err(e);
+            }
+            need_publish = true;
+            continue;
+        }
+        tokio::select! {
+            sig = &mut shutdown => {
+                match sig {
+                    Ok(s) => info!("{s}: shutting down"),
+                    Err(e) => warn!("{e:#}"),
+                }
+                break Ok(());
+            }
+            msg = commands.select_next_some() => match msg {
+                Ok((cmd, _)) => {
+                    let outcome = core.on_command(&cmd, steady(), lockstep);
+                    match outcome {
+                        CommandOutcome::Accepted => ever_commanded = true,
+                        CommandOutcome::Duplicate => {}
+                        refused => {
+                            refused_logged += 1;
+                            if refused_logged <= 10 || refused_logged.is_power_of_two() {
+                                warn!(
+                                    "command refused ({refused:?}): seq {} stamp {:.6} s force {} N; {} refused so far",
+                                    cmd.state_seq, cmd.header.stamp.as_secs_f64(), cmd.force, core.rejected()
+                                );
+                            }
+                        }
+                    }
+                }
+                Err(e) => {
+                    warn!("undecodable command: {e:?}");
+                }
+            },
+            k = tick_rx.recv(), if !lockstep => {
+                if k.is_none() {
+                    break Err(anyhow::anyhow!("the timer thread stopped"));
+                }
+                if core.check_watchdog(steady()) {
+                    warn!("no command for {:.3} s: applying zero force", core.command_timeout);
+                }
+                if let Err(e) = core.step() {
+                    break Err(e);
+                }
+                need_publish = true;
+            }
+            _ = resend.tick(), if lockstep => {
+                let waited = steady() - wait_started;
+                let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
+                if waited > limit {
+                    if core.force_stale() || !ever_commanded {
+                        warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
+                    }
+                    ever_commanded = true;
+                    if let Err(e) = core.step() {
+                        break Err(e);
+                    }
+                    need_publish = true;
+                } else if let Err(e) = state_pub.async_publish(core.state()).await {
+                    warn!("state not re-sent: {e:?}");
+                }
+            }
+        }
+    };
+    stop_timer.store(true, std::sync::atomic::Ordering::Relaxed);
+    let stats = core.stats.clone();
+    match stats.percentiles() {
+        Some((p50, p99, max)) => info!(
+            "loop: {} samples, {} unanswered, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused",
+            stats.published,
+            stats.unanswered,
+            p50 * 1e3,
+            p99 * 1e3,
+            max * 1e3,
+            core.rejected()
+        ),
+        None => info!("loop: {} samples, no command answered", stats.published),
+    }
+    result.map(|()| stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
+    /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
+    struct FreeMass(PlantSample);
+
+    impl PlantSim for FreeMass {
+        fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
+            let h = tau_end - self.0.tau;
+            self.0.x1 += self.0.y1 * h + 0.5 * force * h * h;
+            self.0.y1 += force * h;
+            self.0.tau = tau_end;
+            self.0.actuator_force = force;
+            Ok(())
+        }
+        fn sample(&self) -> PlantSample {
+            self.0
+        }
+    }
+
+    fn scale() -> Scale {
+        Scale { m1_kg: 0.04, k1_n_per_m: 100.0, pf_n: 2.0 }
+    }
+
+    fn plant() -> PlantCore<FreeMass> {
+        PlantCore::new(FreeMass(PlantSample::default()), scale(), 100.0, 0.05)
+    }
+
+    fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {
+        let stamp = Time::from_nanos(p.stamp_nanos(seq));
+        ActuatorForce { header: Header { stamp, frame_id: String::new() }, state_seq: seq, force }
+    }
+
+    #[test]
+    fn held_command_drives_the_step_in_si() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.001, true), CommandOutcome::Accepted);
+        p.step()?;
+        // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
+        let s = p.state();
+        assert!((s.mass_velocity - 0.25).abs() < 1e-12, "{}", s.mass_velocity);
+        assert!((s.mass_position - 1.25e-3).abs() < 1e-15, "{}", s.mass_position);
+        assert!((s.actuator_force - 1.0).abs() < 1e-12);
+        assert_eq!((s.seq, s.header.stamp.to_nanos()), (1, 10_000_000));
+        assert!(!s.command_stale);
+        Ok(())
+    }
+
+    #[test]
+    fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false), CommandOutcome::NonFinite);
+        assert_eq!(p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false), CommandOutcome::NonFinite);
+        assert_eq!(p.rejected(), 2);
+        assert!(p.stale(), "nothing accepted yet");
+        assert_eq!(p.on_command(&cmd(&p, 0, 0.5), 0.0, false), CommandOutcome::Accepted);
+        p.step()?;
+        p.step()?;
+        assert_eq!(p.on_command(&cmd(&p, 2, 0.7), 0.02, false), CommandOutcome::Accepted);
+        // an older command arriving late does not take over (time does not rewind)
+        assert_eq!(p.on_command(&cmd(&p, 1, -3.0), 0.021, false), CommandOutcome::Late);
+        assert_eq!(p.held_force(), 0.7);
+        assert_eq!(p.on_command(&cmd(&p, 2, 0.7), 0.022, false), CommandOutcome::Duplicate);
+        assert_eq!(p.rejected(), 3);
+        assert_eq!(p.state().rejected_commands, 3);
+        assert_eq!(p.seq(), 2, "the plant kept stepping");
+        Ok(())
+    }
+
+    #[test]
+    fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(p.on_command(&cmd(&p, 1, 1.0), 0.0, true), CommandOutcome::Future);
+        assert!(!p.answered());
+        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.0, true), CommandOutcome::Accepted);
+        assert!(p.answered());
+        p.step()?;
+        p.published(0.01);
+        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.01, true), CommandOutcome::Duplicate);
+        assert!(!p.answered());
+        assert_eq!(p.stats.latencies.len(), 1);
+        Ok(())
+    }
+
+    #[test]
+    fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        p.on_command(&cmd(&p, 0, 2.0), 0.0, false);
+        assert!(!p.check_watchdog(0.04));
+        assert_eq!(p.held_force(), 2.0);
+        assert!(p.check_watchdog(0.06));
+        assert!(!p.check_watchdog(0.07), "reported once");
+        assert_eq!(p.held_force(), 0.0);
+        p.step()?;
+        let s = p.state();
+        assert!(s.command_stale);
+        assert_eq!(s.mass_velocity, 0.0);
+        assert_eq!(p.stats.unanswered, 0);
+        p.published(0.08);
+        p.step()?;
+        assert_eq!(p.stats.unanswered, 1);
+        Ok(())
+    }
+
+    #[test]
+    fn percentiles_are_order_statistics() {
+        let stats = LoopStats {
+            latencies: (1..=100).map(f64::from).collect(),
+            published: 100,
+            unanswered: 0,
+        };
+        assert_eq!(stats.percentiles(), Some((51.0, 99.0, 100.0)));
+        assert_eq!(LoopStats::default().percentiles(), None);
+    }
+}
