@@ -232,9 +232,9 @@ impl<S: PlantSim> PlantCore<S> {
         }
         let outcome = if !cmd.force.is_finite() {
             CommandOutcome::NonFinite
-        } else if self.last_accepted.is_some_and(|(t, _, _)| stamp < t) {
-            CommandOutcome::Late
-        } else if lockstep && cmd.state_seq < self.step {
+        } else if self.last_accepted.is_some_and(|(t, _, _)| stamp < t)
+            || (lockstep && cmd.state_seq < self.step)
+        {
             CommandOutcome::Late
         } else if lockstep && cmd.state_seq > self.step {
             CommandOutcome::Future
