@@ -2,9 +2,11 @@
 //!
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`scale`]: SI <-> non-dimensional conversion, scene values the controller needs
+//! - [`client`]: a client of the graph (mode requests, demo measurement)
 //! - [`controller`]: the controller node
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
 
+pub mod client;
 pub mod controller;
 pub mod plant;
 pub mod ros;

@@ -302,8 +302,10 @@ pub struct PlantOptions {
     pub until_s: Option<f64>,
     /// Lock-step: re-send an unanswered sample this often.
     pub retransmit: Duration,
-    /// Lock-step: how long to wait for the very first command.
+    /// Lock-step: how long to wait for the very first command (and for the subscribers).
     pub startup_timeout: Duration,
+    /// Publish the first sample only once this many subscribers matched the state topic.
+    pub wait_subscribers: usize,
 }
 
 /// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
@@ -340,6 +342,22 @@ pub async fn run<S: PlantSim>(
         settings.resolve_name(names::CLOCK),
     );
 
+    if opts.wait_subscribers > 0 {
+        let waiting = Instant::now();
+        while state_pub.get_subscription_count(&node) < opts.wait_subscribers {
+            if waiting.elapsed() > opts.startup_timeout {
+                anyhow::bail!(
+                    "only {} of {} subscribers matched {} within {:?}",
+                    state_pub.get_subscription_count(&node),
+                    opts.wait_subscribers,
+                    settings.resolve_name(names::STATE),
+                    opts.startup_timeout
+                );
+            }
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        info!("{} subscribers matched: starting", opts.wait_subscribers);
+    }
     let start = Instant::now();
     let steady = move || start.elapsed().as_secs_f64();
     let commands = force_sub.async_stream();

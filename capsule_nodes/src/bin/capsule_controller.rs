@@ -55,6 +55,9 @@ struct Cli {
     /// Seconds (steady clock) without a state sample before the controller stops commanding
     #[arg(long, default_value_t = 0.5)]
     state_timeout_s: f64,
+    /// Check the scene and flags, print what would run, and exit (no DDS)
+    #[arg(long)]
+    check: bool,
     /// Status and watchdog period [ms]
     #[arg(long, default_value_t = 100)]
     status_period_ms: u64,

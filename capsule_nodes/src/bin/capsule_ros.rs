@@ -1,0 +1,176 @@
+//! `capsule_ros`: a small ROS client of the capsule graph (mode requests, the demo run).
+
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context as _, Result};
+use capsule_controller::mode::Mode;
+use capsule_msgs::{SetModeRequest, Time};
+use capsule_nodes::{
+    client::{state_subscription, ModeClient, SegmentMeter},
+    ros::{self, names, RosArgs, RosEnv, RosSettings},
+    scale::ControlScene,
+};
+use clap::{Parser, Subcommand};
+use futures::StreamExt;
+
+/// Talks to a running capsule graph: switch the controller's mode, or run the demo schedule
+/// and report each segment's progression.
+#[derive(Debug, Parser)]
+#[command(name = "capsule_ros", version)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+    /// The controller's mode service
+    #[arg(long, global = true, default_value = "/capsule_controller/set_mode")]
+    service: String,
+    #[command(flatten)]
+    ros: RosArgs,
+}
+
+#[derive(Debug, Subcommand)]
+enum Cmd {
+    /// Call set_mode once and print the answer; exit status 3 when refused
+    SetMode {
+        /// off, forward, backward, chaos-control, custom, or a numeric code
+        mode: String,
+        /// Gain (see SetMode.srv)
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        gain: f64,
+        /// Apply from this sim time [s] (0 = now)
+        #[arg(long, default_value_t = 0.0)]
+        at_s: f64,
+        /// Give up after this long [s]
+        #[arg(long, default_value_t = 10.0)]
+        timeout_s: f64,
+    },
+    /// Schedule the segments (the controller must start in the first one), watch the state,
+    /// and print each segment's mean progression per drive period
+    Demo {
+        /// Scene (for the drive period and the length scale)
+        #[arg(long)]
+        scene: String,
+        /// Segments MODE:PERIODS, in order
+        #[arg(long, value_delimiter = ',', default_value = "forward:60,backward:60,off:60")]
+        segments: Vec<String>,
+        /// Drive periods skipped at the start of each segment before measuring
+        #[arg(long, default_value_t = 20.0)]
+        settle_periods: f64,
+        /// Give up after this long [s of wall time]
+        #[arg(long, default_value_t = 600.0)]
+        timeout_s: f64,
+    },
+}
+
+fn parse_mode(s: &str) -> Result<u8> {
+    if let Ok(code) = s.parse::<u8>() {
+        return Ok(code);
+    }
+    Mode::parse_name(s).map(Mode::code).with_context(|| format!("unknown mode {s:?}"))
+}
+
+async fn run(cli: Cli) -> Result<()> {
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
+    match cli.cmd {
+        Cmd::SetMode { mode, gain, at_s, timeout_s } => {
+            let req = SetModeRequest {
+                mode: parse_mode(&mode)?,
+                gain,
+                effective_from: Time::from_secs_f64(at_s),
+            };
+            let context = settings.context()?;
+            let mut node = settings.node(&context)?;
+            let client = ModeClient::new(&mut node, &settings, &cli.service)?;
+            let resp = client.call(&node, req, Duration::from_secs_f64(timeout_s)).await?;
+            println!(
+                "accepted={} mode={} gain={} reason={}",
+                resp.accepted,
+                capsule_msgs::mode_name(resp.mode).unwrap_or("?"),
+                resp.gain,
+                resp.reason
+            );
+            if !resp.accepted {
+                std::process::exit(3);
+            }
+            Ok(())
+        }
+        Cmd::Demo { scene, segments, settle_periods, timeout_s } => {
+            let sc = ControlScene::from_file(&scene)?;
+            let period_s = std::f64::consts::TAU / sc.omega * sc.scale.time_s();
+            let mut plan = Vec::new();
+            let mut t = 0.0;
+            for seg in &segments {
+                let (m, n) = seg
+                    .split_once(':')
+                    .with_context(|| format!("--segments {seg:?}: expected MODE:PERIODS"))?;
+                let mode = Mode::parse_name(m)
+                    .with_context(|| format!("--segments {seg:?}: unknown mode"))?;
+                let n: f64 = n.parse().ok().filter(|n: &f64| *n > settle_periods).with_context(|| {
+                    format!("--segments {seg:?}: PERIODS must be a number above --settle-periods {settle_periods}")
+                })?;
+                plan.push((mode, t, t + n * period_s));
+                t += n * period_s;
+            }
+            if plan.is_empty() {
+                bail!("--segments: nothing to run");
+            }
+            let context = settings.context()?;
+            let mut node = settings.node(&context)?;
+            let client = ModeClient::new(&mut node, &settings, &cli.service)?;
+            let timeout = Duration::from_secs_f64(timeout_s);
+            for (mode, from, _) in plan.iter().skip(1) {
+                let req = SetModeRequest {
+                    mode: mode.code(),
+                    gain: 0.0,
+                    effective_from: Time::from_secs_f64(*from),
+                };
+                let resp = client.call(&node, req, timeout).await?;
+                if !resp.accepted {
+                    bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
+                }
+                println!("scheduled {mode} from t = {from:.3} s (k_p = {})", resp.gain);
+            }
+            let windows = plan
+                .iter()
+                .map(|(m, from, to)| (m.name().to_string(), from + settle_periods * period_s, *to))
+                .collect();
+            let mut meter = SegmentMeter::new(windows, period_s, sc.scale.length_m());
+            let sub = state_subscription(&mut node, &settings)?;
+            let states = sub.async_stream();
+            tokio::pin!(states);
+            let started = Instant::now();
+            while !meter.done() {
+                let left = timeout.saturating_sub(started.elapsed());
+                match tokio::time::timeout(left, states.next()).await {
+                    Err(_) => bail!(
+                        "demo timed out after {timeout_s} s on {}",
+                        settings.resolve_name(names::STATE)
+                    ),
+                    Ok(None) => bail!("state stream ended"),
+                    Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),
+                    Ok(Some(Ok((s, _)))) => meter.sample(&s),
+                }
+            }
+            let wall = started.elapsed().as_secs_f64();
+            println!(
+                "segment         periods  progression/period (non-dim)  progression/period [mm]"
+            );
+            for r in meter.results() {
+                println!(
+                    "{:<15} {:>7.1}  {:>28.6}  {:>23.6}",
+                    r.mode,
+                    r.periods,
+                    r.per_period,
+                    r.per_period_m * 1e3
+                );
+            }
+            println!("sim time {t:.3} s in {wall:.2} s wall");
+            Ok(())
+        }
+    }
+}
+
+fn main() -> std::process::ExitCode {
+    ros::init_logging();
+    let cli = Cli::parse();
+    ros::exit_code("capsule_ros", ros::block_on(run(cli)))
+}

@@ -1,0 +1,174 @@
+//! A small ROS client of the capsule graph: mode requests (with retries) and the demo's
+//! segment-by-segment progression measurement.
+
+use std::time::Duration;
+
+use anyhow::{bail, Context as _, Result};
+use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse};
+use ros2_client::{service::Client, Node};
+
+use crate::ros::{names, qos, types, RosSettings, Wire};
+
+/// A `set_mode` client.
+pub struct ModeClient {
+    client: Client<Wire<SetModeRequest>, Wire<SetModeResponse>>,
+}
+
+impl ModeClient {
+    /// Creates the client on `node` for the controller's service (`service` as given, e.g.
+    /// `/capsule_controller/set_mode`).
+    pub fn new(node: &mut Node, settings: &RosSettings, service: &str) -> Result<Self> {
+        let client = node
+            .create_client::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
+                settings.mapping.into(),
+                &settings.ros_name(service)?,
+                &types::set_mode(),
+                qos::service(),
+                qos::service(),
+            )
+            .context("set_mode client")?;
+        Ok(ModeClient { client })
+    }
+
+    /// Waits (up to `timeout`) for the service, then calls it, re-sending every `retry` until a
+    /// response comes (a first request can be lost while the reply path is still matching).
+    pub async fn call(
+        &self,
+        node: &Node,
+        req: SetModeRequest,
+        timeout: Duration,
+    ) -> Result<SetModeResponse> {
+        tokio::time::timeout(timeout, self.client.wait_for_service(node))
+            .await
+            .context("set_mode service did not appear")?;
+        let deadline = tokio::time::Instant::now() + timeout;
+        let retry = Duration::from_millis(500);
+        loop {
+            let id = self
+                .client
+                .async_send_request(Wire(req.clone()))
+                .await
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            match tokio::time::timeout(retry, self.client.async_receive_response(id)).await {
+                Ok(Ok(Wire(resp))) => return Ok(resp),
+                Ok(Err(e)) => bail!("set_mode response unreadable: {e:?}"),
+                Err(_) if tokio::time::Instant::now() < deadline => continue,
+                Err(_) => bail!("no set_mode response within {timeout:?}"),
+            }
+        }
+    }
+}
+
+/// Progression of one demo segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentResult {
+    /// Mode name.
+    pub mode: String,
+    /// Periods measured (after the settling periods).
+    pub periods: f64,
+    /// Mean progression per drive period, non-dimensional.
+    pub per_period: f64,
+    /// Mean progression per drive period [m].
+    pub per_period_m: f64,
+}
+
+/// Watches the state topic and measures each segment's progression between sim times.
+pub struct SegmentMeter {
+    /// (mode, measure from [s], measure to [s]) per segment.
+    pub windows: Vec<(String, f64, f64)>,
+    /// Drive period [s].
+    pub period_s: f64,
+    /// Length scale [m].
+    pub length_m: f64,
+    marks: Vec<(Option<f64>, Option<f64>)>,
+}
+
+impl SegmentMeter {
+    /// Meter for the given windows.
+    pub fn new(windows: Vec<(String, f64, f64)>, period_s: f64, length_m: f64) -> Self {
+        let marks = vec![(None, None); windows.len()];
+        SegmentMeter { windows, period_s, length_m, marks }
+    }
+
+    /// Feeds a sample: the first sample at or after each window edge marks the capsule position.
+    pub fn sample(&mut self, s: &CapsuleState) {
+        let t = s.header.stamp.as_secs_f64();
+        for ((_, from, to), mark) in self.windows.iter().zip(self.marks.iter_mut()) {
+            if mark.0.is_none() && t >= *from - 1e-9 {
+                mark.0 = Some(s.capsule_position);
+            }
+            if mark.1.is_none() && t >= *to - 1e-9 {
+                mark.1 = Some(s.capsule_position);
+            }
+        }
+    }
+
+    /// True once every window is closed.
+    pub fn done(&self) -> bool {
+        self.marks.iter().all(|m| m.1.is_some())
+    }
+
+    /// The results so far (complete windows only).
+    pub fn results(&self) -> Vec<SegmentResult> {
+        self.windows
+            .iter()
+            .zip(&self.marks)
+            .filter_map(|((mode, from, to), m)| {
+                let (a, b) = ((*m).0?, (*m).1?);
+                let periods = (to - from) / self.period_s;
+                let per_period_m = (b - a) / periods;
+                Some(SegmentResult {
+                    mode: mode.clone(),
+                    periods,
+                    per_period: per_period_m / self.length_m,
+                    per_period_m,
+                })
+            })
+            .collect()
+    }
+}
+
+/// Subscribes to the state topic (for the demo).
+pub fn state_subscription(
+    node: &mut Node,
+    settings: &RosSettings,
+) -> Result<ros2_client::Subscription<CapsuleState>> {
+    let topic = node
+        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .context("state topic")?;
+    node.create_subscription::<CapsuleState>(&topic, None).context("state subscription")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use capsule_msgs::{Header, Time};
+
+    #[test]
+    fn segment_meter_takes_positions_at_window_edges() {
+        let mut m = SegmentMeter::new(
+            vec![("FORWARD".into(), 1.0, 3.0), ("BACKWARD".into(), 4.0, 5.0)],
+            0.5,
+            0.01,
+        );
+        for k in 0..=60 {
+            let t = k as f64 * 0.1;
+            let x = if t <= 3.0 { 0.02 * t } else { 0.06 - 0.01 * (t - 3.0) };
+            let s = CapsuleState {
+                header: Header { stamp: Time::from_secs_f64(t), frame_id: String::new() },
+                capsule_position: x,
+                ..CapsuleState::default()
+            };
+            m.sample(&s);
+        }
+        assert!(m.done());
+        let r = m.results();
+        assert_eq!(r.len(), 2);
+        // forward: 0.04 m over 4 periods -> 0.01 m = 1.0 non-dim per period
+        assert!(
+            (r[0].per_period_m - 0.01).abs() < 1e-12 && (r[0].per_period - 1.0).abs() < 1e-9,
+            "{r:?}"
+        );
+        assert!((r[1].per_period_m + 0.005).abs() < 1e-12, "{r:?}");
+    }
+}

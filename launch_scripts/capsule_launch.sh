@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# Start the capsule graph for a scene: controller, any extra processes (--with), then the plant.
+# Forwards Ctrl-C / SIGTERM to every process, waits for a clean shutdown, and exits non-zero if
+# any process failed. When the plant ends by itself (--until-s), the extras get --extra-wait-s to
+# finish, then the controller is stopped with SIGTERM.
+#
+#   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
+#       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
+#
+# DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
+# LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
+set -u
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+bin="${CAPSULE_BIN:-$here/../target/debug}"
+export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
+
+scene="" pacing="realtime" until_s="" mode="" extra_wait=600
+plant_args=() ctl_args=() withs=()
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --scene) scene="$2"; shift 2 ;;
+    --pacing) pacing="$2"; shift 2 ;;
+    --until-s) until_s="$2"; shift 2 ;;
+    --mode) mode="$2"; shift 2 ;;
+    --with) withs+=("$2"); shift 2 ;;
+    --extra-wait-s) extra_wait="$2"; shift 2 ;;
+    --plant-arg) plant_args+=("$2"); shift 2 ;;
+    --controller-arg) ctl_args+=("$2"); shift 2 ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "capsule_launch: unknown argument $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+[ -n "$scene" ] || { echo "capsule_launch: --scene is required" >&2; exit 2; }
+[ -r "$scene" ] || { echo "capsule_launch: cannot read scene $scene" >&2; exit 2; }
+for b in capsule_plant capsule_controller; do
+  [ -x "$bin/$b" ] || { echo "capsule_launch: $bin/$b not built (cargo build --workspace)" >&2; exit 2; }
+done
+
+# refuse bad scenes and flags before anything starts (no half-started graph)
+[ -n "$mode" ] && ctl_args+=(--mode "$mode")
+"$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
+pl=(--scene "$scene" --pacing "$pacing")
+[ -n "$until_s" ] && pl+=(--until-s "$until_s")
+[ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
+"$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2
+
+pids=() names=()
+stop_all() {
+  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
+}
+on_signal() {
+  echo "capsule_launch: $1: stopping the graph" >&2
+  stopping=1
+  stop_all
+}
+stopping=0
+trap 'on_signal SIGINT' INT
+trap 'on_signal SIGTERM' TERM
+
+start() { # name cmd...
+  local name="$1"; shift
+  "$@" &
+  pids+=("$!"); names+=("$name")
+}
+
+start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
+for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
+start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
+
+declare -A status=()
+wait_pid() { # index -> sets status
+  local i="$1" rc
+  while :; do
+    wait "${pids[$i]}"; rc=$?
+    # wait returns >128 when interrupted by a trapped signal while the child still runs
+    if kill -0 "${pids[$i]}" 2>/dev/null; then continue; fi
+    status[$i]=$rc; return
+  done
+}
+
+plant_i=$(( ${#pids[@]} - 1 ))
+# wait for whichever ends first; a failure anywhere stops everything
+while :; do
+  alive=0 failed=0
+  for i in "${!pids[@]}"; do
+    if [ -z "${status[$i]+x}" ]; then
+      if kill -0 "${pids[$i]}" 2>/dev/null; then alive=1; else wait_pid "$i"; fi
+    fi
+    if [ -n "${status[$i]+x}" ] && [ "${status[$i]}" != 0 ] && [ "$stopping" = 0 ]; then
+      echo "capsule_launch: ${names[$i]} failed (status ${status[$i]}): stopping the graph" >&2
+      failed=1
+    fi
+  done
+  if [ "$failed" = 1 ] && [ "$stopping" = 0 ]; then stopping=1; stop_all; fi
+  [ "$alive" = 0 ] && break
+  if [ -n "${status[$plant_i]+x}" ] && [ "$stopping" = 0 ]; then
+    # plant done: let the extras finish, then stop the controller
+    for i in "${!pids[@]}"; do
+      case "${names[$i]}" in extra:*)
+        t0=$SECONDS
+        while kill -0 "${pids[$i]}" 2>/dev/null && [ $((SECONDS - t0)) -lt "$extra_wait" ] && [ "$stopping" = 0 ]; do sleep 0.2; done
+        ;; esac
+    done
+    stopping=1; stop_all
+  fi
+  sleep 0.1
+done
+
+rc=0
+for i in "${!pids[@]}"; do
+  s="${status[$i]:-0}"
+  # a process we stopped with SIGTERM and that died of it counts as a clean stop
+  if [ "$s" != 0 ] && ! { [ "$stopping" = 1 ] && [ "$s" = 143 ]; }; then
+    echo "capsule_launch: ${names[$i]} exited with status $s" >&2
+    rc=1
+  fi
+done
+exit "$rc"
