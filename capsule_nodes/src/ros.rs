@@ -344,13 +344,17 @@ pub mod qos {
     }
 }
 
-/// Sets up tracing to stderr (`RUST_LOG` filters; default `info`, RustDDS noise at `warn`).
+/// Sets up tracing to stderr (`RUST_LOG` filters; default `info` with RustDDS's shutdown noise off).
 pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-        tracing_subscriber::EnvFilter::new("info,rustdds=error,ros2_client=warn")
+        tracing_subscriber::EnvFilter::new("info,rustdds=off,ros2_client=error")
     });
-    let _ =
-        tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+    let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(ansi)
+        .with_writer(std::io::stderr)
+        .try_init();
 }
 
 /// Runs a node's future on a multi-threaded tokio runtime.
