@@ -18,6 +18,10 @@ pub struct Scale {
 }
 
 impl Scale {
+    /// The scale a scene without a `[physical]` table has (capsule_plant's default; a test in
+    /// tests/integration/ros.rs keeps the two equal).
+    pub const SCENE_DEFAULT: Scale = Scale { m1_kg: 0.05, k1_n_per_m: 200.0, pf_n: 0.1 };
+
     /// Checks that every value is finite and positive; the error names the value.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in
@@ -75,7 +79,8 @@ fn number(root: &toml::Value, file: &str, table: &str, key: &str) -> Result<Opti
 }
 
 impl ControlScene {
-    /// Reads `[physical] m1_kg k1_n_per_m pf_n`, `[drive] alpha omega` and `[control] kp` from a
+    /// Reads `[physical] m1_kg k1_n_per_m pf_n` (all three, or the table left out for
+    /// [`Scale::SCENE_DEFAULT`]), `[drive] alpha omega` and `[control] kp` (default 0) from a
     /// scene's TOML text (other keys are the simulator's business and are ignored here).
     pub fn from_toml_str(text: &str, file: &str) -> Result<ControlScene> {
         let root: toml::Value = text.parse().with_context(|| format!("{file}: not valid TOML"))?;
@@ -83,12 +88,17 @@ impl ControlScene {
             number(&root, file, table, key)?
                 .with_context(|| format!("{file}: missing `{table}.{key}`"))
         };
-        let scene = ControlScene {
-            scale: Scale {
+        let scale = if root.get("physical").is_some() {
+            Scale {
                 m1_kg: need("physical", "m1_kg")?,
                 k1_n_per_m: need("physical", "k1_n_per_m")?,
                 pf_n: need("physical", "pf_n")?,
-            },
+            }
+        } else {
+            Scale::SCENE_DEFAULT
+        };
+        let scene = ControlScene {
+            scale,
             alpha: need("drive", "alpha")?,
             omega: need("drive", "omega")?,
             kp: number(&root, file, "control", "kp")?.unwrap_or(0.0),
