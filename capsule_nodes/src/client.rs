@@ -114,7 +114,7 @@ impl SegmentMeter {
             .iter()
             .zip(&self.marks)
             .filter_map(|((mode, from, to), m)| {
-                let (a, b) = ((*m).0?, (*m).1?);
+                let (a, b) = (m.0?, m.1?);
                 let periods = (to - from) / self.period_s;
                 let per_period_m = (b - a) / periods;
                 Some(SegmentResult {

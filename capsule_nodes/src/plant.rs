@@ -293,6 +293,36 @@ impl<S: PlantSim> PlantCore<S> {
     }
 }
 
+/// A one-line JSON summary of a run: loop statistics and the last sample (floats printed
+/// round-trip exact, so two runs compare bit for bit).
+pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> String {
+    let (p50, p99, max) = stats.percentiles().unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+    let num = |v: f64| if v.is_finite() { format!("{v:?}") } else { "null".to_string() };
+    format!(
+        concat!(
+            "{{\"samples\":{},\"unanswered\":{},\"latency_p50_s\":{},\"latency_p99_s\":{},",
+            "\"latency_max_s\":{},\"wall_s\":{},\"rejected_commands\":{},\"last\":{{\"seq\":{},",
+            "\"stamp_ns\":{},\"mass_position\":{},\"mass_velocity\":{},\"capsule_position\":{},",
+            "\"capsule_velocity\":{},\"actuator_force\":{},\"command_stale\":{}}}}}"
+        ),
+        stats.published,
+        stats.unanswered,
+        num(p50),
+        num(p99),
+        num(max),
+        num(wall_s),
+        last.rejected_commands,
+        last.seq,
+        last.header.stamp.to_nanos(),
+        num(last.mass_position),
+        num(last.mass_velocity),
+        num(last.capsule_position),
+        num(last.capsule_velocity),
+        num(last.actuator_force),
+        last.command_stale
+    )
+}
+
 /// How the plant node runs.
 #[derive(Debug, Clone)]
 pub struct PlantOptions {
@@ -313,7 +343,7 @@ pub async fn run<S: PlantSim>(
     settings: RosSettings,
     mut core: PlantCore<S>,
     opts: PlantOptions,
-) -> Result<LoopStats> {
+) -> Result<(LoopStats, CapsuleState)> {
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
     let state_topic = node
@@ -496,7 +526,7 @@ pub async fn run<S: PlantSim>(
         ),
         None => info!("loop: {} samples, no command answered", stats.published),
     }
-    result.map(|()| stats)
+    result.map(|()| (stats, core.state()))
 }
 
 #[cfg(test)]

@@ -358,7 +358,7 @@ pub fn init_logging() {
 }
 
 /// Runs a node's future on a multi-threaded tokio runtime.
-pub fn block_on<F: std::future::Future<Output = Result<()>>>(fut: F) -> Result<()> {
+pub fn block_on<T, F: std::future::Future<Output = Result<T>>>(fut: F) -> Result<T> {
     tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
