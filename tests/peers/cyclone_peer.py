@@ -186,6 +186,15 @@ def cmd_force(args):
     applied = [s for s in seen if not s.command_stale and abs(s.actuator_force - args.force) < 1e-9]
     if len(applied) < 5:
         fail(f"plant did not apply {args.force} N: last {[(s.actuator_force, s.command_stale) for s in seen[-5:]]}")
+    # a late command (stamped before the last accepted one) must not take over
+    last_ok = seen[-1].rejected_commands
+    writer.write(ActuatorForce(header=Header(stamp=Time(sec=0, nanosec=1), frame_id="odom"),
+                               state_seq=0, force=-args.force))
+    seen = pump(0.3, args.force)
+    if seen[-1].rejected_commands <= last_ok:
+        fail("a late (old-stamped) command was not refused")
+    if any(abs(s.actuator_force + args.force) < 1e-12 for s in seen):
+        fail("a late command was applied (time rewound)")
     before = seen[-1].rejected_commands
     pump(0.3, float("nan"))
     seen = pump(0.3)
