@@ -121,8 +121,13 @@ fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
 fn main() -> std::process::ExitCode {
     ros::init_logging();
     let cli = Cli::parse();
-    ros::exit_code(
-        "capsule_controller",
-        build(&cli).and_then(|(settings, opts)| ros::block_on(controller::run(settings, opts))),
-    )
+    let result = build(&cli).and_then(|(settings, opts)| {
+        if cli.check {
+            let (mode, kp) = (opts.core.mode(), opts.core.law().kp);
+            println!("capsule_controller: ok: {}, {mode} k_p = {kp}", settings.describe());
+            return Ok(());
+        }
+        ros::block_on(controller::run(settings, opts))
+    });
+    ros::exit_code("capsule_controller", result)
 }

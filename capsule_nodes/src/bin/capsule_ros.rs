@@ -43,6 +43,15 @@ enum Cmd {
         #[arg(long, default_value_t = 10.0)]
         timeout_s: f64,
     },
+    /// Print the sim time [s] that PERIODS drive periods of a scene take (plus 10 ms of margin)
+    Period {
+        /// Scene (drive frequency and physical scale)
+        #[arg(long)]
+        scene: String,
+        /// Number of drive periods
+        #[arg(long, default_value_t = 1.0)]
+        periods: f64,
+    },
     /// Schedule the segments (the controller must start in the first one), watch the state,
     /// and print each segment's mean progression per drive period
     Demo {
@@ -91,6 +100,17 @@ async fn run(cli: Cli) -> Result<()> {
             if !resp.accepted {
                 std::process::exit(3);
             }
+            Ok(())
+        }
+        Cmd::Period { scene, periods } => {
+            let sc = ControlScene::from_file(&scene)?;
+            if !(periods.is_finite() && periods > 0.0) {
+                bail!("--periods {periods}: must be finite and > 0");
+            }
+            println!(
+                "{:.6}",
+                periods * std::f64::consts::TAU / sc.omega * sc.scale.time_s() + 0.01
+            );
             Ok(())
         }
         Cmd::Demo { scene, segments, settle_periods, timeout_s } => {

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# What the ROS 2 tests need besides Rust, installed if missing (idempotent, quiet when present):
+#   - iproute2 (ip netns: every DDS test runs in its own loopback-only network namespace)
+#   - procps (pgrep, used by the launcher test)
+#   - python3 + the Eclipse Cyclone DDS binding (PyPI `cyclonedds`, ships its C library): the
+#     interop peer tests/peers/cyclone_peer.py
+# Needs root (network namespaces). Run before `cargo test --workspace`, after
+# `cargo build --workspace` (the tests start the node binaries from target/debug).
+set -euo pipefail
+
+need_apt=()
+command -v ip >/dev/null 2>&1 || need_apt+=(iproute2)
+command -v pgrep >/dev/null 2>&1 || need_apt+=(procps)
+command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip)
+if [ "${#need_apt[@]}" -gt 0 ]; then
+  echo "ros-setup: apt-get install ${need_apt[*]}"
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need_apt[@]}" >/dev/null
+fi
+
+if ! python3 -c "import cyclonedds" >/dev/null 2>&1; then
+  echo "ros-setup: pip install cyclonedds"
+  python3 -m pip install --quiet --disable-pip-version-check cyclonedds==11.0.1 \
+    || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages cyclonedds==11.0.1
+fi
+
+# the namespace recipe must work here (root, kernel support); fail early with the reason
+probe="capsule_probe_$$"
+if ! ip netns add "$probe" 2>/dev/null; then
+  echo "ros-setup: cannot create a network namespace (need root and netns support)" >&2
+  exit 1
+fi
+ip netns delete "$probe"
+echo "ros-setup: ok (iproute2, python3 $(python3 -c 'import cyclonedds, importlib.metadata as m; print("cyclonedds", m.version("cyclonedds"))'))"

@@ -1,0 +1,131 @@
+//! Bad input and faults: refused mode requests, bad scenes and flags, a plant or controller
+//! that goes away, clean shutdown on SIGTERM.
+
+use super::harness::{json_number, json_raw, netns};
+
+#[test]
+fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
+    let run = netns(
+        90,
+        r#"
+        $B/capsule_controller --scene "$SCENE" --mode forward &
+        C=$!
+        set_mode() { $B/capsule_ros set-mode "$@"; echo "rc=$?"; }
+        set_mode 9
+        set_mode custom --gain nan
+        set_mode custom --gain inf
+        set_mode custom --gain 5
+        set_mode backward --gain 0.15
+        set_mode 17 --gain 0.1
+        kill -TERM $C; wait $C; echo "controller rc=$?""#,
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    let answers: Vec<&str> = run.stdout.lines().filter(|l| l.starts_with("accepted=")).collect();
+    let codes: Vec<&str> = run.stdout.lines().filter(|l| l.starts_with("rc=")).collect();
+    assert_eq!(answers.len(), 6, "{}", run.all());
+    assert_eq!(codes, ["rc=3", "rc=3", "rc=3", "rc=3", "rc=0", "rc=3"], "{}", run.all());
+    assert!(
+        answers[0].contains("accepted=false mode=FORWARD gain=0.2")
+            && answers[0].contains("unknown mode 9")
+    );
+    assert!(
+        answers[1].contains("mode=FORWARD") && answers[1].contains("not finite"),
+        "{}",
+        answers[1]
+    );
+    assert!(
+        answers[2].contains("mode=FORWARD") && answers[2].contains("not finite"),
+        "{}",
+        answers[2]
+    );
+    assert!(answers[3].contains("mode=FORWARD") && answers[3].contains("limit"), "{}", answers[3]);
+    assert!(answers[4].starts_with("accepted=true mode=BACKWARD gain=-0.15"), "{}", answers[4]);
+    assert!(answers[5].contains("accepted=false mode=BACKWARD gain=-0.15"), "{}", answers[5]);
+    assert!(run.stdout.contains("controller rc=0"), "{}", run.all());
+}
+
+#[test]
+fn bad_scenes_and_flags_are_named_and_nothing_starts() {
+    let run = netns(
+        60,
+        r#"
+        printf '[capsule]\ngamma = -1\n' > $TMP/bad.toml
+        $B/capsule_plant --scene $TMP/nope.toml; echo "rc1=$?"
+        $B/capsule_plant --scene $TMP/bad.toml; echo "rc2=$?"
+        $B/capsule_plant --scene "$SCENE" --rate-hz -5; echo "rc3=$?"
+        $B/capsule_controller --scene "$SCENE" --mode sideways; echo "rc4=$?"
+        ROS_DOMAIN_ID=banana $B/capsule_controller --scene "$SCENE"; echo "rc5=$?"
+        $ROOT/launch_scripts/capsule_launch.sh --scene $TMP/bad.toml --pacing lockstep; echo "rc6=$?""#,
+    );
+    let all = run.all();
+    for (rc, needle) in [
+        ("rc1=2", "nope.toml"),
+        ("rc2=2", "bad.toml"),
+        ("rc3=2", "--rate-hz"),
+        ("rc4=2", "--mode"),
+        ("rc5=2", "ROS_DOMAIN_ID"),
+    ] {
+        assert!(run.stdout.contains(rc), "{rc} expected\n{all}");
+        assert!(run.stderr.contains(needle), "error should name {needle}\n{all}");
+    }
+    assert!(run.stdout.contains("rc6=2"), "launcher must refuse the bad scene\n{all}");
+    // no node got as far as creating its ROS node (that logs "node /...")
+    assert!(!run.stderr.contains("node /capsule_"), "a node started\n{all}");
+}
+
+#[test]
+fn controller_gone_means_zero_force_and_plant_gone_means_no_commands() {
+    let run = netns(
+        90,
+        r#"
+        $B/capsule_controller --scene "$SCENE" --mode forward --state-timeout-s 0.3 2> $TMP/ctl.log &
+        C=$!
+        $B/capsule_plant --scene "$SCENE" --until-s 3 --summary-json $TMP/plant.json &
+        P=$!
+        sleep 2
+        kill -TERM $C; wait $C
+        wait $P; echo "plant rc=$?"
+        cat $TMP/plant.json
+        $B/capsule_controller --scene "$SCENE" --mode forward --state-timeout-s 0.3 2> $TMP/ctl2.log &
+        C=$!
+        $B/capsule_plant --scene "$SCENE" --until-s 1 2>/dev/null
+        sleep 1.5
+        kill -TERM $C; wait $C
+        cat $TMP/ctl2.log"#,
+    );
+    let all = run.all();
+    assert!(run.stdout.contains("plant rc=0"), "{all}");
+    let json = run
+        .stdout
+        .lines()
+        .find(|l| l.starts_with('{'))
+        .unwrap_or_else(|| panic!("no summary\n{all}"));
+    assert_eq!(json_raw(json, "command_stale"), Some("true"), "plant did not fall back: {json}");
+    assert_eq!(json_number(json, "actuator_force"), Some(0.0), "{json}");
+    assert!(run.stderr.contains("applying zero force"), "plant did not say so\n{all}");
+    assert!(
+        run.stdout.contains("state stale") && run.stdout.contains("stopped commanding"),
+        "{all}"
+    );
+}
+
+#[test]
+fn launcher_forwards_sigterm_and_exits_cleanly() {
+    let run = netns(
+        60,
+        r#"
+        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward &
+        L=$!
+        sleep 2
+        KIDS=$(pgrep -P $L)
+        echo "children: $(echo $KIDS | wc -w)"
+        kill -TERM $L
+        wait $L; echo "launcher rc=$?"
+        left=0; for k in $KIDS; do kill -0 $k 2>/dev/null && left=$((left+1)); done
+        echo "left=$left""#,
+    );
+    assert!(run.stdout.contains("launcher rc=0"), "{}", run.all());
+    assert!(run.stdout.contains("children: 2"), "{}", run.all());
+    assert!(run.stdout.contains("left=0"), "{}", run.all());
+    assert!(run.stderr.contains("SIGTERM: shutting down"), "{}", run.all());
+}

@@ -1,0 +1,81 @@
+//! A real peer: the Eclipse Cyclone DDS Python binding reads the state, commands the plant and
+//! calls the mode service in the rmw_cyclonedds request/reply mapping.
+
+use super::harness::{json_number, netns, root};
+
+fn peer() -> String {
+    let ok = std::process::Command::new("python3")
+        .args(["-c", "import cyclonedds"])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
+    root().join("tests/peers/cyclone_peer.py").display().to_string()
+}
+
+#[test]
+fn cyclone_peer_reads_state_and_commands_the_plant() {
+    let py = peer();
+    let run = netns(
+        120,
+        &format!(
+            r#"
+            $B/capsule_plant --scene "$SCENE" --until-s 12 &
+            P=$!
+            python3 {py} state --samples 200 || exit 1
+            python3 {py} force --force 0.05 || exit 1
+            kill -TERM $P; wait $P"#
+        ),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    let state = run
+        .stdout
+        .lines()
+        .find(|l| l.contains("\"rate_hz\""))
+        .unwrap_or_else(|| panic!("{}", run.all()));
+    let rate = json_number(state, "rate_hz").unwrap_or(f64::NAN);
+    assert!((rate - 1000.0).abs() < 1e-6, "rate {rate}: {state}");
+    let force = run
+        .stdout
+        .lines()
+        .find(|l| l.contains("applied_samples"))
+        .unwrap_or_else(|| panic!("{}", run.all()));
+    assert!(json_number(force, "applied_samples").unwrap_or(0.0) >= 5.0, "{force}");
+    assert!(json_number(force, "refused_after") > json_number(force, "refused_before"), "{force}");
+}
+
+#[test]
+fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
+    let py = peer();
+    let run = netns(
+        90,
+        &format!(
+            r#"
+            RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_controller --scene "$SCENE" --mode forward &
+            C=$!
+            python3 {py} set-mode 2 0.1 || exit 1
+            python3 {py} set-mode 9 0.1 || exit 1
+            python3 {py} set-mode 4 nan || exit 1
+            kill -TERM $C; wait $C"#
+        ),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    let answers: Vec<&str> =
+        run.stdout.lines().filter(|l| l.starts_with("{\"accepted\"")).collect();
+    assert_eq!(answers.len(), 3, "{}", run.all());
+    assert!(
+        answers[0].contains("\"accepted\": true") && answers[0].contains("\"gain\": -0.1"),
+        "{}",
+        answers[0]
+    );
+    assert!(
+        answers[1].contains("\"accepted\": false") && answers[1].contains("unknown mode 9"),
+        "{}",
+        answers[1]
+    );
+    assert!(answers[1].contains("\"mode\": 2"), "mode must stay BACKWARD: {}", answers[1]);
+    assert!(
+        answers[2].contains("\"accepted\": false") && answers[2].contains("not finite"),
+        "{}",
+        answers[2]
+    );
+}
