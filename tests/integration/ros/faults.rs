@@ -52,7 +52,7 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         printf '[capsule]\ngamma = -1\n' > $TMP/bad.toml
         $B/capsule_plant --scene $TMP/nope.toml; echo "rc1=$?"
         $B/capsule_plant --scene $TMP/bad.toml; echo "rc2=$?"
-        $B/capsule_plant --scene "$SCENE" --rate-hz -5; echo "rc3=$?"
+        $B/capsule_plant --scene "$SCENE" --rate-hz=-5; echo "rc3=$?"
         $B/capsule_controller --scene "$SCENE" --mode sideways; echo "rc4=$?"
         ROS_DOMAIN_ID=banana $B/capsule_controller --scene "$SCENE"; echo "rc5=$?"
         $ROOT/launch_scripts/capsule_launch.sh --scene $TMP/bad.toml --pacing lockstep; echo "rc6=$?""#,

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# ROS 2 layer benchmarks (figures, not pass/fail): each case runs in its own loopback-only
+# network namespace (tests/peers/netns_run.sh) and prints one line of figures.
+#
+#   launch_scripts/bench_ros.sh [SCENE]      (default scenes/control_point.toml)
+#
+# Use release binaries: cargo build --release -p capsule_nodes; CAPSULE_BIN defaults to
+# target/release. Cases:
+#   rt1k   real time 1 kHz, plant + controller, 10 s: loop latency p50/p99/max (state published
+#          -> its command received by the plant), unanswered samples, CPU per node
+#   rt10k  the same at 10 kHz for 5 s
+#   lock   lock-step closed loop: steps per second of wall time
+set -u
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$here/.."
+scene="${1:-$root/scenes/control_point.toml}"
+export CAPSULE_BIN="${CAPSULE_BIN:-$root/target/release}"
+export SCENE="$scene"
+
+case_script='
+set -u
+B=$CAPSULE_BIN
+cpu() { awk "{print \$14 + \$15}" /proc/$1/stat; }
+$B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
+C=$!
+sleep 0.5
+t0=$(date +%s.%N); c0=$(cpu $C)
+$B/capsule_plant --scene "$SCENE" $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+P=$!
+# sample the plant CPU just before it ends
+sleep $(awk "BEGIN{print $SECS - 0.3}")
+p1=$(cpu $P 2>/dev/null || echo 0); c1=$(cpu $C); t1=$(date +%s.%N)
+wait $P
+kill -TERM $C; wait $C
+hz=$(getconf CLK_TCK)
+echo "SUMMARY $(cat /tmp/bench_$$.json)"
+awk -v p=$p1 -v c0=$c0 -v c1=$c1 -v t0=$t0 -v t1=$t1 -v hz=$hz "BEGIN{printf \"CPU plant %.1f%% controller %.1f%% of one core\\n\", 100*p/hz/(t1-t0), 100*(c1-c0)/hz/(t1-t0)}"
+rm -f /tmp/bench_$$.json
+'
+report() { # name, output
+  local name="$1" out="$2" json
+  json=$(echo "$out" | sed -n 's/^SUMMARY //p')
+  python3 - "$name" "$json" "$(echo "$out" | grep '^CPU')" <<'PY'
+import json, sys
+name, raw, cpu = sys.argv[1], sys.argv[2], sys.argv[3]
+try:
+    j = json.loads(raw)
+except Exception:
+    print(f"{name}: no summary ({raw!r})"); sys.exit(0)
+ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
+print(f"{name}: samples {j['samples']}, unanswered {j['unanswered']}, latency p50 {ms(j['latency_p50_s'])} "
+      f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
+      f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}")
+PY
+}
+
+run_case() { # name seconds plant-args
+  local out
+  out=$(SECS="$2" PLANT_ARGS="$3" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$case_script")
+  report "$1" "$out"
+}
+
+echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
+run_case rt1k 10 "--pacing realtime --until-s 10"
+run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
+run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"
