@@ -40,17 +40,32 @@ mod tests {
     #[test]
     fn feedback_matches_eq3_on_both_sides_of_the_kink() {
         // eq. 3: f_p = k_p|x2-x1| + (x2-x1) = (1-k_p)(x2-x1) if x1 >= x2, (1+k_p)(x2-x1) otherwise
-        let law = FeedbackLaw { alpha: 0.0, omega: 1.0, kp: 0.3 };
+        let law = FeedbackLaw {
+            alpha: 0.0,
+            omega: 1.0,
+            kp: 0.3,
+        };
         for (x1, x2) in [(0.5, 0.1), (0.1, 0.5), (-0.2, -0.2)] {
             let fp = law.feedback(x1, x2) + (x2 - x1);
-            let expected = if x1 >= x2 { (1.0 - 0.3) * (x2 - x1) } else { (1.0 + 0.3) * (x2 - x1) };
-            assert!((fp - expected).abs() < 1e-15, "x1={x1} x2={x2}: {fp} vs {expected}");
+            let expected = if x1 >= x2 {
+                (1.0 - 0.3) * (x2 - x1)
+            } else {
+                (1.0 + 0.3) * (x2 - x1)
+            };
+            assert!(
+                (fp - expected).abs() < 1e-15,
+                "x1={x1} x2={x2}: {fp} vs {expected}"
+            );
         }
     }
 
     #[test]
     fn drive_is_alpha_at_phase_zero_and_period_is_two_pi_over_omega() {
-        let law = FeedbackLaw { alpha: 1.6, omega: 1.1, kp: 0.0 };
+        let law = FeedbackLaw {
+            alpha: 1.6,
+            omega: 1.1,
+            kp: 0.0,
+        };
         assert_eq!(law.drive(0.0), 1.6);
         assert!((law.drive(law.period()) - 1.6).abs() < 1e-12);
         assert!((law.drive(law.period() / 2.0) + 1.6).abs() < 1e-12);

@@ -5,9 +5,11 @@
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
 //! - [`controller`]: the controller node
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
+//! - [`sim`]: [`plant::PlantSim`] for the exact simulator of `capsule_plant`
 
 pub mod client;
 pub mod controller;
 pub mod plant;
 pub mod ros;
 pub mod scale;
+pub mod sim;

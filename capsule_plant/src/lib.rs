@@ -1,1 +1,17 @@
-//! placeholder
+//! The vibro-impact capsule of Liu, Pavlovskaia, Wiercigroch and Peng (2014), simulated exactly.
+//!
+//! A pure library (no ROS, no I/O): the model and its four friction laws ([`model`]), actuator
+//! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
+//! and scene files ([`scene`]).
+
+pub mod law;
+pub mod model;
+mod roots;
+pub mod scene;
+pub mod solver;
+
+pub use law::{ActuatorLaw, ConstantForce, LawShape};
+pub use model::{Capsule, Friction, Model, State};
+pub use solver::{
+    Event, EventKind, Method, Mode, Phase, SimError, Simulator, Snapshot, SolverConfig, Work,
+};

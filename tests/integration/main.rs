@@ -1,1 +1,23 @@
 //! Workspace integration tests: one binary, one module per area.
+
+mod cli;
+mod paper;
+mod ros;
+mod scenes;
+mod solver;
+
+use capsule_plant::scene::Scene;
+use std::path::PathBuf;
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A bundled scene by file name.
+pub fn scene(name: &str) -> Scene {
+    let path = root().join("scenes").join(name);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    Scene::from_toml_str(&text, name).unwrap_or_else(|e| panic!("{e}"))
+}

@@ -1,0 +1,89 @@
+//! One parameter over a range, every value an independent run, in parallel.
+
+use crate::run::{run, RunReport};
+use capsule_plant::scene::Scene;
+use capsule_plant::SimError;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// A sweepable parameter, named after the paper's symbol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Param {
+    /// Drive amplitude.
+    Alpha,
+    /// Drive frequency.
+    Omega,
+    /// Mass ratio.
+    Gamma,
+    /// Stiffness ratio.
+    Beta,
+    /// Gap.
+    Delta,
+    /// Damping ratio.
+    Xi,
+    /// Feedback gain.
+    Kp,
+}
+
+impl Param {
+    /// Parse a parameter name (`alpha`, `omega`, `gamma`, `beta`, `delta`, `xi`, `kp`).
+    pub fn parse(name: &str) -> Option<Self> {
+        Some(match name {
+            "alpha" => Param::Alpha,
+            "omega" => Param::Omega,
+            "gamma" => Param::Gamma,
+            "beta" => Param::Beta,
+            "delta" => Param::Delta,
+            "xi" => Param::Xi,
+            "kp" => Param::Kp,
+            _ => return None,
+        })
+    }
+
+    /// A copy of `scene` with this parameter set to `v`.
+    pub fn apply(self, scene: &Scene, v: f64) -> Scene {
+        let mut s = scene.clone();
+        match self {
+            Param::Alpha => s.drive.alpha = v,
+            Param::Omega => s.drive.omega = v,
+            Param::Gamma => s.model.capsule.gamma = v,
+            Param::Beta => s.model.capsule.beta = v,
+            Param::Delta => s.model.capsule.delta = v,
+            Param::Xi => s.model.capsule.xi = v,
+            Param::Kp => s.control.kp = v,
+        }
+        s
+    }
+}
+
+/// One value of a sweep and what its run measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepPoint {
+    /// The parameter value.
+    pub value: f64,
+    /// The run's measurements, or why it failed.
+    pub result: Result<RunReport, String>,
+}
+
+/// Run `scene` for every value of `param` in `values`, in parallel; `progress` is called once
+/// per finished value (from worker threads).
+pub fn sweep(
+    scene: &Scene,
+    param: Param,
+    values: &[f64],
+    progress: &(dyn Fn() + Sync),
+) -> Vec<SweepPoint> {
+    values
+        .par_iter()
+        .map(|&v| {
+            let s = param.apply(scene, v);
+            let result = s
+                .validate()
+                .map_err(|(k, r)| format!("{k}: {r}"))
+                .and_then(|()| run(&s).map_err(|e: SimError| e.to_string()));
+            progress();
+            SweepPoint { value: v, result }
+        })
+        .collect()
+}

@@ -1,0 +1,36 @@
+//! [`PlantSim`] for the exact simulator of `capsule_plant`.
+
+use anyhow::{Context as _, Result};
+use capsule_plant::{ConstantForce, Simulator};
+
+use crate::plant::{PlantSample, PlantSim};
+
+/// The simulator of `capsule_plant` behind the plant node, with the force it holds.
+pub struct ExactSim(pub Simulator, pub f64);
+
+impl PlantSim for ExactSim {
+    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
+        self.1 = force;
+        self.0
+            .advance(&ConstantForce(force), tau_end)
+            .map(|_| ())
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .with_context(|| format!("simulation failed on the way to tau = {tau_end}"))
+    }
+
+    fn sample(&self) -> PlantSample {
+        let s = self.0.snapshot(&ConstantForce(self.1));
+        PlantSample {
+            tau: s.tau,
+            x1: s.state.x1,
+            y1: s.state.y1,
+            x2: s.state.x2,
+            y2: s.state.y2,
+            stuck: s.stuck,
+            contact: s.contact,
+            friction_force: s.friction_force,
+            contact_force: s.contact_force,
+            actuator_force: s.actuator_force,
+        }
+    }
+}

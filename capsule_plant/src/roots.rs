@@ -1,0 +1,182 @@
+//! Locating the first upward zero crossing of a smooth scalar function on an interval.
+//!
+//! Event functions are written so that the current mode is valid while `g <= 0`; an event is
+//! the first time `g` becomes positive. Both solvers hand in `g` over one step (an exact power
+//! series, or the Runge-Kutta dense output). The step is short compared with the dynamics (the
+//! solvers bound it), so sampling it at a few points and checking the derivative for a hidden
+//! maximum between samples finds grazing crossings that a sign check at the ends would miss.
+
+/// Samples per step for crossing detection (the solvers keep steps short enough that `g`
+/// turns at most once between samples).
+const SAMPLES: usize = 4;
+
+/// `|g|` below this at the start of a step counts as "on the boundary" (just switched there).
+pub const BOUNDARY: f64 = 1e-10;
+
+/// A crossing must take `g` above this: excursions of rounding size just after a switch (a
+/// velocity that starts at zero with a derivative of `1e-16`) are not events.
+pub const NOISE: f64 = 1e-13;
+
+/// First `t` in `(0, h]` where `g` crosses from `<= 0` to `> 0`, or `Some(0.0)` if `g` leaves the
+/// valid side immediately. `gd` gives the value and the derivative.
+pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
+    let g = |t: f64| gd(t).0;
+    let dg = |t: f64| gd(t).1;
+    let (g0_raw, d0) = gd(0.0);
+    if g0_raw > BOUNDARY {
+        return Some(0.0);
+    }
+    let on_boundary = g0_raw.abs() <= BOUNDARY;
+    // On the boundary, measure from the start value so rounding there is not a crossing.
+    let shift = if on_boundary { g0_raw } else { 0.0 };
+    let f = |t: f64| g(t) - shift;
+    let mut t_prev = 0.0;
+    let mut g_prev = 0.0f64.min(f(0.0));
+    let mut d_prev = d0;
+    for i in 1..=SAMPLES {
+        let t = h * i as f64 / SAMPLES as f64;
+        let (gt, dt) = gd(t);
+        let gt = gt - shift;
+        if gt > NOISE {
+            if t_prev == 0.0 && g_prev == 0.0 {
+                // Starts on the boundary and is above it at the first sample. If it heads
+                // inward first, the crossing is on the way back up, after the minimum.
+                if d_prev < 0.0 && dt > 0.0 {
+                    let tm = bisect_derivative(&dg, 0.0, t);
+                    if f(tm) < 0.0 {
+                        return Some(refine(&f, tm, t));
+                    }
+                }
+                // The derivative at 0 may be rounding noise: look for a dip on a geometric grid;
+                // if there is none, `g` leaves at once.
+                let mut last_below = None;
+                for frac in [1.0 / 4096.0, 1.0 / 512.0, 1.0 / 64.0, 1.0 / 8.0, 0.5] {
+                    let tf = t * frac;
+                    let v = f(tf);
+                    if v > NOISE {
+                        break;
+                    }
+                    if v < 0.0 {
+                        last_below = Some(tf);
+                    }
+                }
+                return Some(match last_below {
+                    Some(a) => refine(&f, a, t),
+                    None => 0.0,
+                });
+            }
+            return Some(refine(&f, t_prev, t));
+        }
+        // a maximum hidden between two non-positive samples?
+        if d_prev > 0.0 && dt < 0.0 {
+            let tm = bisect_derivative(&dg, t_prev, t);
+            if f(tm) > NOISE {
+                return Some(refine(&f, t_prev, tm));
+            }
+        }
+        t_prev = t;
+        g_prev = gt;
+        d_prev = dt;
+    }
+    None
+}
+
+/// A root of `dg` in `[a, b]`, where `dg` changes sign.
+fn bisect_derivative(dg: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let sa = dg(a) > 0.0;
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if (dg(m) > 0.0) == sa {
+            a = m;
+        } else {
+            b = m;
+        }
+        if b - a <= f64::EPSILON * b.abs().max(1e-300) {
+            break;
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Root of `f` in `[a, b]` with `f(a) <= 0 < f(b)` (Illinois false position), returning the
+/// right end of the final bracket so that `f` at the result is `>= 0` (the event has happened).
+fn refine(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let mut fa = f(a);
+    let mut fb = f(b);
+    if fa > 0.0 {
+        return a;
+    }
+    let mut side = 0;
+    for _ in 0..100 {
+        if b - a <= 4.0 * f64::EPSILON * b.abs().max(1e-300) {
+            break;
+        }
+        let mut m = (a * fb - b * fa) / (fb - fa);
+        if !(m > a && m < b) {
+            m = 0.5 * (a + b);
+        }
+        let fm = f(m);
+        if fm > 0.0 {
+            b = m;
+            fb = fm;
+            if side == 1 {
+                fa *= 0.5;
+            }
+            side = 1;
+        } else {
+            a = m;
+            fa = fm;
+            if side == -1 {
+                fb *= 0.5;
+            }
+            side = -1;
+        }
+        if fm == 0.0 {
+            return m;
+        }
+    }
+    b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_a_simple_crossing() {
+        let t = first_crossing(|t| (t - 0.3, 1.0), 1.0).unwrap_or(f64::NAN);
+        assert!((t - 0.3).abs() < 1e-14, "{t}");
+    }
+
+    #[test]
+    fn finds_a_grazing_crossing_between_samples() {
+        // g peaks at t = 0.51 just above zero; both ends and all samples are negative
+        let g = |t: f64| 1e-6 - 50.0 * (t - 0.51) * (t - 0.51);
+        let dg = |t: f64| -100.0 * (t - 0.51);
+        let t = first_crossing(|t| (g(t), dg(t)), 1.0).unwrap_or(f64::NAN);
+        let expected = 0.51 - (1e-6f64 / 50.0).sqrt();
+        assert!((t - expected).abs() < 1e-12, "{t} vs {expected}");
+    }
+
+    #[test]
+    fn no_crossing_when_function_stays_below() {
+        assert_eq!(first_crossing(|t| (-1.0 - t * t, -2.0 * t), 2.0), None);
+    }
+
+    #[test]
+    fn starting_on_the_boundary_and_moving_in_is_not_an_event() {
+        assert_eq!(first_crossing(|t| (1e-13 - t, -1.0), 1.0), None);
+        // ... nor is a derivative of rounding size pointing out while the curve bends in
+        let g = |t: f64| {
+            (
+                5e-17 * t - 8.7e-3 * t * t + 0.0298 * t * t * t,
+                5e-17 - 17.4e-3 * t + 0.0894 * t * t,
+            )
+        };
+        let t = first_crossing(g, 1.6).unwrap_or(f64::NAN);
+        assert!((t - 8.7e-3 / 0.0298).abs() < 1e-6, "{t}");
+        // ... but moving in then out again is
+        let t = first_crossing(|t| (t * (t - 0.5), 2.0 * t - 0.5), 1.0).unwrap_or(f64::NAN);
+        assert!((t - 0.5).abs() < 1e-12, "{t}");
+    }
+}

@@ -1,0 +1,592 @@
+//! The simulator: one capsule, one clock, three integration methods sharing one switching logic.
+//!
+//! - [`Method::Exact`]: between events the Coulomb and viscous models are linear ODEs with
+//!   harmonic forcing; the flow is evaluated by its power series (the matrix exponential applied
+//!   to the state, truncated below rounding, with the step bounded so the series converges fast),
+//!   and events are roots of the series of each event function. Exact to rounding.
+//! - [`Method::Adaptive`]: Dormand-Prince 5(4) with step-size control, dense output, located
+//!   events and a history of the capsule velocity for frictional memory. Any friction law.
+//! - [`Method::Fixed`]: classical RK4 with a fixed step and no event location (switches are
+//!   noticed at step ends, discontinuities are stepped over): the baseline that shows what
+//!   skipping event location costs.
+//!
+//! The mode (stick or slip and its direction, contact, side of the feedback kink) changes only
+//! at events; [`Simulator`] applies the same switching rules whichever method found the event.
+
+mod exact;
+mod history;
+mod rk;
+
+use crate::law::{ActuatorLaw, LawShape};
+use crate::model::{Model, State};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Integration method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Exact piecewise solution (Coulomb and viscous friction only).
+    Exact,
+    /// Adaptive Dormand-Prince 5(4) with event location.
+    Adaptive,
+    /// Fixed-step RK4 without event location.
+    Fixed,
+}
+
+impl Method {
+    /// Name as used in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Exact => "exact",
+            Method::Adaptive => "adaptive",
+            Method::Fixed => "fixed",
+        }
+    }
+}
+
+/// How to integrate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SolverConfig {
+    /// The method.
+    pub method: Method,
+    /// Relative and absolute tolerance of the adaptive method.
+    pub tol: f64,
+    /// Step of the fixed method (non-dimensional time).
+    pub step: f64,
+}
+
+impl SolverConfig {
+    /// The most accurate method for a model: exact where the law is piecewise linear, else
+    /// adaptive at a tight tolerance.
+    pub fn most_accurate_for(model: &Model) -> Self {
+        let method = if model.friction.is_piecewise_linear() {
+            Method::Exact
+        } else {
+            Method::Adaptive
+        };
+        SolverConfig {
+            method,
+            tol: 1e-10,
+            step: 1e-3,
+        }
+    }
+}
+
+/// Why a simulation cannot go on.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SimError {
+    /// The exact method was asked for a law that is not piecewise linear.
+    #[error("the exact method needs a piecewise-linear friction law (coulomb or viscous), not {0}; use adaptive")]
+    ExactNeedsLinearLaw(&'static str),
+    /// The exact method was given a force law of unknown structure.
+    #[error("the exact method needs a piecewise-affine actuator law (harmonic drive, feedback, constant)")]
+    ExactNeedsAffineLaw,
+    /// A bad solver setting.
+    #[error("solver setting {name} = {value}: {reason}")]
+    BadSetting {
+        /// The setting.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Why it is refused.
+        reason: &'static str,
+    },
+    /// The state became non-finite.
+    #[error("the state became non-finite at tau = {tau}")]
+    NonFinite {
+        /// When.
+        tau: f64,
+    },
+    /// Events accumulate (Zeno behaviour) and the run cannot progress.
+    #[error("events accumulate at tau = {tau} ({count} switches without progress)")]
+    Zeno {
+        /// When.
+        tau: f64,
+        /// Switches counted without time advancing.
+        count: u32,
+    },
+    /// The adaptive step size underflowed.
+    #[error("step size underflow at tau = {tau}")]
+    StepUnderflow {
+        /// When.
+        tau: f64,
+    },
+}
+
+/// Stick or slip of the capsule.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Phase {
+    /// The capsule is held by static friction (`y2 = 0`, or pre-sliding on the stiff spring).
+    Stick,
+    /// The capsule slides in direction `+1` or `-1`.
+    Slip(f64),
+}
+
+/// The discrete part of the state: what is switched by events.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mode {
+    /// Stick or slip.
+    pub phase: Phase,
+    /// The mass touches the secondary spring (`H3 = 1`).
+    pub contact: bool,
+    /// Side of the feedback kink: `sign(x1 - x2)`, so `|x2 - x1| = sigma (x1 - x2)`.
+    pub sigma: f64,
+}
+
+/// What happened at an event.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EventKind {
+    /// The mass reaches the secondary spring (an impact).
+    ContactOn,
+    /// The mass leaves the secondary spring.
+    ContactOff,
+    /// The stuck capsule starts to slip in direction `dir`.
+    BreakAway {
+        /// Direction of the new slip.
+        dir: f64,
+    },
+    /// The slipping capsule's velocity reaches zero and it sticks.
+    SlipEnd,
+    /// The slipping capsule's velocity reaches zero and it slips on in direction `dir`
+    /// (normally the other way: a reversal).
+    Reversal {
+        /// Direction of the new slip.
+        dir: f64,
+    },
+    /// `x1 - x2` changes sign: the kink of the feedback `k_p |x2 - x1|`.
+    Kink,
+}
+
+/// A located event.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// When it happened.
+    pub tau: f64,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// Work done by an integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Work {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps (adaptive only).
+    pub rejected: u64,
+    /// Right-hand-side evaluations (for the exact method: series terms, each one
+    /// matrix-vector product).
+    pub rhs_evals: u64,
+    /// Located (or, for the fixed method, noticed) events.
+    pub events: u64,
+}
+
+/// What the plant shows the world at an instant.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// Time.
+    pub tau: f64,
+    /// Mass and capsule state.
+    pub state: State,
+    /// The capsule is stuck.
+    pub stuck: bool,
+    /// The mass touches the secondary spring.
+    pub contact: bool,
+    /// Friction force on the capsule (positive opposes forward motion).
+    pub friction_force: f64,
+    /// Force of the secondary spring (positive pushes the mass back).
+    pub contact_force: f64,
+    /// Actuator force applied to the mass at this instant.
+    pub actuator_force: f64,
+}
+
+/// Compensated (Kahan) sum, for quantities that grow over long runs (capsule position, work).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Sum {
+    hi: f64,
+    lo: f64,
+}
+
+impl Sum {
+    fn new(v: f64) -> Self {
+        Sum { hi: v, lo: 0.0 }
+    }
+    fn add(&mut self, v: f64) {
+        let y = v - self.lo;
+        let t = self.hi + y;
+        self.lo = (t - self.hi) - y;
+        self.hi = t;
+    }
+    fn value(&self) -> f64 {
+        self.hi - self.lo
+    }
+}
+
+/// Continuous state in the solvers' coordinates: `[z = x1 - x2, y1, y2, p]`, `p` the pre-sliding
+/// displacement (zero unless the law has pre-sliding and the capsule is stuck).
+pub(crate) type Core = [f64; 4];
+
+/// A linear event function `c . [z, y1, y2, p] + c0`: the mode is valid while it is `<= 0`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EventFn {
+    pub c: [f64; 4],
+    pub c0: f64,
+    pub kind: EventKind,
+}
+
+impl EventFn {
+    #[inline]
+    fn eval(&self, v: &[f64]) -> f64 {
+        self.c[0] * v[0] + self.c[1] * v[1] + self.c[2] * v[2] + self.c[3] * v[3] + self.c0
+    }
+}
+
+/// The capsule simulator.
+#[derive(Debug, Clone)]
+pub struct Simulator {
+    model: Model,
+    config: SolverConfig,
+    tau: f64,
+    core: Core,
+    x2: Sum,
+    mode: Mode,
+    work: Work,
+    actuator_work: Sum,
+    track_work: bool,
+    history: Option<history::History>,
+    rk_step: f64,
+    zeno: u32,
+}
+
+impl Simulator {
+    /// A simulator at time `tau0` in state `s0`. The mode is chosen from the state: stuck if
+    /// `y2 = 0` and the spring force is below the threshold (with no actuator force yet known,
+    /// the first step corrects it at once if not), in contact if `x1 - x2 >= delta`.
+    pub fn new(model: Model, s0: State, tau0: f64, config: SolverConfig) -> Result<Self, SimError> {
+        match config.method {
+            Method::Exact if !model.friction.is_piecewise_linear() => {
+                return Err(SimError::ExactNeedsLinearLaw(model.friction.name()));
+            }
+            Method::Adaptive if !(config.tol > 0.0 && config.tol < 1.0) => {
+                return Err(SimError::BadSetting {
+                    name: "tol",
+                    value: config.tol,
+                    reason: "must be in (0, 1)",
+                });
+            }
+            Method::Fixed if !(config.step > 0.0 && config.step.is_finite()) => {
+                return Err(SimError::BadSetting {
+                    name: "step",
+                    value: config.step,
+                    reason: "must be positive and finite",
+                });
+            }
+            _ => {}
+        }
+        for v in s0.to_array().into_iter().chain([tau0]) {
+            if !v.is_finite() {
+                return Err(SimError::NonFinite { tau: tau0 });
+            }
+        }
+        let z = s0.x1 - s0.x2;
+        let contact = model.has_contact() && z >= model.capsule.delta;
+        let sigma = if z < 0.0 { -1.0 } else { 1.0 };
+        let f = model.capsule_force(z, s0.y1, s0.y2, contact);
+        let fb = model.friction.threshold();
+        let phase = if s0.y2 != 0.0 {
+            Phase::Slip(s0.y2.signum())
+        } else if f.abs() > fb {
+            Phase::Slip(f.signum())
+        } else {
+            Phase::Stick
+        };
+        let p = match (phase, model.friction.presliding()) {
+            (Phase::Stick, Some(ks)) => f / ks,
+            _ => 0.0,
+        };
+        let history = model
+            .friction
+            .memory_delay()
+            .map(|d| history::History::new(d, tau0, s0.y2));
+        Ok(Simulator {
+            model,
+            config,
+            tau: tau0,
+            core: [z, s0.y1, s0.y2, p],
+            x2: Sum::new(s0.x2),
+            mode: Mode {
+                phase,
+                contact,
+                sigma,
+            },
+            work: Work::default(),
+            actuator_work: Sum::new(0.0),
+            track_work: false,
+            history,
+            rk_step: 0.0,
+            zeno: 0,
+        })
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.tau
+    }
+
+    /// Current state.
+    pub fn state(&self) -> State {
+        let x2 = self.x2.value();
+        State {
+            x1: x2 + self.core[0],
+            y1: self.core[1],
+            x2,
+            y2: self.core[2],
+        }
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The model being simulated.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The solver settings.
+    pub fn config(&self) -> &SolverConfig {
+        &self.config
+    }
+
+    /// Work done so far.
+    pub fn work(&self) -> Work {
+        self.work
+    }
+
+    /// Start or stop accumulating the actuator's work on the mass, `integral f_a y1 dtau`.
+    pub fn track_actuator_work(&mut self, on: bool) {
+        self.track_work = on;
+    }
+
+    /// Actuator work accumulated while tracking was on.
+    pub fn actuator_work(&self) -> f64 {
+        self.actuator_work.value()
+    }
+
+    /// What the plant shows at this instant under the actuator law `law`.
+    pub fn snapshot(&self, law: &impl ActuatorLaw) -> Snapshot {
+        let [z, y1, y2, p] = self.core;
+        let state = self.state();
+        let m = &self.model;
+        let f = m.capsule_force(z, y1, y2, self.mode.contact);
+        let friction_force = match self.mode.phase {
+            Phase::Stick => match m.friction.presliding() {
+                Some(ks) => ks * p,
+                None => f, // static friction balances the force on the capsule
+            },
+            Phase::Slip(d) => {
+                let y2d = self.history.as_ref().map_or(0.0, |h| h.delayed(self.tau));
+                m.friction.sliding(d, y2, y2d)
+            }
+        };
+        Snapshot {
+            tau: self.tau,
+            state,
+            stuck: self.mode.phase == Phase::Stick,
+            contact: self.mode.contact,
+            friction_force,
+            contact_force: m.contact_force(z),
+            actuator_force: law.force(self.tau, &state),
+        }
+    }
+
+    /// Integrate to `tau_end` under the actuator law `law`.
+    pub fn advance(&mut self, law: &impl ActuatorLaw, tau_end: f64) -> Result<(), SimError> {
+        self.advance_observed(law, tau_end, &mut |_| {})
+    }
+
+    /// Integrate to `tau_end`, calling `on_event` for every event.
+    pub fn advance_observed(
+        &mut self,
+        law: &impl ActuatorLaw,
+        tau_end: f64,
+        on_event: &mut impl FnMut(&Event),
+    ) -> Result<(), SimError> {
+        if !tau_end.is_finite() {
+            return Err(SimError::NonFinite { tau: self.tau });
+        }
+        match self.config.method {
+            Method::Exact => match law.shape() {
+                LawShape::PiecewiseAffine {
+                    alpha,
+                    omega,
+                    bias,
+                    kp,
+                } => {
+                    let drive = exact::Drive {
+                        alpha,
+                        omega,
+                        bias,
+                        kp,
+                    };
+                    self.advance_exact(&drive, tau_end, on_event)
+                }
+                LawShape::General => Err(SimError::ExactNeedsAffineLaw),
+            },
+            Method::Adaptive => self.advance_adaptive(law, tau_end, on_event),
+            Method::Fixed => self.advance_fixed(law, tau_end, on_event),
+        }
+    }
+
+    /// The event functions of the current mode; `kink` adds the feedback's `x1 = x2`.
+    fn event_functions(&self, kink: bool, out: &mut Vec<EventFn>) {
+        out.clear();
+        let cap = &self.model.capsule;
+        let mode = &self.mode;
+        let h3 = if mode.contact { cap.beta } else { 0.0 };
+        if self.model.has_contact() {
+            let (d, kind) = if mode.contact {
+                (-1.0, EventKind::ContactOff)
+            } else {
+                (1.0, EventKind::ContactOn)
+            };
+            out.push(EventFn {
+                c: [d, 0.0, 0.0, 0.0],
+                c0: -d * cap.delta,
+                kind,
+            });
+        }
+        if kink {
+            out.push(EventFn {
+                c: [-mode.sigma, 0.0, 0.0, 0.0],
+                c0: 0.0,
+                kind: EventKind::Kink,
+            });
+        }
+        let fb = self.model.friction.threshold();
+        let xi2 = 2.0 * cap.xi;
+        match mode.phase {
+            Phase::Stick => {
+                for d in [1.0, -1.0] {
+                    let (c, c0) = match self.model.friction.presliding() {
+                        Some(ks) => ([0.0, 0.0, 0.0, d * ks], -fb),
+                        None => (
+                            [d * (1.0 + h3), d * xi2, -d * xi2, 0.0],
+                            -d * h3 * cap.delta - fb,
+                        ),
+                    };
+                    out.push(EventFn {
+                        c,
+                        c0,
+                        kind: EventKind::BreakAway { dir: d },
+                    });
+                }
+            }
+            Phase::Slip(d) => out.push(EventFn {
+                c: [0.0, 0.0, -d, 0.0],
+                c0: 0.0,
+                kind: EventKind::SlipEnd,
+            }),
+        }
+    }
+
+    /// The feedback gain if the law has a kink that must be located.
+    fn kink_gain(law: &impl ActuatorLaw) -> f64 {
+        match law.shape() {
+            LawShape::PiecewiseAffine { kp, .. } => kp,
+            LawShape::General => 0.0,
+        }
+    }
+
+    /// Move the clock and the capsule position after a step of length `dt` that moved the
+    /// capsule by `dx2` and did actuator work `dw`.
+    fn commit(&mut self, dt: f64, core: Core, dx2: f64, dw: f64) -> Result<(), SimError> {
+        if !core.iter().all(|v| v.is_finite()) || !dx2.is_finite() {
+            return Err(SimError::NonFinite { tau: self.tau + dt });
+        }
+        if dt > 1e-12 * (1.0 + self.tau.abs()) {
+            self.zeno = 0;
+        }
+        self.tau += dt;
+        self.core = core;
+        self.x2.add(dx2);
+        if self.track_work {
+            self.actuator_work.add(dw);
+        }
+        Ok(())
+    }
+
+    /// Apply the switching rule for event `kind` at the current state; returns the event.
+    fn switch(&mut self, kind: EventKind) -> Result<Event, SimError> {
+        self.zeno += 1;
+        if self.zeno > 64 {
+            return Err(SimError::Zeno {
+                tau: self.tau,
+                count: self.zeno,
+            });
+        }
+        let fb = self.model.friction.threshold();
+        let kind = match kind {
+            EventKind::ContactOn | EventKind::ContactOff => {
+                self.mode.contact = !self.mode.contact;
+                if self.mode.contact {
+                    EventKind::ContactOn
+                } else {
+                    EventKind::ContactOff
+                }
+            }
+            EventKind::Kink => {
+                self.mode.sigma = -self.mode.sigma;
+                EventKind::Kink
+            }
+            EventKind::BreakAway { dir } => {
+                self.mode.phase = Phase::Slip(dir);
+                self.core[3] = 0.0;
+                EventKind::BreakAway { dir }
+            }
+            EventKind::SlipEnd | EventKind::Reversal { .. } => {
+                self.core[2] = 0.0;
+                let [z, y1, _, _] = self.core;
+                let f = self.model.capsule_force(z, y1, 0.0, self.mode.contact);
+                if f.abs() <= fb {
+                    self.mode.phase = Phase::Stick;
+                    if let Some(ks) = self.model.friction.presliding() {
+                        self.core[3] = f / ks;
+                    }
+                    EventKind::SlipEnd
+                } else {
+                    self.mode.phase = Phase::Slip(f.signum());
+                    EventKind::Reversal { dir: f.signum() }
+                }
+            }
+        };
+        self.work.events += 1;
+        if let Some(h) = self.history.as_mut() {
+            h.breakpoint(self.tau);
+        }
+        Ok(Event {
+            tau: self.tau,
+            kind,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compensated_sum_keeps_small_increments_on_a_large_value() {
+        let mut s = Sum::new(1e8);
+        for _ in 0..1_000_000 {
+            s.add(1e-9);
+        }
+        assert!(
+            (s.value() - (1e8 + 1e-3)).abs() < 1e-8,
+            "{}",
+            s.value() - 1e8
+        );
+    }
+}

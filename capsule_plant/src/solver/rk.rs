@@ -1,0 +1,444 @@
+//! Runge-Kutta methods: adaptive Dormand-Prince 5(4) with located events, and fixed-step RK4.
+//!
+//! Both integrate `v = [z, y1, y2, p, dx2, w]`: the relative state, the capsule's displacement
+//! over the step and the actuator work over the step (increments, added to compensated sums).
+//! Dormand-Prince coefficients and the continuous extension are those of Hairer, Norsett and
+//! Wanner, *Solving ODEs I*, sec. II.5-6 (the `dopri5` code).
+
+use super::history::Piece;
+use super::{Event, EventFn, EventKind, Phase, SimError, Simulator};
+use crate::law::{ActuatorLaw, LawShape};
+use crate::model::State;
+use crate::roots::{first_crossing, BOUNDARY};
+
+type V = [f64; 6];
+
+const C2: f64 = 1.0 / 5.0;
+const C3: f64 = 3.0 / 10.0;
+const C4: f64 = 4.0 / 5.0;
+const C5: f64 = 8.0 / 9.0;
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const A71: f64 = 35.0 / 384.0;
+const A73: f64 = 500.0 / 1113.0;
+const A74: f64 = 125.0 / 192.0;
+const A75: f64 = -2187.0 / 6784.0;
+const A76: f64 = 11.0 / 84.0;
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+#[inline(always)]
+fn axpy(y: &V, h: f64, terms: &[(f64, &V)]) -> V {
+    let mut out = *y;
+    for (i, o) in out.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for (a, k) in terms {
+            acc += a * k[i];
+        }
+        *o += h * acc;
+    }
+    out
+}
+
+/// One Dormand-Prince step: the new state, its derivative (FSAL), the error estimate and the
+/// continuous extension coefficients.
+struct DopriStep {
+    y: V,
+    k7: V,
+    err: V,
+    cont: [V; 5],
+}
+
+/// What the right-hand side needs besides the state.
+struct Rhs<'a, L> {
+    law: &'a L,
+    shape: LawShape,
+    /// Use the mode's contact flag and kink side (event-located), or the state's (fixed step).
+    located: bool,
+    x2_base: f64,
+}
+
+/// Continuous extension at `theta` in `[0, 1]` and its derivative with respect to `theta`.
+#[inline]
+fn dense(c: &[V; 5], i: usize, th: f64) -> (f64, f64) {
+    let [r1, r2, r3, r4, r5] = [c[0][i], c[1][i], c[2][i], c[3][i], c[4][i]];
+    let th1 = 1.0 - th;
+    let a = r4 + th1 * r5;
+    let da = -r5;
+    let b = r3 + th * a;
+    let db = a + th * da;
+    let cc = th1 * b;
+    let dc = -b + th1 * db;
+    let d = r2 + cc;
+    (r1 + th * d, d + th * dc)
+}
+
+impl Simulator {
+    fn rk_rhs<L: ActuatorLaw>(&self, ctx: &Rhs<'_, L>, tau: f64, v: &V) -> V {
+        let [z, y1, y2, p, dx2, _] = *v;
+        let model = &self.model;
+        let (contact, sigma) = if ctx.located {
+            (self.mode.contact, self.mode.sigma)
+        } else {
+            (
+                model.has_contact() && z >= model.capsule.delta,
+                if z < 0.0 { -1.0 } else { 1.0 },
+            )
+        };
+        let fa = match ctx.shape {
+            LawShape::PiecewiseAffine {
+                alpha,
+                omega,
+                bias,
+                kp,
+            } => alpha * (omega * tau).cos() + bias + kp * sigma * z,
+            LawShape::General => {
+                let x2 = ctx.x2_base + dx2;
+                ctx.law.force(
+                    tau,
+                    &State {
+                        x1: x2 + z,
+                        y1,
+                        x2,
+                        y2,
+                    },
+                )
+            }
+        };
+        let fcap = model.capsule_force(z, y1, y2, contact);
+        let inv_gamma = 1.0 / model.capsule.gamma;
+        let (dy2, dp, dx) = match self.mode.phase {
+            Phase::Stick => match model.friction.presliding() {
+                Some(ks) => ((fcap - ks * p) * inv_gamma, y2, y2),
+                None => (0.0, 0.0, 0.0),
+            },
+            Phase::Slip(d) => {
+                let y2d = self.history.as_ref().map_or(0.0, |h| h.delayed(tau));
+                (
+                    (fcap - model.friction.sliding(d, y2, y2d)) * inv_gamma,
+                    0.0,
+                    y2,
+                )
+            }
+        };
+        [y1 - y2, fa - fcap, dy2, dp, dx, fa * y1]
+    }
+
+    fn dopri_step<L: ActuatorLaw>(&mut self, ctx: &Rhs<'_, L>, y: &V, k1: &V, h: f64) -> DopriStep {
+        let t = self.tau;
+        let k2 = self.rk_rhs(ctx, t + C2 * h, &axpy(y, h, &[(A21, k1)]));
+        let k3 = self.rk_rhs(ctx, t + C3 * h, &axpy(y, h, &[(A31, k1), (A32, &k2)]));
+        let k4 = self.rk_rhs(
+            ctx,
+            t + C4 * h,
+            &axpy(y, h, &[(A41, k1), (A42, &k2), (A43, &k3)]),
+        );
+        let k5 = self.rk_rhs(
+            ctx,
+            t + C5 * h,
+            &axpy(y, h, &[(A51, k1), (A52, &k2), (A53, &k3), (A54, &k4)]),
+        );
+        let k6 = self.rk_rhs(
+            ctx,
+            t + h,
+            &axpy(
+                y,
+                h,
+                &[(A61, k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)],
+            ),
+        );
+        let ynew = axpy(
+            y,
+            h,
+            &[(A71, k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)],
+        );
+        let k7 = self.rk_rhs(ctx, t + h, &ynew);
+        self.work.rhs_evals += 6;
+        let err = axpy(
+            &[0.0; 6],
+            h,
+            &[
+                (E1, k1),
+                (E3, &k3),
+                (E4, &k4),
+                (E5, &k5),
+                (E6, &k6),
+                (E7, &k7),
+            ],
+        );
+        let mut cont = [[0.0; 6]; 5];
+        for i in 0..6 {
+            let ydiff = ynew[i] - y[i];
+            let bspl = h * k1[i] - ydiff;
+            cont[0][i] = y[i];
+            cont[1][i] = ydiff;
+            cont[2][i] = bspl;
+            cont[3][i] = ydiff - h * k7[i] - bspl;
+            cont[4][i] =
+                h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+        }
+        DopriStep {
+            y: ynew,
+            k7,
+            err,
+            cont,
+        }
+    }
+
+    fn error_norm(&self, y0: &V, s: &DopriStep) -> f64 {
+        let tol = self.config.tol;
+        let mut sum = 0.0;
+        for ((y0, y1), err) in y0.iter().zip(&s.y).zip(&s.err) {
+            let e = err / (tol + tol * y0.abs().max(y1.abs()));
+            sum += e * e;
+        }
+        (sum / 6.0).sqrt()
+    }
+
+    fn start_vector(&self) -> V {
+        let [z, y1, y2, p] = self.core;
+        [z, y1, y2, p, 0.0, 0.0]
+    }
+
+    pub(super) fn advance_adaptive<L: ActuatorLaw>(
+        &mut self,
+        law: &L,
+        tau_end: f64,
+        on_event: &mut impl FnMut(&Event),
+    ) -> Result<(), SimError> {
+        let shape = law.shape();
+        let kink = Self::kink_gain(law) != 0.0;
+        let mut events: Vec<EventFn> = Vec::with_capacity(5);
+        let h_cap = self.history.as_ref().map_or(f64::INFINITY, |h| h.delay());
+        // first-same-as-last: the last stage of a step is the first of the next, unless a
+        // switch changed the right-hand side in between
+        let mut fsal: Option<V> = None;
+        while self.tau < tau_end {
+            let ctx = Rhs {
+                law,
+                shape,
+                located: true,
+                x2_base: self.x2.value(),
+            };
+            let y0 = self.start_vector();
+            let k1 = match fsal.take() {
+                Some(k) => k,
+                None => {
+                    self.work.rhs_evals += 1;
+                    self.rk_rhs(&ctx, self.tau, &y0)
+                }
+            };
+            if self.rk_step <= 0.0 {
+                self.rk_step = initial_step(&y0, &k1, self.config.tol);
+            }
+            let stop = match self
+                .history
+                .as_mut()
+                .and_then(|h| h.next_breakpoint(self.tau))
+            {
+                Some(b) => b.min(tau_end),
+                None => tau_end,
+            };
+            // one accepted step
+            let (mut h, step) = loop {
+                let h = self.rk_step.min(h_cap).min(stop - self.tau);
+                if h <= f64::EPSILON * self.tau.abs().max(1.0) * 4.0 && self.tau + h < stop {
+                    return Err(SimError::StepUnderflow { tau: self.tau });
+                }
+                let s = self.dopri_step(&ctx, &y0, &k1, h);
+                let err = self.error_norm(&y0, &s);
+                let fac = if err == 0.0 {
+                    5.0
+                } else {
+                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                };
+                if err <= 1.0 {
+                    if h == self.rk_step.min(h_cap) || fac < 1.0 {
+                        self.rk_step = h * fac;
+                    }
+                    break (h, s);
+                }
+                self.work.rejected += 1;
+                self.rk_step = h * fac.min(1.0);
+            };
+            let mut step = step;
+            // first event in the step, on the dense output
+            self.event_functions(kink, &mut events);
+            let mut hit: Option<(f64, EventFn)> = None;
+            for ev in &events {
+                let gd = |th: f64| {
+                    let mut v = [0.0; 4];
+                    let mut d = [0.0; 4];
+                    for i in 0..4 {
+                        (v[i], d[i]) = dense(&step.cont, i, th);
+                    }
+                    (ev.eval(&v), ev.eval(&d) - ev.c0)
+                };
+                let limit = hit.map_or(1.0, |(t, _)| t);
+                if let Some(th) = first_crossing(gd, limit) {
+                    if hit.is_none_or(|(t, _)| th < t) {
+                        hit = Some((th, *ev));
+                    }
+                }
+            }
+            if let Some((th, ev)) = hit {
+                if th == 0.0 {
+                    let e = self.switch(ev.kind)?;
+                    on_event(&e);
+                    self.rk_step = self.rk_step.max(h * 0.1);
+                    continue;
+                }
+                // land on the event: re-take the step with the length that puts g at zero
+                let mut hs = th * h;
+                let dgdh = |s: &DopriStep, th: f64| {
+                    let mut d = [0.0; 4];
+                    for (i, di) in d.iter_mut().enumerate() {
+                        *di = dense(&s.cont, i, th).1;
+                    }
+                    (ev.eval(&d) - ev.c0) / h
+                };
+                let slope0 = dgdh(&step, th);
+                step = self.dopri_step(&ctx, &y0, &k1, hs);
+                for _ in 0..8 {
+                    let gv = ev.eval(&step.y);
+                    if gv.abs() <= BOUNDARY * 1e-2 || slope0 == 0.0 {
+                        break;
+                    }
+                    let hn = (hs - gv / slope0).clamp(0.0, h);
+                    if hn == hs {
+                        break;
+                    }
+                    hs = hn;
+                    step = self.dopri_step(&ctx, &y0, &k1, hs);
+                }
+                h = hs;
+                self.finish_rk_step(h, &step)?;
+                let e = self.switch(ev.kind)?;
+                on_event(&e);
+            } else {
+                self.finish_rk_step(h, &step)?;
+                // the derivative does not depend on the increments dx2 and w, which restart at 0
+                fsal = Some(step.k7);
+            }
+        }
+        Ok(())
+    }
+
+    fn finish_rk_step(&mut self, h: f64, s: &DopriStep) -> Result<(), SimError> {
+        let t0 = self.tau;
+        if let Some(hist) = self.history.as_mut() {
+            let mut c = [0.0; 5];
+            for (j, cj) in c.iter_mut().enumerate() {
+                *cj = s.cont[j][2];
+            }
+            hist.push(t0, h, Piece::Dopri(c));
+        }
+        let [z, y1, y2, p, dx2, dw] = s.y;
+        let y2 = if self.mode.phase == Phase::Stick && self.model.friction.presliding().is_none() {
+            0.0
+        } else {
+            y2
+        };
+        self.work.steps += 1;
+        self.commit(h, [z, y1, y2, p], dx2, dw)
+    }
+
+    pub(super) fn advance_fixed<L: ActuatorLaw>(
+        &mut self,
+        law: &L,
+        tau_end: f64,
+        on_event: &mut impl FnMut(&Event),
+    ) -> Result<(), SimError> {
+        let shape = law.shape();
+        let kink = Self::kink_gain(law) != 0.0;
+        let mut events: Vec<EventFn> = Vec::with_capacity(5);
+        while self.tau < tau_end {
+            let h = self.config.step.min(tau_end - self.tau);
+            let ctx = Rhs {
+                law,
+                shape,
+                located: false,
+                x2_base: self.x2.value(),
+            };
+            let t = self.tau;
+            let y = self.start_vector();
+            let k1 = self.rk_rhs(&ctx, t, &y);
+            let k2 = self.rk_rhs(&ctx, t + 0.5 * h, &axpy(&y, h, &[(0.5, &k1)]));
+            let k3 = self.rk_rhs(&ctx, t + 0.5 * h, &axpy(&y, h, &[(0.5, &k2)]));
+            let k4 = self.rk_rhs(&ctx, t + h, &axpy(&y, h, &[(1.0, &k3)]));
+            self.work.rhs_evals += 4;
+            let yn = axpy(
+                &y,
+                h,
+                &[
+                    (1.0 / 6.0, &k1),
+                    (1.0 / 3.0, &k2),
+                    (1.0 / 3.0, &k3),
+                    (1.0 / 6.0, &k4),
+                ],
+            );
+            let y2_start = y[2];
+            let [z, y1, y2, p, dx2, dw] = yn;
+            let stuck_rigid =
+                self.mode.phase == Phase::Stick && self.model.friction.presliding().is_none();
+            let y2 = if stuck_rigid { 0.0 } else { y2 };
+            if let Some(hist) = self.history.as_mut() {
+                hist.push(t, h, Piece::Line(y2_start, y2));
+            }
+            self.work.steps += 1;
+            self.commit(h, [z, y1, y2, p], dx2, dw)?;
+            // switches noticed at the step end only, not located
+            self.event_functions(kink, &mut events);
+            let pending: Vec<EventKind> = events
+                .iter()
+                .filter(|ev| ev.eval(&self.core) > 0.0)
+                .map(|ev| ev.kind)
+                .collect();
+            for kind in pending {
+                let e = self.switch(kind)?;
+                on_event(&e);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Hairer's starting step heuristic, simplified: `h = 0.01 (tol / |f|)^(1/5)`, capped.
+fn initial_step(y: &V, f: &V, tol: f64) -> f64 {
+    let mut d0: f64 = 0.0;
+    let mut d1: f64 = 0.0;
+    for i in 0..4 {
+        let sc = tol + tol * y[i].abs();
+        d0 = d0.max((y[i] / sc).abs());
+        d1 = d1.max((f[i] / sc).abs());
+    }
+    let h = if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    };
+    h.clamp(1e-8, 0.1)
+}
