@@ -20,8 +20,13 @@ pub enum Mode {
 
 impl Mode {
     /// Every mode in code order.
-    pub const ALL: [Mode; 5] =
-        [Mode::Off, Mode::Forward, Mode::Backward, Mode::ChaosControl, Mode::Custom];
+    pub const ALL: [Mode; 5] = [
+        Mode::Off,
+        Mode::Forward,
+        Mode::Backward,
+        Mode::ChaosControl,
+        Mode::Custom,
+    ];
 
     /// The wire code (`SetMode.OFF` = 0, ...).
     pub fn code(self) -> u8 {
@@ -53,7 +58,9 @@ impl Mode {
     /// Parses a name (case-insensitive, `-` or `_`), for command lines.
     pub fn parse_name(name: &str) -> Option<Mode> {
         let n = name.trim().to_ascii_uppercase().replace('-', "_");
-        Mode::ALL.into_iter().find(|m| m.name() == n || (n == "CHAOS" && *m == Mode::ChaosControl))
+        Mode::ALL
+            .into_iter()
+            .find(|m| m.name() == n || (n == "CHAOS" && *m == Mode::ChaosControl))
     }
 }
 
@@ -97,7 +104,11 @@ impl Default for ModeConfig {
     /// 0.2 for direction control (the edge of the paper's Fig. 15 sweep), 1.0 for chaos control
     /// (Fig. 16), and a limit of 2.
     fn default() -> Self {
-        ModeConfig { direction_gain: 0.2, chaos_gain: 1.0, gain_limit: 2.0 }
+        ModeConfig {
+            direction_gain: 0.2,
+            chaos_gain: 1.0,
+            gain_limit: 2.0,
+        }
     }
 }
 
@@ -118,9 +129,17 @@ impl ModeConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         let check = |name, value: f64| {
             if !value.is_finite() {
-                Err(ConfigError { name, value, reason: "not finite" })
+                Err(ConfigError {
+                    name,
+                    value,
+                    reason: "not finite",
+                })
             } else if value < 0.0 {
-                Err(ConfigError { name, value, reason: "negative" })
+                Err(ConfigError {
+                    name,
+                    value,
+                    reason: "negative",
+                })
             } else {
                 Ok(())
             }
@@ -134,10 +153,16 @@ impl ModeConfig {
                 reason: "not finite",
             });
         }
-        for (name, v) in [("direction_gain", self.direction_gain), ("chaos_gain", self.chaos_gain)]
-        {
+        for (name, v) in [
+            ("direction_gain", self.direction_gain),
+            ("chaos_gain", self.chaos_gain),
+        ] {
             if v.abs() > self.gain_limit {
-                return Err(ConfigError { name, value: v, reason: "beyond gain_limit" });
+                return Err(ConfigError {
+                    name,
+                    value: v,
+                    reason: "beyond gain_limit",
+                });
             }
         }
         Ok(())
@@ -162,7 +187,10 @@ impl ModeConfig {
             Mode::Custom => gain,
         };
         if kp.abs() > self.gain_limit {
-            return Err(ModeError::BeyondLimit { gain: kp, limit: self.gain_limit });
+            return Err(ModeError::BeyondLimit {
+                gain: kp,
+                limit: self.gain_limit,
+            });
         }
         Ok((mode, kp))
     }
@@ -182,7 +210,10 @@ pub struct Staleness {
 impl Staleness {
     /// A watchdog that has not seen a sample yet (and so is stale).
     pub fn new(timeout: f64) -> Self {
-        Staleness { timeout, last: None }
+        Staleness {
+            timeout,
+            last: None,
+        }
     }
 
     /// Notes a sample received at `now`.
@@ -310,25 +341,53 @@ mod tests {
         let c = ModeConfig::default();
         assert_eq!(c.select(9, 0.1), Err(ModeError::UnknownMode(9)));
         assert!(matches!(c.select(4, f64::NAN), Err(ModeError::NonFiniteGain(g)) if g.is_nan()));
-        assert_eq!(c.select(1, f64::INFINITY), Err(ModeError::NonFiniteGain(f64::INFINITY)));
+        assert_eq!(
+            c.select(1, f64::INFINITY),
+            Err(ModeError::NonFiniteGain(f64::INFINITY))
+        );
         assert_eq!(
             c.select(0, f64::NEG_INFINITY),
             Err(ModeError::NonFiniteGain(f64::NEG_INFINITY))
         );
-        assert_eq!(c.select(4, 2.5), Err(ModeError::BeyondLimit { gain: 2.5, limit: 2.0 }));
-        assert_eq!(c.select(2, 3.0), Err(ModeError::BeyondLimit { gain: -3.0, limit: 2.0 }));
-        assert!(c.select(9, 0.1).unwrap_err().to_string().contains("unknown mode 9"));
+        assert_eq!(
+            c.select(4, 2.5),
+            Err(ModeError::BeyondLimit {
+                gain: 2.5,
+                limit: 2.0
+            })
+        );
+        assert_eq!(
+            c.select(2, 3.0),
+            Err(ModeError::BeyondLimit {
+                gain: -3.0,
+                limit: 2.0
+            })
+        );
+        assert!(c
+            .select(9, 0.1)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown mode 9"));
         assert!(c.select(4, 2.5).unwrap_err().to_string().contains("limit"));
     }
 
     #[test]
     fn configs_are_validated() {
         assert!(ModeConfig::default().validate().is_ok());
-        let bad = ModeConfig { chaos_gain: 3.0, ..ModeConfig::default() };
+        let bad = ModeConfig {
+            chaos_gain: 3.0,
+            ..ModeConfig::default()
+        };
         assert_eq!(bad.validate().map_err(|e| e.name), Err("chaos_gain"));
-        let bad = ModeConfig { gain_limit: f64::NAN, ..ModeConfig::default() };
+        let bad = ModeConfig {
+            gain_limit: f64::NAN,
+            ..ModeConfig::default()
+        };
         assert_eq!(bad.validate().map_err(|e| e.name), Err("gain_limit"));
-        let bad = ModeConfig { direction_gain: -0.1, ..ModeConfig::default() };
+        let bad = ModeConfig {
+            direction_gain: -0.1,
+            ..ModeConfig::default()
+        };
         assert_eq!(bad.validate().map_err(|e| e.name), Err("direction_gain"));
     }
 
@@ -365,7 +424,11 @@ mod tests {
             m.sample(tau, tau.sin(), 0.3 * tau / period, 2.0);
         }
         assert_eq!(m.periods(), 10);
-        assert!((m.progression_per_period() - 0.3).abs() < 1e-9, "{}", m.progression_per_period());
+        assert!(
+            (m.progression_per_period() - 0.3).abs() < 1e-9,
+            "{}",
+            m.progression_per_period()
+        );
         // work of a constant force over whole periods of sin is ~0 -> tiny; use a force in phase
         let mut m = ProgressMeter::new(period);
         for k in 0..=1000 {

@@ -123,7 +123,10 @@ pub fn parse_definition(text: &str) -> Definition {
             });
         } else {
             let name = rest.split_whitespace().next().unwrap_or("").to_string();
-            def.fields.push(FieldDef { type_name: ty, name });
+            def.fields.push(FieldDef {
+                type_name: ty,
+                name,
+            });
         }
     }
     def
@@ -156,7 +159,11 @@ macro_rules! msg_interface {
 
 msg_interface!(CapsuleState, "CapsuleState", "../msg/CapsuleState.msg");
 msg_interface!(ActuatorForce, "ActuatorForce", "../msg/ActuatorForce.msg");
-msg_interface!(ControllerStatus, "ControllerStatus", "../msg/ControllerStatus.msg");
+msg_interface!(
+    ControllerStatus,
+    "ControllerStatus",
+    "../msg/ControllerStatus.msg"
+);
 
 impl RosInterface for SetModeRequest {
     const PACKAGE: &'static str = "capsule_msgs";

@@ -188,7 +188,10 @@ pub struct SetModeResponse {
 
 /// Name of a mode constant, or `None` for an unknown value.
 pub fn mode_name(mode: u8) -> Option<&'static str> {
-    SetModeRequest::CONSTANTS.iter().find(|(_, v)| *v == mode).map(|(n, _)| *n)
+    SetModeRequest::CONSTANTS
+        .iter()
+        .find(|(_, v)| *v == mode)
+        .map(|(n, _)| *n)
 }
 
 #[cfg(test)]
@@ -197,18 +200,35 @@ mod tests {
 
     #[test]
     fn time_round_trips_through_nanos_including_negative() {
-        for n in [0_i64, 1, 999_999_999, 1_000_000_000, 1_500_000_000, -1, -1_500_000_000] {
+        for n in [
+            0_i64,
+            1,
+            999_999_999,
+            1_000_000_000,
+            1_500_000_000,
+            -1,
+            -1_500_000_000,
+        ] {
             let t = Time::from_nanos(n);
             assert!(t.nanosec < 1_000_000_000);
             assert_eq!(t.to_nanos(), n, "{t:?}");
         }
-        assert_eq!(Time::from_nanos(-1_500_000_000), Time { sec: -2, nanosec: 500_000_000 });
+        assert_eq!(
+            Time::from_nanos(-1_500_000_000),
+            Time {
+                sec: -2,
+                nanosec: 500_000_000
+            }
+        );
         assert_eq!(Time::from_secs_f64(2.25).to_nanos(), 2_250_000_000);
     }
 
     #[test]
     fn mode_names_cover_the_constants_and_nothing_else() {
-        assert_eq!(mode_name(SetModeRequest::CHAOS_CONTROL), Some("CHAOS_CONTROL"));
+        assert_eq!(
+            mode_name(SetModeRequest::CHAOS_CONTROL),
+            Some("CHAOS_CONTROL")
+        );
         assert_eq!(mode_name(5), None);
     }
 }

@@ -87,7 +87,12 @@ impl SegmentMeter {
     /// Meter for the given windows.
     pub fn new(windows: Vec<(String, f64, f64)>, period_s: f64, length_m: f64) -> Self {
         let marks = vec![(None, None); windows.len()];
-        SegmentMeter { windows, period_s, length_m, marks }
+        SegmentMeter {
+            windows,
+            period_s,
+            length_m,
+            marks,
+        }
     }
 
     /// Feeds a sample: the first sample at or after each window edge marks the capsule position.
@@ -134,9 +139,14 @@ pub fn state_subscription(
     settings: &RosSettings,
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
     let topic = node
-        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::STATE)?,
+            types::state(),
+            &qos::data(),
+        )
         .context("state topic")?;
-    node.create_subscription::<CapsuleState>(&topic, None).context("state subscription")
+    node.create_subscription::<CapsuleState>(&topic, None)
+        .context("state subscription")
 }
 
 #[cfg(test)]
@@ -153,9 +163,16 @@ mod tests {
         );
         for k in 0..=60 {
             let t = k as f64 * 0.1;
-            let x = if t <= 3.0 { 0.02 * t } else { 0.06 - 0.01 * (t - 3.0) };
+            let x = if t <= 3.0 {
+                0.02 * t
+            } else {
+                0.06 - 0.01 * (t - 3.0)
+            };
             let s = CapsuleState {
-                header: Header { stamp: Time::from_secs_f64(t), frame_id: String::new() },
+                header: Header {
+                    stamp: Time::from_secs_f64(t),
+                    frame_id: String::new(),
+                },
                 capsule_position: x,
                 ..CapsuleState::default()
             };

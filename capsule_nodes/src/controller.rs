@@ -140,7 +140,12 @@ impl ControllerCore {
     /// command again without being counted twice.
     pub fn on_state(&mut self, s: &CapsuleState, now: f64) -> Option<ActuatorForce> {
         let stamp = s.header.stamp.to_nanos();
-        let values = [s.mass_position, s.mass_velocity, s.capsule_position, s.capsule_velocity];
+        let values = [
+            s.mass_position,
+            s.mass_velocity,
+            s.capsule_position,
+            s.capsule_velocity,
+        ];
         if values.iter().any(|v| !v.is_finite()) {
             self.ignored_samples += 1;
             return None;
@@ -172,7 +177,10 @@ impl ControllerCore {
         }
         self.meter.sample(tau, x1, x2, f);
         let cmd = ActuatorForce {
-            header: Header { stamp: s.header.stamp, frame_id: s.header.frame_id.clone() },
+            header: Header {
+                stamp: s.header.stamp,
+                frame_id: s.header.frame_id.clone(),
+            },
             state_seq: s.seq,
             force: f * self.scale.force_n(),
         };
@@ -202,7 +210,10 @@ impl ControllerCore {
         let period_s = self.law.period() * self.scale.time_s();
         let prog_m = prog * self.scale.length_m();
         ControllerStatus {
-            header: Header { stamp, frame_id: String::new() },
+            header: Header {
+                stamp,
+                frame_id: String::new(),
+            },
             mode: self.mode.code(),
             mode_name: self.mode.name().to_string(),
             gain: self.law.kp,
@@ -236,19 +247,32 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
     let state_topic = node
-        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::STATE)?,
+            types::state(),
+            &qos::data(),
+        )
         .context("state topic")?;
     let force_topic = node
-        .create_topic(&settings.ros_name(names::FORCE)?, types::force(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::FORCE)?,
+            types::force(),
+            &qos::data(),
+        )
         .context("force topic")?;
     let status_topic = node
-        .create_topic(&settings.ros_name(names::STATUS)?, types::status(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::STATUS)?,
+            types::status(),
+            &qos::data(),
+        )
         .context("status topic")?;
     let state_sub = node
         .create_subscription::<CapsuleState>(&state_topic, None)
         .context("state subscription")?;
-    let force_pub =
-        node.create_publisher::<ActuatorForce>(&force_topic, None).context("force publisher")?;
+    let force_pub = node
+        .create_publisher::<ActuatorForce>(&force_topic, None)
+        .context("force publisher")?;
     let status_pub = node
         .create_publisher::<ControllerStatus>(&status_topic, None)
         .context("status publisher")?;
@@ -336,7 +360,11 @@ mod tests {
     use super::*;
 
     fn scale() -> Scale {
-        Scale { m1_kg: 0.04, k1_n_per_m: 100.0, pf_n: 2.0 }
+        Scale {
+            m1_kg: 0.04,
+            k1_n_per_m: 100.0,
+            pf_n: 2.0,
+        }
     }
 
     fn core(mode: Mode, kp: f64) -> ControllerCore {
@@ -346,7 +374,10 @@ mod tests {
     fn state(seq: u64, t: f64, x1_nd: f64, x2_nd: f64) -> CapsuleState {
         let l = scale().length_m();
         CapsuleState {
-            header: Header { stamp: Time::from_secs_f64(t), frame_id: "odom".into() },
+            header: Header {
+                stamp: Time::from_secs_f64(t),
+                frame_id: "odom".into(),
+            },
             seq,
             mass_position: x1_nd * l,
             capsule_position: x2_nd * l,
@@ -358,7 +389,10 @@ mod tests {
     fn command_is_the_papers_law_in_si() {
         let mut c = core(Mode::Forward, 0.2);
         let t = 0.013;
-        let cmd = c.on_state(&state(0, t, 0.3, -0.1), 0.0).map(|c| c.force).unwrap_or(f64::NAN);
+        let cmd = c
+            .on_state(&state(0, t, 0.3, -0.1), 0.0)
+            .map(|c| c.force)
+            .unwrap_or(f64::NAN);
         let tau = t * scale().omega0();
         let expected = (1.6 * (1.1 * tau).cos() + 0.2 * 0.4) * 2.0;
         assert!((cmd - expected).abs() < 1e-12, "{cmd} vs {expected}");
@@ -367,8 +401,18 @@ mod tests {
     #[test]
     fn refused_requests_leave_the_mode_alone() {
         let mut c = core(Mode::Forward, 0.2);
-        for (mode, gain) in [(7u8, 0.1), (4, f64::NAN), (4, f64::INFINITY), (4, 5.0), (1, 3.0)] {
-            let r = c.set_mode(&SetModeRequest { mode, gain, ..SetModeRequest::default() });
+        for (mode, gain) in [
+            (7u8, 0.1),
+            (4, f64::NAN),
+            (4, f64::INFINITY),
+            (4, 5.0),
+            (1, 3.0),
+        ] {
+            let r = c.set_mode(&SetModeRequest {
+                mode,
+                gain,
+                ..SetModeRequest::default()
+            });
             assert!(!r.accepted, "{mode} {gain}");
             assert!(!r.reason.is_empty());
             assert_eq!((c.mode(), c.law().kp), (Mode::Forward, 0.2));

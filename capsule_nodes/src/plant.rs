@@ -197,7 +197,10 @@ impl<S: PlantSim> PlantCore<S> {
         let v = self.scale.velocity_m_per_s();
         let f = self.scale.force_n();
         CapsuleState {
-            header: Header { stamp: self.stamp(), frame_id: self.frame_id.clone() },
+            header: Header {
+                stamp: self.stamp(),
+                frame_id: self.frame_id.clone(),
+            },
             seq: self.step,
             mass_position: s.x1 * l,
             mass_velocity: s.y1 * v,
@@ -249,7 +252,10 @@ impl<S: PlantSim> PlantCore<S> {
         self.held_n = cmd.force;
         self.last_command_at = Some(now);
         if self.stale {
-            info!("command received (seq {}): applying commanded force", cmd.state_seq);
+            info!(
+                "command received (seq {}): applying commanded force",
+                cmd.state_seq
+            );
         }
         self.stale = false;
         if cmd.state_seq == self.step && !self.answered_current {
@@ -263,7 +269,9 @@ impl<S: PlantSim> PlantCore<S> {
 
     /// Watchdog at steady time `now`: true when it just fell back to zero force.
     pub fn check_watchdog(&mut self, now: f64) -> bool {
-        let fresh = self.last_command_at.is_some_and(|t| now - t <= self.command_timeout);
+        let fresh = self
+            .last_command_at
+            .is_some_and(|t| now - t <= self.command_timeout);
         if !fresh && !self.stale {
             self.stale = true;
             return true;
@@ -296,8 +304,16 @@ impl<S: PlantSim> PlantCore<S> {
 /// A one-line JSON summary of a run: loop statistics and the last sample (floats printed
 /// round-trip exact, so two runs compare bit for bit).
 pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> String {
-    let (p50, p99, max) = stats.percentiles().unwrap_or((f64::NAN, f64::NAN, f64::NAN));
-    let num = |v: f64| if v.is_finite() { format!("{v:?}") } else { "null".to_string() };
+    let (p50, p99, max) = stats
+        .percentiles()
+        .unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:?}")
+        } else {
+            "null".to_string()
+        }
+    };
     format!(
         concat!(
             "{{\"samples\":{},\"unanswered\":{},\"latency_p50_s\":{},\"latency_p99_s\":{},",
@@ -347,18 +363,32 @@ pub async fn run<S: PlantSim>(
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
     let state_topic = node
-        .create_topic(&settings.ros_name(names::STATE)?, types::state(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::STATE)?,
+            types::state(),
+            &qos::data(),
+        )
         .context("state topic")?;
     let force_topic = node
-        .create_topic(&settings.ros_name(names::FORCE)?, types::force(), &qos::data())
+        .create_topic(
+            &settings.ros_name(names::FORCE)?,
+            types::force(),
+            &qos::data(),
+        )
         .context("force topic")?;
     let clock_topic = node
-        .create_topic(&settings.ros_name(names::CLOCK)?, types::clock(), &qos::clock())
+        .create_topic(
+            &settings.ros_name(names::CLOCK)?,
+            types::clock(),
+            &qos::clock(),
+        )
         .context("clock topic")?;
-    let state_pub =
-        node.create_publisher::<CapsuleState>(&state_topic, None).context("state publisher")?;
-    let clock_pub =
-        node.create_publisher::<Clock>(&clock_topic, None).context("clock publisher")?;
+    let state_pub = node
+        .create_publisher::<CapsuleState>(&state_topic, None)
+        .context("state publisher")?;
+    let clock_pub = node
+        .create_publisher::<Clock>(&clock_topic, None)
+        .context("clock publisher")?;
     let force_sub = node
         .create_subscription::<ActuatorForce>(&force_topic, None)
         .context("force subscription")?;
@@ -552,7 +582,11 @@ mod tests {
     }
 
     fn scale() -> Scale {
-        Scale { m1_kg: 0.04, k1_n_per_m: 100.0, pf_n: 2.0 }
+        Scale {
+            m1_kg: 0.04,
+            k1_n_per_m: 100.0,
+            pf_n: 2.0,
+        }
     }
 
     fn plant() -> PlantCore<FreeMass> {
@@ -561,19 +595,37 @@ mod tests {
 
     fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {
         let stamp = Time::from_nanos(p.stamp_nanos(seq));
-        ActuatorForce { header: Header { stamp, frame_id: String::new() }, state_seq: seq, force }
+        ActuatorForce {
+            header: Header {
+                stamp,
+                frame_id: String::new(),
+            },
+            state_seq: seq,
+            force,
+        }
     }
 
     #[test]
     fn held_command_drives_the_step_in_si() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.001, true), CommandOutcome::Accepted);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.001, true),
+            CommandOutcome::Accepted
+        );
         p.step()?;
         // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
         let s = p.state();
-        assert!((s.mass_velocity - 0.25).abs() < 1e-12, "{}", s.mass_velocity);
-        assert!((s.mass_position - 1.25e-3).abs() < 1e-15, "{}", s.mass_position);
+        assert!(
+            (s.mass_velocity - 0.25).abs() < 1e-12,
+            "{}",
+            s.mass_velocity
+        );
+        assert!(
+            (s.mass_position - 1.25e-3).abs() < 1e-15,
+            "{}",
+            s.mass_position
+        );
         assert!((s.actuator_force - 1.0).abs() < 1e-12);
         assert_eq!((s.seq, s.header.stamp.to_nanos()), (1, 10_000_000));
         assert!(!s.command_stale);
@@ -584,18 +636,36 @@ mod tests {
     fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false), CommandOutcome::NonFinite);
-        assert_eq!(p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false), CommandOutcome::NonFinite);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false),
+            CommandOutcome::NonFinite
+        );
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false),
+            CommandOutcome::NonFinite
+        );
         assert_eq!(p.rejected(), 2);
         assert!(p.stale(), "nothing accepted yet");
-        assert_eq!(p.on_command(&cmd(&p, 0, 0.5), 0.0, false), CommandOutcome::Accepted);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 0.5), 0.0, false),
+            CommandOutcome::Accepted
+        );
         p.step()?;
         p.step()?;
-        assert_eq!(p.on_command(&cmd(&p, 2, 0.7), 0.02, false), CommandOutcome::Accepted);
+        assert_eq!(
+            p.on_command(&cmd(&p, 2, 0.7), 0.02, false),
+            CommandOutcome::Accepted
+        );
         // an older command arriving late does not take over (time does not rewind)
-        assert_eq!(p.on_command(&cmd(&p, 1, -3.0), 0.021, false), CommandOutcome::Late);
+        assert_eq!(
+            p.on_command(&cmd(&p, 1, -3.0), 0.021, false),
+            CommandOutcome::Late
+        );
         assert_eq!(p.held_force(), 0.7);
-        assert_eq!(p.on_command(&cmd(&p, 2, 0.7), 0.022, false), CommandOutcome::Duplicate);
+        assert_eq!(
+            p.on_command(&cmd(&p, 2, 0.7), 0.022, false),
+            CommandOutcome::Duplicate
+        );
         assert_eq!(p.rejected(), 3);
         assert_eq!(p.state().rejected_commands, 3);
         assert_eq!(p.seq(), 2, "the plant kept stepping");
@@ -606,13 +676,22 @@ mod tests {
     fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(p.on_command(&cmd(&p, 1, 1.0), 0.0, true), CommandOutcome::Future);
+        assert_eq!(
+            p.on_command(&cmd(&p, 1, 1.0), 0.0, true),
+            CommandOutcome::Future
+        );
         assert!(!p.answered());
-        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.0, true), CommandOutcome::Accepted);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.0, true),
+            CommandOutcome::Accepted
+        );
         assert!(p.answered());
         p.step()?;
         p.published(0.01);
-        assert_eq!(p.on_command(&cmd(&p, 0, 1.0), 0.01, true), CommandOutcome::Duplicate);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.01, true),
+            CommandOutcome::Duplicate
+        );
         assert!(!p.answered());
         assert_eq!(p.stats.latencies.len(), 1);
         Ok(())

@@ -86,7 +86,11 @@ pub struct RosEnv {
 impl RosEnv {
     /// Reads the process environment.
     pub fn from_process() -> Self {
-        let get = |k| std::env::var(k).ok().filter(|v: &String| !v.trim().is_empty());
+        let get = |k| {
+            std::env::var(k)
+                .ok()
+                .filter(|v: &String| !v.trim().is_empty())
+        };
         RosEnv {
             domain_id: get("ROS_DOMAIN_ID"),
             discovery_range: get("ROS_AUTOMATIC_DISCOVERY_RANGE"),
@@ -129,7 +133,10 @@ impl RosSettings {
         let range = match args.discovery_range {
             Some(r) => r,
             None => {
-                let auto = env.discovery_range.as_deref().map(|s| s.trim().to_ascii_uppercase());
+                let auto = env
+                    .discovery_range
+                    .as_deref()
+                    .map(|s| s.trim().to_ascii_uppercase());
                 match auto.as_deref() {
                     Some("LOCALHOST") | Some("OFF") => DiscoveryRange::Localhost,
                     Some("SUBNET") | Some("SYSTEM_DEFAULT") => DiscoveryRange::Subnet,
@@ -150,7 +157,10 @@ impl RosSettings {
                 _ => Mapping::Enhanced,
             },
         };
-        let node_name = args.node_name.clone().unwrap_or_else(|| default_node.to_string());
+        let node_name = args
+            .node_name
+            .clone()
+            .unwrap_or_else(|| default_node.to_string());
         if NodeName::new("/", &node_name).is_err() {
             bail!("--node-name {node_name:?} is not a valid ROS node name");
         }
@@ -211,7 +221,10 @@ impl RosSettings {
             builder = builder.with_only_networks([Ipv4Addr::LOCALHOST]);
         }
         let participant = builder.build().with_context(|| {
-            format!("cannot create a DDS participant in domain {}", self.domain_id)
+            format!(
+                "cannot create a DDS participant in domain {}",
+                self.domain_id
+            )
         })?;
         Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
     }
@@ -224,7 +237,9 @@ impl RosSettings {
         let options = NodeOptions::new()
             .enable_rosout(true)
             .declare_parameter("use_sim_time", ParameterValue::Boolean(self.use_sim_time));
-        let mut node = context.new_node(name, options).context("cannot create the ROS node")?;
+        let mut node = context
+            .new_node(name, options)
+            .context("cannot create the ROS node")?;
         let spinner = node.spinner().context("cannot create the node spinner")?;
         tokio::spawn(async move {
             if let Err(e) = spinner.spin().await {
@@ -243,14 +258,22 @@ impl RosSettings {
             self.domain_id,
             self.range,
             self.mapping,
-            if self.use_sim_time { " use_sim_time" } else { "" }
+            if self.use_sim_time {
+                " use_sim_time"
+            } else {
+                ""
+            }
         )
     }
 }
 
 fn normalize_namespace(ns: &str) -> Result<String> {
     let ns = ns.trim();
-    let ns = if ns.starts_with('/') { ns.to_string() } else { format!("/{ns}") };
+    let ns = if ns.starts_with('/') {
+        ns.to_string()
+    } else {
+        format!("/{ns}")
+    };
     if ns != "/" {
         let trimmed = ns.trim_end_matches('/');
         let (parent, base) = trimmed.rsplit_once('/').unwrap_or(("", trimmed));
@@ -426,22 +449,33 @@ mod tests {
         );
         let s = settings(&["--domain-id", "7", "--service-mapping", "enhanced"], env)?;
         assert_eq!((s.domain_id, s.mapping), (7, Mapping::Enhanced));
-        let old = RosEnv { localhost_only: Some("1".into()), ..RosEnv::default() };
+        let old = RosEnv {
+            localhost_only: Some("1".into()),
+            ..RosEnv::default()
+        };
         assert_eq!(settings(&[], old)?.range, DiscoveryRange::Localhost);
         Ok(())
     }
 
     #[test]
     fn bad_environment_and_flags_are_named() {
-        let env = RosEnv { domain_id: Some("x9".into()), ..RosEnv::default() };
+        let env = RosEnv {
+            domain_id: Some("x9".into()),
+            ..RosEnv::default()
+        };
         let e = settings(&[], env).map(|_| ()).unwrap_err().to_string();
         assert!(e.contains("ROS_DOMAIN_ID"), "{e}");
-        let env = RosEnv { discovery_range: Some("GALAXY".into()), ..RosEnv::default() };
+        let env = RosEnv {
+            discovery_range: Some("GALAXY".into()),
+            ..RosEnv::default()
+        };
         let e = settings(&[], env).map(|_| ()).unwrap_err().to_string();
         assert!(e.contains("ROS_AUTOMATIC_DISCOVERY_RANGE"), "{e}");
         assert!(settings(&["--domain-id", "300"], RosEnv::default()).is_err());
-        let e =
-            settings(&["-r", "nothing"], RosEnv::default()).map(|_| ()).unwrap_err().to_string();
+        let e = settings(&["-r", "nothing"], RosEnv::default())
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--remap"), "{e}");
         let e = settings(&["--node-name", "bad name"], RosEnv::default())
             .map(|_| ())
@@ -454,14 +488,27 @@ mod tests {
     fn names_resolve_with_namespace_private_names_and_remaps() -> Result<()> {
         let s = settings(&[], RosEnv::default())?;
         assert_eq!(s.resolve_name(names::STATE), "/capsule/state");
-        assert_eq!(s.resolve_name(names::SET_MODE), "/capsule_controller/set_mode");
+        assert_eq!(
+            s.resolve_name(names::SET_MODE),
+            "/capsule_controller/set_mode"
+        );
         assert_eq!(s.resolve_name(names::CLOCK), "/clock");
         let s = settings(
-            &["--namespace", "robot1", "--node-name", "ctl", "-r", "capsule/state:=/sim/state"],
+            &[
+                "--namespace",
+                "robot1",
+                "--node-name",
+                "ctl",
+                "-r",
+                "capsule/state:=/sim/state",
+            ],
             RosEnv::default(),
         )?;
         assert_eq!(s.resolve_name(names::STATE), "/sim/state");
-        assert_eq!(s.resolve_name(names::FORCE), "/robot1/capsule/actuator_force");
+        assert_eq!(
+            s.resolve_name(names::FORCE),
+            "/robot1/capsule/actuator_force"
+        );
         assert_eq!(s.resolve_name(names::STATUS), "/robot1/ctl/status");
         assert_eq!(s.resolve_name(names::CLOCK), "/clock");
         Ok(())

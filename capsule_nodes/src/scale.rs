@@ -20,13 +20,19 @@ pub struct Scale {
 impl Scale {
     /// The scale a scene without a `[physical]` table has (capsule_plant's default; a test in
     /// tests/integration/ros.rs keeps the two equal).
-    pub const SCENE_DEFAULT: Scale = Scale { m1_kg: 0.05, k1_n_per_m: 200.0, pf_n: 0.1 };
+    pub const SCENE_DEFAULT: Scale = Scale {
+        m1_kg: 0.05,
+        k1_n_per_m: 200.0,
+        pf_n: 0.1,
+    };
 
     /// Checks that every value is finite and positive; the error names the value.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in
-            [("m1_kg", self.m1_kg), ("k1_n_per_m", self.k1_n_per_m), ("pf_n", self.pf_n)]
-        {
+        for (name, v) in [
+            ("m1_kg", self.m1_kg),
+            ("k1_n_per_m", self.k1_n_per_m),
+            ("pf_n", self.pf_n),
+        ] {
             if !(v.is_finite() && v > 0.0) {
                 bail!("physical scale `{name}` = {v}: must be finite and > 0");
             }
@@ -69,7 +75,9 @@ pub struct ControlScene {
 }
 
 fn number(root: &toml::Value, file: &str, table: &str, key: &str) -> Result<Option<f64>> {
-    let Some(t) = root.get(table) else { return Ok(None) };
+    let Some(t) = root.get(table) else {
+        return Ok(None);
+    };
     match t.get(key) {
         None => Ok(None),
         Some(toml::Value::Float(f)) => Ok(Some(*f)),
@@ -83,7 +91,9 @@ impl ControlScene {
     /// [`Scale::SCENE_DEFAULT`]), `[drive] alpha omega` and `[control] kp` (default 0) from a
     /// scene's TOML text (other keys are the simulator's business and are ignored here).
     pub fn from_toml_str(text: &str, file: &str) -> Result<ControlScene> {
-        let root: toml::Value = text.parse().with_context(|| format!("{file}: not valid TOML"))?;
+        let root: toml::Value = text
+            .parse()
+            .with_context(|| format!("{file}: not valid TOML"))?;
         let need = |table: &str, key: &str| -> Result<f64> {
             number(&root, file, table, key)?
                 .with_context(|| format!("{file}: missing `{table}.{key}`"))
@@ -104,9 +114,11 @@ impl ControlScene {
             kp: number(&root, file, "control", "kp")?.unwrap_or(0.0),
         };
         scene.scale.validate().with_context(|| file.to_string())?;
-        for (k, v) in
-            [("drive.alpha", scene.alpha), ("drive.omega", scene.omega), ("control.kp", scene.kp)]
-        {
+        for (k, v) in [
+            ("drive.alpha", scene.alpha),
+            ("drive.omega", scene.omega),
+            ("control.kp", scene.kp),
+        ] {
             if !v.is_finite() {
                 bail!("{file}: `{k}` = {v}: not finite");
             }
@@ -131,20 +143,32 @@ mod tests {
 
     #[test]
     fn conversions_follow_the_papers_nondimensionalisation() {
-        let s = Scale { m1_kg: 0.04, k1_n_per_m: 100.0, pf_n: 2.0 };
+        let s = Scale {
+            m1_kg: 0.04,
+            k1_n_per_m: 100.0,
+            pf_n: 2.0,
+        };
         assert!((s.omega0() - 50.0).abs() < 1e-12);
         assert!((s.length_m() - 0.02).abs() < 1e-15);
         assert!((s.velocity_m_per_s() - 1.0).abs() < 1e-12);
         assert!((s.time_s() - 0.02).abs() < 1e-15);
         assert!(Scale { m1_kg: -1.0, ..s }.validate().is_err());
-        assert!(Scale { pf_n: f64::NAN, ..s }.validate().is_err());
+        assert!(Scale {
+            pf_n: f64::NAN,
+            ..s
+        }
+        .validate()
+        .is_err());
     }
 
     #[test]
     fn scene_values_are_read_and_bad_ones_named() -> Result<()> {
         let ok = "[physical]\nm1_kg = 0.04\nk1_n_per_m = 100\npf_n = 2.0\n[drive]\nalpha = 1.6\nomega = 1.1\n[control]\nkp = 0.1\n[friction]\nmodel = \"coulomb\"\n";
         let s = ControlScene::from_toml_str(ok, "x.toml")?;
-        assert_eq!((s.alpha, s.omega, s.kp, s.scale.k1_n_per_m), (1.6, 1.1, 0.1, 100.0));
+        assert_eq!(
+            (s.alpha, s.omega, s.kp, s.scale.k1_n_per_m),
+            (1.6, 1.1, 0.1, 100.0)
+        );
         let e =
             ControlScene::from_toml_str(&ok.replace("alpha = 1.6\n", ""), "x.toml").unwrap_err();
         assert!(format!("{e:#}").contains("drive.alpha"), "{e:#}");

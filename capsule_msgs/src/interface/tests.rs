@@ -187,7 +187,10 @@ fn check(shape: &Shape, text: &str, path: &str) -> Result<(), String> {
             (Some((_, nested)), s @ Shape::Struct(..)) => check(s, nested, &here)?,
             (None, Shape::Prim(p)) if *p == field.type_name => {}
             (_, other) => {
-                return Err(format!("{here}: interface type `{}`, Rust {other:?}", field.type_name))
+                return Err(format!(
+                    "{here}: interface type `{}`, Rust {other:?}",
+                    field.type_name
+                ))
             }
         }
     }
@@ -197,15 +200,38 @@ fn check(shape: &Shape, text: &str, path: &str) -> Result<(), String> {
 #[test]
 fn every_rust_type_matches_its_interface_file_field_for_field() {
     let cases: Vec<(&str, Shape, &str)> = vec![
-        ("CapsuleState", shape_of::<CapsuleState>(), CapsuleState::definition()),
-        ("ActuatorForce", shape_of::<ActuatorForce>(), ActuatorForce::definition()),
-        ("ControllerStatus", shape_of::<ControllerStatus>(), ControllerStatus::definition()),
-        ("SetMode_Request", shape_of::<SetModeRequest>(), SetModeRequest::definition()),
-        ("SetMode_Response", shape_of::<SetModeResponse>(), SetModeResponse::definition()),
+        (
+            "CapsuleState",
+            shape_of::<CapsuleState>(),
+            CapsuleState::definition(),
+        ),
+        (
+            "ActuatorForce",
+            shape_of::<ActuatorForce>(),
+            ActuatorForce::definition(),
+        ),
+        (
+            "ControllerStatus",
+            shape_of::<ControllerStatus>(),
+            ControllerStatus::definition(),
+        ),
+        (
+            "SetMode_Request",
+            shape_of::<SetModeRequest>(),
+            SetModeRequest::definition(),
+        ),
+        (
+            "SetMode_Response",
+            shape_of::<SetModeResponse>(),
+            SetModeResponse::definition(),
+        ),
         ("Header", shape_of::<Header>(), HEADER_MSG),
     ];
     for (name, shape, text) in cases {
-        assert!(!parse_definition(text).fields.is_empty(), "{name}: no fields parsed");
+        assert!(
+            !parse_definition(text).fields.is_empty(),
+            "{name}: no fields parsed"
+        );
         if let Err(e) = check(&shape, text, name) {
             panic!("{e}");
         }
@@ -236,13 +262,20 @@ fn service_constants_match_the_rust_constants() {
     let mut from_file: Vec<(String, u8)> = Vec::new();
     for c in &def.constants {
         assert_eq!(c.type_name, "uint8", "{}", c.name);
-        let v: u8 = c.value.parse().unwrap_or_else(|e| panic!("{}={}: {e}", c.name, c.value));
+        let v: u8 = c
+            .value
+            .parse()
+            .unwrap_or_else(|e| panic!("{}={}: {e}", c.name, c.value));
         from_file.push((c.name.clone(), v));
     }
-    let from_rust: Vec<(String, u8)> =
-        SetModeRequest::CONSTANTS.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    let from_rust: Vec<(String, u8)> = SetModeRequest::CONSTANTS
+        .iter()
+        .map(|(n, v)| (n.to_string(), *v))
+        .collect();
     assert_eq!(from_file, from_rust);
-    assert!(parse_definition(SetModeResponse::definition()).constants.is_empty());
+    assert!(parse_definition(SetModeResponse::definition())
+        .constants
+        .is_empty());
 }
 
 #[test]
@@ -255,10 +288,16 @@ fn package_files_list_every_interface_and_dependency() {
         "msg/ControllerStatus.msg",
         "srv/SetMode.srv",
     ] {
-        assert!(cmake.contains(&format!("\"{file}\"")), "CMakeLists.txt misses {file}");
+        assert!(
+            cmake.contains(&format!("\"{file}\"")),
+            "CMakeLists.txt misses {file}"
+        );
     }
     for dep in ["std_msgs", "builtin_interfaces"] {
-        assert!(package.contains(&format!("<depend>{dep}</depend>")), "package.xml misses {dep}");
+        assert!(
+            package.contains(&format!("<depend>{dep}</depend>")),
+            "package.xml misses {dep}"
+        );
         assert!(
             cmake.contains(&format!("find_package({dep} REQUIRED)")),
             "CMakeLists.txt misses {dep}"
@@ -269,13 +308,24 @@ fn package_files_list_every_interface_and_dependency() {
 
 #[test]
 fn names_and_schemas_follow_ros2_conventions() {
-    assert_eq!(CapsuleState::dds_type_name(), "capsule_msgs::msg::dds_::CapsuleState_");
-    assert_eq!(SetModeRequest::dds_type_name(), "capsule_msgs::srv::dds_::SetMode_Request_");
-    assert_eq!(CapsuleState::ros_type_name(), "capsule_msgs/msg/CapsuleState");
+    assert_eq!(
+        CapsuleState::dds_type_name(),
+        "capsule_msgs::msg::dds_::CapsuleState_"
+    );
+    assert_eq!(
+        SetModeRequest::dds_type_name(),
+        "capsule_msgs::srv::dds_::SetMode_Request_"
+    );
+    assert_eq!(
+        CapsuleState::ros_type_name(),
+        "capsule_msgs/msg/CapsuleState"
+    );
     let schema = CapsuleState::ros2msg_schema();
     let sep = "=".repeat(80);
     assert!(schema.starts_with(CapsuleState::definition()));
     assert!(schema.contains(&format!("{sep}\nMSG: std_msgs/msg/Header\n{HEADER_MSG}")));
-    assert!(schema.contains(&format!("{sep}\nMSG: builtin_interfaces/msg/Time\n{TIME_MSG}")));
+    assert!(schema.contains(&format!(
+        "{sep}\nMSG: builtin_interfaces/msg/Time\n{TIME_MSG}"
+    )));
     assert_eq!(schema.matches("MSG: ").count(), 2);
 }

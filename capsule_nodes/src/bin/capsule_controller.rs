@@ -66,14 +66,22 @@ struct Cli {
 }
 
 fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
-    let scene = cli.scene.as_deref().map(ControlScene::from_file).transpose()?;
+    let scene = cli
+        .scene
+        .as_deref()
+        .map(ControlScene::from_file)
+        .transpose()?;
     let pick = |flag: Option<f64>, from_scene: Option<f64>, name: &str| -> Result<f64> {
         flag.or(from_scene)
             .with_context(|| format!("--{name} is needed (or a --scene that has it)"))
     };
     let scale = Scale {
         m1_kg: pick(cli.m1_kg, scene.map(|s| s.scale.m1_kg), "m1-kg")?,
-        k1_n_per_m: pick(cli.k1_n_per_m, scene.map(|s| s.scale.k1_n_per_m), "k1-n-per-m")?,
+        k1_n_per_m: pick(
+            cli.k1_n_per_m,
+            scene.map(|s| s.scale.k1_n_per_m),
+            "k1-n-per-m",
+        )?,
         pf_n: pick(cli.pf_n, scene.map(|s| s.scale.pf_n), "pf-n")?,
     };
     scale.validate()?;
@@ -102,10 +110,14 @@ fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
         None if scene_kp != 0.0 => (Mode::Custom, scene_kp),
         None => (Mode::Off, 0.0),
     };
-    let (mode, kp) =
-        config.select(mode.code(), gain).map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
+    let (mode, kp) = config
+        .select(mode.code(), gain)
+        .map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
     if !(cli.state_timeout_s.is_finite() && cli.state_timeout_s > 0.0) {
-        bail!("--state-timeout-s {}: must be finite and > 0", cli.state_timeout_s);
+        bail!(
+            "--state-timeout-s {}: must be finite and > 0",
+            cli.state_timeout_s
+        );
     }
     if cli.status_period_ms == 0 {
         bail!("--status-period-ms must be > 0");
@@ -114,7 +126,10 @@ fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
     let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s);
     Ok((
         settings,
-        ControllerOptions { core, status_period: Duration::from_millis(cli.status_period_ms) },
+        ControllerOptions {
+            core,
+            status_period: Duration::from_millis(cli.status_period_ms),
+        },
     ))
 }
 
@@ -124,7 +139,10 @@ fn main() -> std::process::ExitCode {
     let result = build(&cli).and_then(|(settings, opts)| {
         if cli.check {
             let (mode, kp) = (opts.core.mode(), opts.core.law().kp);
-            println!("capsule_controller: ok: {}, {mode} k_p = {kp}", settings.describe());
+            println!(
+                "capsule_controller: ok: {}, {mode} k_p = {kp}",
+                settings.describe()
+            );
             return Ok(());
         }
         ros::block_on(controller::run(settings, opts))

@@ -67,12 +67,22 @@ fn build(cli: &Cli) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> 
         .with_context(|| format!("cannot read scene {}", cli.scene))?;
     let scene = Scene::from_toml_str(&text, &cli.scene).map_err(|e| anyhow::anyhow!("{e}"))?;
     let p = &scene.physical;
-    let scale = Scale { m1_kg: p.m1_kg, k1_n_per_m: p.k1_n_per_m, pf_n: p.pf_n };
-    scale.validate().with_context(|| format!("{}: [physical]", cli.scene))?;
-    let rate = positive("--rate-hz / node.rate_hz", cli.rate_hz.unwrap_or(scene.node.rate_hz))?;
+    let scale = Scale {
+        m1_kg: p.m1_kg,
+        k1_n_per_m: p.k1_n_per_m,
+        pf_n: p.pf_n,
+    };
+    scale
+        .validate()
+        .with_context(|| format!("{}: [physical]", cli.scene))?;
+    let rate = positive(
+        "--rate-hz / node.rate_hz",
+        cli.rate_hz.unwrap_or(scene.node.rate_hz),
+    )?;
     let timeout = positive(
         "--command-timeout-s / node.command_timeout_s",
-        cli.command_timeout_s.unwrap_or(scene.node.command_timeout_s),
+        cli.command_timeout_s
+            .unwrap_or(scene.node.command_timeout_s),
     )?;
     if let Some(u) = cli.until_s {
         positive("--until-s", u)?;
@@ -100,7 +110,11 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = build(&cli).and_then(|(settings, core, opts)| {
         if cli.check {
-            println!("capsule_plant: ok: {}, {:?}", settings.describe(), opts.pacing);
+            println!(
+                "capsule_plant: ok: {}, {:?}",
+                settings.describe(),
+                opts.pacing
+            );
             return Ok(());
         }
         let started = std::time::Instant::now();

@@ -59,7 +59,11 @@ enum Cmd {
         #[arg(long)]
         scene: String,
         /// Segments MODE:PERIODS, in order
-        #[arg(long, value_delimiter = ',', default_value = "forward:60,backward:60,off:60")]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "forward:60,backward:60,off:60"
+        )]
         segments: Vec<String>,
         /// Drive periods skipped at the start of each segment before measuring
         #[arg(long, default_value_t = 20.0)]
@@ -74,13 +78,20 @@ fn parse_mode(s: &str) -> Result<u8> {
     if let Ok(code) = s.parse::<u8>() {
         return Ok(code);
     }
-    Mode::parse_name(s).map(Mode::code).with_context(|| format!("unknown mode {s:?}"))
+    Mode::parse_name(s)
+        .map(Mode::code)
+        .with_context(|| format!("unknown mode {s:?}"))
 }
 
 async fn run(cli: Cli) -> Result<()> {
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
     match cli.cmd {
-        Cmd::SetMode { mode, gain, at_s, timeout_s } => {
+        Cmd::SetMode {
+            mode,
+            gain,
+            at_s,
+            timeout_s,
+        } => {
             let req = SetModeRequest {
                 mode: parse_mode(&mode)?,
                 gain,
@@ -89,7 +100,9 @@ async fn run(cli: Cli) -> Result<()> {
             let context = settings.context()?;
             let mut node = settings.node(&context)?;
             let client = ModeClient::new(&mut node, &settings, &cli.service)?;
-            let resp = client.call(&node, req, Duration::from_secs_f64(timeout_s)).await?;
+            let resp = client
+                .call(&node, req, Duration::from_secs_f64(timeout_s))
+                .await?;
             println!(
                 "accepted={} mode={} gain={} reason={}",
                 resp.accepted,
@@ -113,7 +126,12 @@ async fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Cmd::Demo { scene, segments, settle_periods, timeout_s } => {
+        Cmd::Demo {
+            scene,
+            segments,
+            settle_periods,
+            timeout_s,
+        } => {
             let sc = ControlScene::from_file(&scene)?;
             let period_s = std::f64::consts::TAU / sc.omega * sc.scale.time_s();
             let mut plan = Vec::new();
@@ -147,7 +165,10 @@ async fn run(cli: Cli) -> Result<()> {
                 if !resp.accepted {
                     bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
                 }
-                println!("scheduled {mode} from t = {from:.3} s (k_p = {})", resp.gain);
+                println!(
+                    "scheduled {mode} from t = {from:.3} s (k_p = {})",
+                    resp.gain
+                );
             }
             let windows = plan
                 .iter()

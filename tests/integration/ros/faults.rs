@@ -20,10 +20,23 @@ fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
         kill -TERM $C; wait $C; echo "controller rc=$?""#,
     );
     assert_eq!(run.code, Some(0), "{}", run.all());
-    let answers: Vec<&str> = run.stdout.lines().filter(|l| l.starts_with("accepted=")).collect();
-    let codes: Vec<&str> = run.stdout.lines().filter(|l| l.starts_with("rc=")).collect();
+    let answers: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("accepted="))
+        .collect();
+    let codes: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("rc="))
+        .collect();
     assert_eq!(answers.len(), 6, "{}", run.all());
-    assert_eq!(codes, ["rc=3", "rc=3", "rc=3", "rc=3", "rc=0", "rc=3"], "{}", run.all());
+    assert_eq!(
+        codes,
+        ["rc=3", "rc=3", "rc=3", "rc=3", "rc=0", "rc=3"],
+        "{}",
+        run.all()
+    );
     assert!(
         answers[0].contains("accepted=false mode=FORWARD gain=0.2")
             && answers[0].contains("unknown mode 9")
@@ -38,9 +51,21 @@ fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
         "{}",
         answers[2]
     );
-    assert!(answers[3].contains("mode=FORWARD") && answers[3].contains("limit"), "{}", answers[3]);
-    assert!(answers[4].starts_with("accepted=true mode=BACKWARD gain=-0.15"), "{}", answers[4]);
-    assert!(answers[5].contains("accepted=false mode=BACKWARD gain=-0.15"), "{}", answers[5]);
+    assert!(
+        answers[3].contains("mode=FORWARD") && answers[3].contains("limit"),
+        "{}",
+        answers[3]
+    );
+    assert!(
+        answers[4].starts_with("accepted=true mode=BACKWARD gain=-0.15"),
+        "{}",
+        answers[4]
+    );
+    assert!(
+        answers[5].contains("accepted=false mode=BACKWARD gain=-0.15"),
+        "{}",
+        answers[5]
+    );
     assert!(run.stdout.contains("controller rc=0"), "{}", run.all());
 }
 
@@ -66,11 +91,20 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         ("rc5=2", "ROS_DOMAIN_ID"),
     ] {
         assert!(run.stdout.contains(rc), "{rc} expected\n{all}");
-        assert!(run.stderr.contains(needle), "error should name {needle}\n{all}");
+        assert!(
+            run.stderr.contains(needle),
+            "error should name {needle}\n{all}"
+        );
     }
-    assert!(run.stdout.contains("rc6=2"), "launcher must refuse the bad scene\n{all}");
+    assert!(
+        run.stdout.contains("rc6=2"),
+        "launcher must refuse the bad scene\n{all}"
+    );
     // no node got as far as creating its ROS node (that logs "node /...")
-    assert!(!run.stderr.contains("node /capsule_"), "a node started\n{all}");
+    assert!(
+        !run.stderr.contains("node /capsule_"),
+        "a node started\n{all}"
+    );
 }
 
 #[test]
@@ -100,9 +134,16 @@ fn controller_gone_means_zero_force_and_plant_gone_means_no_commands() {
         .lines()
         .find(|l| l.starts_with('{'))
         .unwrap_or_else(|| panic!("no summary\n{all}"));
-    assert_eq!(json_raw(json, "command_stale"), Some("true"), "plant did not fall back: {json}");
+    assert_eq!(
+        json_raw(json, "command_stale"),
+        Some("true"),
+        "plant did not fall back: {json}"
+    );
     assert_eq!(json_number(json, "actuator_force"), Some(0.0), "{json}");
-    assert!(run.stderr.contains("applying zero force"), "plant did not say so\n{all}");
+    assert!(
+        run.stderr.contains("applying zero force"),
+        "plant did not say so\n{all}"
+    );
     assert!(
         run.stdout.contains("state stale") && run.stdout.contains("stopped commanding"),
         "{all}"
@@ -127,5 +168,9 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
     assert!(run.stdout.contains("launcher rc=0"), "{}", run.all());
     assert!(run.stdout.contains("children: 2"), "{}", run.all());
     assert!(run.stdout.contains("left=0"), "{}", run.all());
-    assert!(run.stderr.contains("SIGTERM: shutting down"), "{}", run.all());
+    assert!(
+        run.stderr.contains("SIGTERM: shutting down"),
+        "{}",
+        run.all()
+    );
 }

@@ -9,7 +9,10 @@ fn peer() -> String {
         .status()
         .is_ok_and(|s| s.success());
     assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
-    root().join("tests/peers/cyclone_peer.py").display().to_string()
+    root()
+        .join("tests/peers/cyclone_peer.py")
+        .display()
+        .to_string()
 }
 
 #[test]
@@ -39,8 +42,14 @@ fn cyclone_peer_reads_state_and_commands_the_plant() {
         .lines()
         .find(|l| l.contains("applied_samples"))
         .unwrap_or_else(|| panic!("{}", run.all()));
-    assert!(json_number(force, "applied_samples").unwrap_or(0.0) >= 5.0, "{force}");
-    assert!(json_number(force, "refused_after") > json_number(force, "refused_before"), "{force}");
+    assert!(
+        json_number(force, "applied_samples").unwrap_or(0.0) >= 5.0,
+        "{force}"
+    );
+    assert!(
+        json_number(force, "refused_after") > json_number(force, "refused_before"),
+        "{force}"
+    );
 }
 
 #[test]
@@ -59,8 +68,11 @@ fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
         ),
     );
     assert_eq!(run.code, Some(0), "{}", run.all());
-    let answers: Vec<&str> =
-        run.stdout.lines().filter(|l| l.starts_with("{\"accepted\"")).collect();
+    let answers: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("{\"accepted\""))
+        .collect();
     assert_eq!(answers.len(), 3, "{}", run.all());
     assert!(
         answers[0].contains("\"accepted\": true") && answers[0].contains("\"gain\": -0.1"),
@@ -72,7 +84,11 @@ fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
         "{}",
         answers[1]
     );
-    assert!(answers[1].contains("\"mode\": 2"), "mode must stay BACKWARD: {}", answers[1]);
+    assert!(
+        answers[1].contains("\"mode\": 2"),
+        "mode must stay BACKWARD: {}",
+        answers[1]
+    );
     assert!(
         answers[2].contains("\"accepted\": false") && answers[2].contains("not finite"),
         "{}",

@@ -17,12 +17,26 @@ fn demo_goes_forward_then_backward_then_stops() {
             .find(|l| l.starts_with(mode))
             .unwrap_or_else(|| panic!("no {mode} row\n{}", run.all()));
         let cols: Vec<&str> = line.split_whitespace().collect();
-        cols.get(2).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("bad row {line:?}"))
+        cols.get(2)
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("bad row {line:?}"))
     };
     let (fwd, bwd, off) = (row("FORWARD"), row("BACKWARD"), row("OFF"));
-    assert!(fwd > 0.5, "forward progression per period {fwd}\n{}", run.all());
-    assert!(bwd < -0.5, "backward progression per period {bwd}\n{}", run.all());
-    assert!(off.abs() < 0.05 * fwd.abs(), "off progression {off} vs forward {fwd}\n{}", run.all());
+    assert!(
+        fwd > 0.5,
+        "forward progression per period {fwd}\n{}",
+        run.all()
+    );
+    assert!(
+        bwd < -0.5,
+        "backward progression per period {bwd}\n{}",
+        run.all()
+    );
+    assert!(
+        off.abs() < 0.05 * fwd.abs(),
+        "off progression {off} vs forward {fwd}\n{}",
+        run.all()
+    );
 }
 
 #[test]
@@ -44,11 +58,17 @@ fn lockstep_closed_loop_is_reproducible_bit_for_bit() {
             .lines()
             .find(|l| l.starts_with(tag))
             .unwrap_or_else(|| panic!("no {tag}\n{}", run.all()));
-        line[line.find("\"last\"").unwrap_or_else(|| panic!("no last sample in {line}"))..]
+        line[line
+            .find("\"last\"")
+            .unwrap_or_else(|| panic!("no last sample in {line}"))..]
             .to_string()
     };
     let (a, b) = (last("RUN1"), last("RUN2"));
     assert_eq!(json_raw(&a, "seq"), Some("1500"), "{a}");
-    assert_ne!(json_raw(&a, "capsule_position"), Some("0.0"), "the capsule never moved: {a}");
+    assert_ne!(
+        json_raw(&a, "capsule_position"),
+        Some("0.0"),
+        "the capsule never moved: {a}"
+    );
     assert_eq!(a, b, "two lock-step runs differ");
 }
