@@ -48,7 +48,8 @@ try:
 except Exception:
     print(f"{name}: no summary ({raw!r})"); sys.exit(0)
 ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
-print(f"{name}: samples {j['samples']}, unanswered {j['unanswered']}, latency p50 {ms(j['latency_p50_s'])} "
+print(f"{name}: samples {j['samples']} ({j['before_first_answer']} before the first answer), lost {j['unanswered']}, "
+      f"answered late {j['late_answers']}, latency p50 {ms(j['latency_p50_s'])} "
       f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
       f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}")
 PY
