@@ -63,5 +63,6 @@ run_case() { # name seconds plant-args
 
 echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
 run_case rt1k 10 "--pacing realtime --until-s 10"
+run_case rt1k-clock10 10 "--pacing realtime --until-s 10 --clock-every 10"
 run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
 run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"

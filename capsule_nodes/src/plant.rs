@@ -414,6 +414,8 @@ pub struct PlantOptions {
     pub startup_timeout: Duration,
     /// Publish the first sample only once this many subscribers matched the state topic.
     pub wait_subscribers: usize,
+    /// Publish /clock with every this many samples (1: every sample).
+    pub clock_every: u64,
 }
 
 /// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
@@ -524,7 +526,9 @@ pub async fn run<S: PlantSim>(
     let result: Result<()> = loop {
         if need_publish {
             let stamp = core.stamp();
-            let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
+            if core.seq() % opts.clock_every.max(1) == 0 {
+                let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
+            }
             if let Err(e) = state_pub.async_publish(core.state()).await {
                 warn!("state not sent: {e:?}");
             }
