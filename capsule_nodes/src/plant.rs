@@ -526,7 +526,7 @@ pub async fn run<S: PlantSim>(
     let result: Result<()> = loop {
         if need_publish {
             let stamp = core.stamp();
-            if core.seq() % opts.clock_every.max(1) == 0 {
+            if core.seq().is_multiple_of(opts.clock_every.max(1)) {
                 let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
             }
             if let Err(e) = state_pub.async_publish(core.state()).await {
