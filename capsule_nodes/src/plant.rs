@@ -468,6 +468,17 @@ pub async fn run<S: PlantSim>(
 
     if opts.wait_subscribers > 0 {
         let waiting = Instant::now();
+        // the first match makes the publisher known to the node's graph bookkeeping; only then
+        // can it count subscribers
+        tokio::time::timeout(opts.startup_timeout, state_pub.wait_for_subscription(&node))
+            .await
+            .map_err(|_| {
+                anyhow::anyhow!(
+                    "no subscriber matched {} within {:?}",
+                    settings.resolve_name(names::STATE),
+                    opts.startup_timeout
+                )
+            })?;
         while state_pub.get_subscription_count(&node) < opts.wait_subscribers {
             if waiting.elapsed() > opts.startup_timeout {
                 anyhow::bail!(
