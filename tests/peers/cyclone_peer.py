@@ -244,7 +244,7 @@ def cmd_status(args):
             print(json.dumps({k: getattr(last, k) for k in (
                 "mode", "mode_name", "gain", "drive_amplitude", "drive_frequency", "commanding",
                 "commands_sent", "periods", "progression_per_period", "progression_per_period_m",
-                "mean_speed", "efficiency")}))
+                "mean_speed", "efficiency")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
             return
         time.sleep(0.01)
     fail(f"no status with {args.periods} periods within {args.timeout} s (last: {last})")

@@ -103,7 +103,7 @@ fn cyclone_peer_reads_the_controller_status() {
         120,
         &format!(
             r#"
-            $B/capsule_controller --scene "$SCENE" --mode forward &
+            $B/capsule_controller --scene "$SCENE" --mode forward --use-sim-time &
             C=$!
             $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 &
             P=$!
@@ -126,4 +126,11 @@ fn cyclone_peer_reads_the_controller_status() {
     // forward motion from rest: positive progression (the steady state is ~3.08 per period)
     assert!(prog > 1.0 && prog < 4.0, "{st}");
     assert!(eff > 0.0 && eff.is_finite(), "{st}");
+    // use_sim_time: the status is stamped with /clock (sim time, seq / 1 kHz), not wall time
+    let stamp = json_number(st, "stamp_s").unwrap_or(f64::NAN);
+    let sent = json_number(st, "commands_sent").unwrap_or(f64::NAN);
+    assert!(
+        (stamp - (sent - 1.0) / 1000.0).abs() < 0.05,
+        "stamp {stamp} vs {sent} commands: {st}"
+    );
 }
