@@ -257,6 +257,7 @@ pub struct Simulator {
     history: Option<history::History>,
     rk_step: f64,
     zeno: u32,
+    last_force: f64,
 }
 
 impl Simulator {
@@ -326,6 +327,7 @@ impl Simulator {
             history,
             rk_step: 0.0,
             zeno: 0,
+            last_force: 0.0,
         })
     }
 
@@ -375,8 +377,9 @@ impl Simulator {
         self.actuator_work.value()
     }
 
-    /// What the plant shows at this instant under the actuator law `law`.
-    pub fn snapshot(&self, law: &impl ActuatorLaw) -> Snapshot {
+    /// What the plant shows at this instant; the actuator force is the one applied at the end
+    /// of the last [`Simulator::advance`] (zero before the first).
+    pub fn snapshot(&self) -> Snapshot {
         let [z, y1, y2, p] = self.core;
         let state = self.state();
         let m = &self.model;
@@ -398,7 +401,7 @@ impl Simulator {
             contact: self.mode.contact,
             friction_force,
             contact_force: m.contact_force(z),
-            actuator_force: law.force(self.tau, &state),
+            actuator_force: self.last_force,
         }
     }
 
@@ -417,7 +420,7 @@ impl Simulator {
         if !tau_end.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau });
         }
-        match self.config.method {
+        let result = match self.config.method {
             Method::Exact => match law.shape() {
                 LawShape::PiecewiseAffine {
                     alpha,
@@ -437,7 +440,9 @@ impl Simulator {
             },
             Method::Adaptive => self.advance_adaptive(law, tau_end, on_event),
             Method::Fixed => self.advance_fixed(law, tau_end, on_event),
-        }
+        };
+        self.last_force = law.force(self.tau, &self.state());
+        result
     }
 
     /// The event functions of the current mode; `kink` adds the feedback's `x1 = x2`.
