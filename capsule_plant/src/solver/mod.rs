@@ -98,6 +98,13 @@ pub enum SimError {
         /// When.
         tau: f64,
     },
+    /// The motion runs away: the relative displacement or a velocity passed [`RUNAWAY`]. With
+    /// `|k_p| > 1` the feedback turns the spring's stiffness negative on one side of the kink.
+    #[error("the motion diverges at tau = {tau} (|x1 - x2| or a velocity above {RUNAWAY:e}; with |k_p| > 1 the effective stiffness 1 - |k_p| is negative)")]
+    Diverged {
+        /// When.
+        tau: f64,
+    },
     /// Events accumulate (Zeno behaviour) and the run cannot progress.
     #[error("events accumulate at tau = {tau} ({count} switches without progress)")]
     Zeno {
@@ -200,6 +207,9 @@ pub struct Snapshot {
     /// Actuator force applied to the mass at this instant.
     pub actuator_force: f64,
 }
+
+/// Bound on `|x1 - x2|` and the velocities beyond which a run counts as diverging.
+pub const RUNAWAY: f64 = 1e8;
 
 /// Compensated (Kahan) sum, for quantities that grow over long runs (capsule position, work).
 #[derive(Debug, Clone, Copy, Default)]
@@ -510,6 +520,9 @@ impl Simulator {
     fn commit(&mut self, dt: f64, core: Core, dx2: f64, dw: f64) -> Result<(), SimError> {
         if !core.iter().all(|v| v.is_finite()) || !dx2.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau + dt });
+        }
+        if core[..3].iter().any(|v| v.abs() > RUNAWAY) {
+            return Err(SimError::Diverged { tau: self.tau + dt });
         }
         if dt > 1e-12 * (1.0 + self.tau.abs()) {
             self.zeno = 0;
