@@ -2,6 +2,7 @@
 //! Poincaré section, period, impacts, progression and efficiency (eq. 4), and parameter sweeps
 //! (the paper's bifurcation diagrams). Pure: no files, no terminal.
 
+pub mod accuracy;
 pub mod run;
 pub mod sweep;
 

@@ -17,9 +17,17 @@ const MAX_EVENTS_PER_PERIOD: f64 = 200.0;
 fn checked(s: &Scene) -> RunReport {
     let r = run(s).unwrap_or_else(|e| panic!("{}: {e}", s.name));
     let f = r.final_state;
-    assert!([f.x1, f.y1, f.x2, f.y2].iter().all(|v| v.is_finite()), "{}: {f:?}", s.name);
+    assert!(
+        [f.x1, f.y1, f.x2, f.y2].iter().all(|v| v.is_finite()),
+        "{}: {f:?}",
+        s.name
+    );
     let per_period = r.work.events as f64 / s.horizon.periods as f64;
-    assert!(per_period < MAX_EVENTS_PER_PERIOD, "{}: {per_period} events per period", s.name);
+    assert!(
+        per_period < MAX_EVENTS_PER_PERIOD,
+        "{}: {per_period} events per period",
+        s.name
+    );
     r
 }
 
@@ -31,7 +39,11 @@ fn short(mut s: Scene, periods: u32) -> Scene {
 
 fn adaptive(s: &Scene, tol: f64) -> Scene {
     let mut a = s.clone();
-    a.solver = SolverConfig { method: Method::Adaptive, tol, step: 1e-3 };
+    a.solver = SolverConfig {
+        method: Method::Adaptive,
+        tol,
+        step: 1e-3,
+    };
     a
 }
 
@@ -51,8 +63,15 @@ fn stiff_pre_sliding_stays_bounded_and_converges() {
         let coarse = checked(&adaptive(&s, 1e-7));
         let fine = checked(&adaptive(&s, 1e-10));
         let finest = checked(&adaptive(&s, 1e-12));
-        assert!(gap(&fine, &finest) < gap(&coarse, &finest).max(1e-9), "k_s {k_s}");
-        assert!(gap(&fine, &finest) < 1e-5, "k_s {k_s}: {}", gap(&fine, &finest));
+        assert!(
+            gap(&fine, &finest) < gap(&coarse, &finest).max(1e-9),
+            "k_s {k_s}"
+        );
+        assert!(
+            gap(&fine, &finest) < 1e-5,
+            "k_s {k_s}: {}",
+            gap(&fine, &finest)
+        );
     }
 }
 
@@ -60,7 +79,12 @@ fn stiff_pre_sliding_stays_bounded_and_converges() {
 fn grazing_contact_is_located_and_methods_agree() {
     // the mass starts a hair below the gap, barely moving towards it
     let mut s = short(scene("control_point.toml"), 20);
-    s.initial = State { x1: 0.02 - 1e-10, y1: 1e-9, x2: 0.0, y2: 0.0 };
+    s.initial = State {
+        x1: 0.02 - 1e-10,
+        y1: 1e-9,
+        x2: 0.0,
+        y2: 0.0,
+    };
     let exact = checked(&s);
     let adapt = checked(&adaptive(&s, 1e-12));
     assert!((exact.final_state.x2 - adapt.final_state.x2).abs() < 1e-7);
@@ -71,15 +95,22 @@ fn force_hovering_at_the_threshold_does_not_lock_up() {
     // a held force equal to the threshold: the capsule force settles onto f_b exactly
     let model = scene("control_point.toml").model;
     for method in [Method::Exact, Method::Adaptive] {
-        let cfg = SolverConfig { method, tol: 1e-10, step: 1e-3 };
-        let mut sim = Simulator::new(model, State::default(), 0.0, cfg)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let cfg = SolverConfig {
+            method,
+            tol: 1e-10,
+            step: 1e-3,
+        };
+        let mut sim =
+            Simulator::new(model, State::default(), 0.0, cfg).unwrap_or_else(|e| panic!("{e}"));
         sim.advance(&ConstantForce(model.friction.threshold()), 400.0)
             .unwrap_or_else(|e| panic!("{method:?}: {e}"));
         // once the overshoot breaks it away, a Coulomb capsule pushed with exactly the friction
         // level glides on at constant speed: forward, finite
         let s = sim.state();
-        assert!(s.x2.is_finite() && s.x2 >= 0.0 && s.y2 >= 0.0, "{method:?}: {s:?}");
+        assert!(
+            s.x2.is_finite() && s.x2 >= 0.0 && s.y2 >= 0.0,
+            "{method:?}: {s:?}"
+        );
         assert!(sim.work().events < 2000, "{method:?}: {:?}", sim.work());
     }
 }
@@ -107,7 +138,12 @@ fn a_very_long_run_keeps_the_progression_to_rounding() {
     let long = checked(&s);
     let base = checked(&scene("fig15_forward.toml"));
     assert!(long.final_state.x2 > 1e5);
-    assert!(gap(&long, &base) < 1e-10, "{} vs {}", long.avg_progression, base.avg_progression);
+    assert!(
+        gap(&long, &base) < 1e-10,
+        "{} vs {}",
+        long.avg_progression,
+        base.avg_progression
+    );
 }
 
 #[test]
@@ -140,12 +176,19 @@ fn frictional_memory_delay_below_and_far_above_the_step() {
     for tau_d in [1e-3, 2.0] {
         let mut s = short(scene("fig02d_seven_parameter.toml"), 10);
         s.drive.alpha = 1.9;
-        if let Friction::SevenParameter { tau_d: ref mut d, .. } = s.model.friction {
+        if let Friction::SevenParameter {
+            tau_d: ref mut d, ..
+        } = s.model.friction
+        {
             *d = tau_d;
         }
         let coarse = checked(&adaptive(&s, 1e-7));
         let fine = checked(&adaptive(&s, 1e-11));
-        assert!(gap(&coarse, &fine) < 1e-4, "tau_d {tau_d}: {}", gap(&coarse, &fine));
+        assert!(
+            gap(&coarse, &fine) < 1e-4,
+            "tau_d {tau_d}: {}",
+            gap(&coarse, &fine)
+        );
     }
 }
 
@@ -154,9 +197,16 @@ fn friction_strategy() -> impl Strategy<Value = Friction> {
         Just(Friction::Coulomb),
         (0.0..1.0f64).prop_map(|mu_v| Friction::Viscous { mu_v }),
         (0.02..1.0f64).prop_map(|v_s| Friction::Stribeck { v_s }),
-        (0.0..1.0f64, 0.02..1.0f64, 0.0..0.5f64, 1e3..1e5f64).prop_map(|(mu_v, v_s, tau_d, k_s)| {
-            Friction::SevenParameter { mu_v, v_s, tau_d, k_s }
-        }),
+        (0.0..1.0f64, 0.02..1.0f64, 0.0..0.5f64, 1e3..1e5f64).prop_map(
+            |(mu_v, v_s, tau_d, k_s)| {
+                Friction::SevenParameter {
+                    mu_v,
+                    v_s,
+                    tau_d,
+                    k_s,
+                }
+            }
+        ),
     ]
 }
 
