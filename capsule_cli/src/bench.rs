@@ -435,8 +435,8 @@ fn effects(args: &Args) -> Result<()> {
         args.repeat.max(1)
     );
     println!(
-        "{:<38} {:>9} {:>12} {:>12} {:>10}",
-        "scene", "method", "us/period", "rhs/period", "events/p"
+        "{:<38} {:>9} {:>12} {:>12} {:>10} {:>12}",
+        "scene", "method", "us/period", "rhs/period", "events/p", "ns/rhs eval"
     );
     for (name, model, kp, method) in rows {
         let mut s = Scene {
@@ -453,12 +453,13 @@ fn effects(args: &Args) -> Result<()> {
         let (r, best) = best_of(&s, args.repeat)?;
         let n = s.horizon.periods as f64;
         println!(
-            "{:<38} {:>9} {:>12.2} {:>12.1} {:>10.2}",
+            "{:<38} {:>9} {:>12.2} {:>12.1} {:>10.2} {:>12.1}",
             name,
             method.name(),
             best / n * 1e6,
             r.work.rhs_evals as f64 / n,
-            r.work.events as f64 / n
+            r.work.events as f64 / n,
+            best / r.work.rhs_evals as f64 * 1e9
         );
     }
     Ok(())

@@ -14,6 +14,7 @@
 //! at events; [`Simulator`] applies the same switching rules whichever method found the event.
 
 mod exact;
+mod friction;
 mod history;
 mod rk;
 
@@ -400,7 +401,8 @@ impl Simulator {
                 None => f, // static friction balances the force on the capsule
             },
             Phase::Slip(d) => {
-                let y2d = self.history.as_ref().map_or(0.0, |h| h.delayed(self.tau));
+                // without frictional memory the Stribeck term follows the current velocity
+                let y2d = self.history.as_ref().map_or(y2, |h| h.delayed(self.tau));
                 m.friction.sliding(d, y2, y2d)
             }
         };
@@ -448,8 +450,12 @@ impl Simulator {
                 }
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
-            Method::Adaptive => self.advance_adaptive(law, tau_end, on_event),
-            Method::Fixed => self.advance_fixed(law, tau_end, on_event),
+            Method::Adaptive => friction::with_friction!(self.model.friction, f => {
+                self.advance_adaptive(law, f, tau_end, on_event)
+            }),
+            Method::Fixed => friction::with_friction!(self.model.friction, f => {
+                self.advance_fixed(law, f, tau_end, on_event)
+            }),
         };
         self.last_force = law.force(self.tau, &self.state());
         result
