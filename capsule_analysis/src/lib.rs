@@ -7,4 +7,4 @@ pub mod run;
 pub mod sweep;
 
 pub use run::{run, run_sampled, PaperLaw, RunReport};
-pub use sweep::{sweep, Param, SweepPoint};
+pub use sweep::{sweep, sweep_following, Param, SweepPoint};
