@@ -222,41 +222,46 @@ fn accuracy(args: &Args) -> Result<()> {
     let json = args.out.with_extension("json");
     std::fs::write(&json, serde_json::to_string_pretty(&all)?)
         .with_context(|| format!("writing {}", json.display()))?;
-    // one log-log plot per law: error of the progression against wall time, a curve per method
+    // log-log plots per law: error of the progression against wall time and against
+    // right-hand-side evaluations, a curve per method
+    type Cost = fn(&Point) -> f64;
+    let costs: [(&str, &str, Cost); 2] = [
+        ("", "wall time [s]", |p| p.wall_s),
+        ("_work", "right-hand-side evaluations", |p| {
+            p.work.rhs_evals as f64
+        }),
+    ];
     for scene in &scenes {
         let law = scene.model.friction.name();
-        let mut series = Vec::new();
-        for (method, colour) in [
-            ("exact", "black"),
-            ("adaptive", "steelblue"),
-            ("fixed", "firebrick"),
-        ] {
-            let pts: Vec<(f64, f64)> = all
-                .iter()
-                .filter(|p| p.friction == law && p.method == method)
-                .map(|p| (p.wall_s, p.err_progression.max(1e-16)))
-                .collect();
-            if !pts.is_empty() {
-                series.push(svg::Series {
-                    name: method.to_string(),
-                    colour,
-                    points: pts,
-                });
+        for (suffix, xlabel, cost) in costs {
+            let mut series = Vec::new();
+            for (method, colour) in [
+                ("exact", "black"),
+                ("adaptive", "steelblue"),
+                ("fixed", "firebrick"),
+            ] {
+                let pts: Vec<(f64, f64)> = all
+                    .iter()
+                    .filter(|p| p.friction == law && p.method == method)
+                    .map(|p| (cost(p), p.err_progression.max(1e-16)))
+                    .collect();
+                if !pts.is_empty() {
+                    series.push(svg::Series {
+                        name: method.to_string(),
+                        colour,
+                        points: pts,
+                    });
+                }
             }
+            let path = PathBuf::from(format!("{}_{law}{suffix}.svg", args.out.display()));
+            let title = format!("{}: error of average progression vs cost", scene.name);
+            std::fs::write(
+                &path,
+                svg::loglog(&title, xlabel, "|error| of progression per period", &series),
+            )
+            .with_context(|| format!("writing {}", path.display()))?;
+            println!("wrote {}{}", path.display(), png_beside(&path));
         }
-        let path = PathBuf::from(format!("{}_{law}.svg", args.out.display()));
-        let title = format!("{}: error of average progression vs time", scene.name);
-        std::fs::write(
-            &path,
-            svg::loglog(
-                &title,
-                "wall time [s]",
-                "|error| of progression per period",
-                &series,
-            ),
-        )
-        .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}{}", path.display(), png_beside(&path));
     }
     // the sampled controller: error against the continuous law per control rate
     let rates = [16, 32, 64, 128, 256, 512, 1024, 4096];

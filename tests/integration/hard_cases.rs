@@ -253,3 +253,63 @@ proptest! {
         }
     }
 }
+
+/// Mechanical energy: kinetic, primary spring, contact spring, pre-sliding spring.
+fn energy(model: &Model, s: &capsule_plant::Snapshot, p: f64) -> f64 {
+    let c = &model.capsule;
+    let z = s.state.x1 - s.state.x2;
+    let contact = if z > c.delta {
+        0.5 * c.beta * (z - c.delta).powi(2)
+    } else {
+        0.0
+    };
+    0.5 * s.state.y1.powi(2) + 0.5 * c.gamma * s.state.y2.powi(2) + 0.5 * z * z + contact + p
+}
+
+#[test]
+fn without_a_drive_the_energy_never_grows() {
+    // released from a compressed contact spring with no drive: friction and damping only take
+    for friction in [
+        Friction::Coulomb,
+        Friction::Viscous { mu_v: 0.1 },
+        Friction::Stribeck { v_s: 0.1 },
+    ] {
+        let model = Model {
+            capsule: Capsule {
+                gamma: 0.5,
+                beta: 15.0,
+                delta: 0.02,
+                xi: 0.01,
+            },
+            friction,
+        };
+        let cfg = SolverConfig {
+            tol: 1e-11,
+            ..SolverConfig::most_accurate_for(&model)
+        };
+        let start = State {
+            x1: 0.6,
+            y1: 0.0,
+            x2: 0.0,
+            y2: 0.0,
+        };
+        let mut sim = Simulator::new(model, start, 0.0, cfg).unwrap_or_else(|e| panic!("{e}"));
+        let e0 = energy(&model, &sim.snapshot(), 0.0);
+        let mut last = e0;
+        for i in 1..=400 {
+            sim.advance(&ConstantForce(0.0), i as f64 * 0.1)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let e = energy(&model, &sim.snapshot(), 0.0);
+            assert!(
+                e <= last + 1e-9 * e0,
+                "{friction:?} at tau {}: energy {e} after {last}",
+                i as f64 * 0.1
+            );
+            last = e;
+        }
+        assert!(
+            last < 0.5 * e0,
+            "{friction:?}: energy {last} of {e0} left: nothing dissipated?"
+        );
+    }
+}
