@@ -98,7 +98,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> 
     let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
         .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?;
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_plant")?;
-    let core = PlantCore::new(ExactSim(sim, 0.0), scale, rate, timeout);
+    let core = PlantCore::new(ExactSim(sim), scale, rate, timeout);
     let opts = PlantOptions {
         pacing: cli.pacing,
         until_s: cli.until_s,
