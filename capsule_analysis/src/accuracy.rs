@@ -36,19 +36,17 @@ pub const TOLERANCES: [f64; 6] = [1e-4, 1e-6, 1e-8, 1e-10, 1e-11, 1e-12];
 /// Steps of the fixed ladder.
 pub const STEPS: [f64; 5] = [3e-2, 1e-2, 3e-3, 1e-3, 3e-4];
 
-fn timed(scene: &Scene, repeat: u32) -> Result<(RunReport, f64), SimError> {
-    let mut best = f64::INFINITY;
-    let mut last = None;
-    for _ in 0..repeat.max(1) {
+/// Run `scene` `repeat` times (at least once); the last report and the best wall time, seconds.
+pub fn best_of(scene: &Scene, repeat: u32) -> Result<(RunReport, f64), SimError> {
+    let t0 = Instant::now();
+    let mut report = run(scene)?;
+    let mut best = t0.elapsed().as_secs_f64();
+    for _ in 1..repeat {
         let t0 = Instant::now();
-        let r = run(scene)?;
+        report = run(scene)?;
         best = best.min(t0.elapsed().as_secs_f64());
-        last = Some(r);
     }
-    match last {
-        Some(r) => Ok((r, best)),
-        None => run(scene).map(|r| (r, best)),
-    }
+    Ok((report, best))
 }
 
 fn compare(
@@ -100,7 +98,7 @@ pub fn ladder(scene: &Scene, repeat: u32) -> Result<Vec<Point>, SimError> {
     if scene.model.friction.is_piecewise_linear() {
         let mut s = scene.clone();
         s.solver.method = Method::Exact;
-        let (r, wall) = timed(&s, repeat)?;
+        let (r, wall) = best_of(&s, repeat)?;
         out.push(compare(scene, "exact", 0.0, &r, wall, &reference));
     }
     for tol in TOLERANCES {
@@ -110,7 +108,7 @@ pub fn ladder(scene: &Scene, repeat: u32) -> Result<Vec<Point>, SimError> {
             tol,
             step: 0.0,
         };
-        let (r, wall) = timed(&s, repeat)?;
+        let (r, wall) = best_of(&s, repeat)?;
         out.push(compare(scene, "adaptive", tol, &r, wall, &reference));
     }
     for step in STEPS {
@@ -120,7 +118,7 @@ pub fn ladder(scene: &Scene, repeat: u32) -> Result<Vec<Point>, SimError> {
             tol: 0.0,
             step,
         };
-        let (r, wall) = timed(&s, 1)?;
+        let (r, wall) = best_of(&s, 1)?;
         out.push(compare(scene, "fixed", step, &r, wall, &reference));
     }
     Ok(out)

@@ -7,8 +7,8 @@
 
 use crate::svg;
 use anyhow::{Context, Result};
-use capsule_analysis::accuracy::{ladder, rate_ladder, Point};
-use capsule_analysis::{run, sweep, Param};
+use capsule_analysis::accuracy::{best_of, ladder, rate_ladder, Point};
+use capsule_analysis::{sweep, Param};
 use capsule_plant::scene::Scene;
 use capsule_plant::{Capsule, Friction, Method, Model, SolverConfig};
 use clap::ValueEnum;
@@ -94,18 +94,6 @@ pub fn main(args: Args) -> Result<()> {
         What::Accuracy => accuracy(&args),
         What::Effects => effects(&args),
     }
-}
-
-fn best_of(scene: &Scene, repeat: u32) -> Result<(capsule_analysis::RunReport, f64)> {
-    let mut best = f64::INFINITY;
-    let mut report = None;
-    for _ in 0..repeat.max(1) {
-        let t0 = Instant::now();
-        let r = run(scene)?;
-        best = best.min(t0.elapsed().as_secs_f64());
-        report = Some(r);
-    }
-    report.map(|r| (r, best)).context("no run")
 }
 
 fn speed(args: &Args) -> Result<()> {
