@@ -31,6 +31,12 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    // Like other Unix filters, end quietly when the reader goes away (`capsule ... | head`)
+    // instead of panicking on a failed print.
+    // SAFETY: restoring the default action of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
