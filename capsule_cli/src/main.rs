@@ -2,6 +2,7 @@
 //! and benchmark the integrators.
 
 mod bench;
+mod record;
 mod scene_args;
 mod simulate;
 mod svg;
@@ -28,6 +29,8 @@ enum Command {
     Sweep(sweep::Args),
     /// Time the integrators on the paper's scenes and print the figures.
     Bench(bench::Args),
+    /// Look into a recorded run (info) or complete a cut one (recover).
+    Record(record::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -42,6 +45,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => simulate::main(a),
         Command::Sweep(a) => sweep::main(a),
         Command::Bench(a) => bench::main(a),
+        Command::Record(a) => record::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,6 +2,7 @@
 
 mod cli;
 mod paper;
+mod record;
 mod ros;
 mod scenes;
 mod solver;
