@@ -166,7 +166,7 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
         echo "left=$left""#,
     );
     assert!(run.stdout.contains("launcher rc=0"), "{}", run.all());
-    assert!(run.stdout.contains("children: 2"), "{}", run.all());
+    assert!(run.stdout.contains("children: 3"), "{}", run.all()); // plant, controller, recorder (issue 4)
     assert!(run.stdout.contains("left=0"), "{}", run.all());
     assert!(
         run.stderr.contains("SIGTERM: shutting down"),
