@@ -191,24 +191,47 @@ pub fn format_info(i: &RecordingInfo) -> String {
     if i.topics.is_empty() {
         s += "Topics:            (none)\n";
     }
+    // one line per call: the request paired with its response by sequence number
     let mut first = true;
+    let call = |m: &capsule_record::read::ModeChange| {
+        (m.event.info.client_gid, m.event.info.sequence_number)
+    };
+    let answered: Vec<_> = i
+        .mode_changes
+        .iter()
+        .filter(|m| m.response().is_some())
+        .map(call)
+        .collect();
     for m in &i.mode_changes {
-        let at = m.log_time.saturating_sub(i.bounds.0) as f64 * 1e-9;
-        let what = match (m.request(), m.response()) {
-            (_, Some(r)) => format!(
-                "{} {} (gain {}): {}",
+        let seq = call(m);
+        let request = m.request().or_else(|| {
+            i.mode_changes
+                .iter()
+                .filter(|o| call(o) == seq)
+                .find_map(|o| o.request())
+        });
+        let asked = |q: &capsule_msgs::SetModeRequest| {
+            format!(
+                "{} (gain {})",
+                capsule_msgs::mode_name(q.mode).unwrap_or("?"),
+                q.gain
+            )
+        };
+        let what = match (request, m.response()) {
+            (q, Some(r)) => format!(
+                "set_mode {}: {} -> {} k_p {}: {}",
+                q.map(asked).unwrap_or_else(|| "?".into()),
                 if r.accepted { "accepted" } else { "refused" },
                 capsule_msgs::mode_name(r.mode).unwrap_or("?"),
                 r.gain,
                 r.reason
             ),
-            (Some(q), None) => format!(
-                "request {} (gain {})",
-                capsule_msgs::mode_name(q.mode).unwrap_or("?"),
-                q.gain
-            ),
-            (None, None) => format!("event {}", m.event.info.event_type),
+            // the request line is shown with its answer
+            (Some(_), None) if answered.contains(&seq) => continue,
+            (Some(q), None) => format!("set_mode {}: no answer recorded", asked(q)),
+            (None, None) => format!("service event {}", m.event.info.event_type),
         };
+        let at = m.log_time.saturating_sub(i.bounds.0) as f64 * 1e-9;
         s += &format!(
             "{}+{at:.6} s  {what}\n",
             if first {

@@ -262,8 +262,14 @@ fn info_shows_duration_topics_rates_modes_and_scene() {
         text.contains("/capsule/state") && text.contains("count 2000 | rate 1000.5 Hz"),
         "{text}"
     );
-    assert!(text.contains("accepted FORWARD (gain 0.5)"), "{text}");
-    assert!(text.contains("refused CUSTOM (gain 99)"), "{text}");
+    assert!(
+        text.contains("set_mode FORWARD (gain 0.5): accepted -> FORWARD k_p 0.5: why"),
+        "{text}"
+    );
+    assert!(
+        text.contains("set_mode CUSTOM (gain 99): refused -> CUSTOM k_p 99: why"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -344,4 +350,254 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
         info.contains("profile ros2") && info.contains("Scene:             it_scene"),
         "{info}"
     );
+}
+
+// ---- recorder node runs (DDS): each inside its own loopback-only network namespace ----
+
+/// Runs a bash script through `tests/peers/netns_run.sh` (loopback-only namespace, bounded in
+/// time, processes killed and namespace deleted at the end). `$B` is the binary directory,
+/// `$ROOT` the workspace, `$SCENE` the control-point scene, `$D` the test's own directory.
+fn netns(timeout_s: u32, dir: &Path, script: &str) -> (Option<i32>, String) {
+    let b = std::env::var_os("CAPSULE_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target/debug"));
+    for exe in [
+        "capsule_plant",
+        "capsule_controller",
+        "capsule_recorder",
+        "capsule_ros",
+    ] {
+        assert!(
+            b.join(exe).is_file(),
+            "{} missing: run `cargo build --workspace` first",
+            b.join(exe).display()
+        );
+    }
+    let out = Command::new("bash")
+        .arg(root().join("tests/peers/netns_run.sh"))
+        .arg(timeout_s.to_string())
+        .args(["bash", "-c", script])
+        .env("B", &b)
+        .env("CAPSULE_BIN", &b)
+        .env("ROOT", root())
+        .env("SCENE", root().join("scenes/control_point.toml"))
+        .env("D", dir)
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .env_remove("RMW_IMPLEMENTATION")
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run netns_run.sh: {e}"));
+    let all = format!(
+        "--- stdout\n{}\n--- stderr\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.code(), all)
+}
+
+fn fresh_dir(name: &str) -> PathBuf {
+    let d = tmp(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
+    d
+}
+
+fn only_mcap(dir: &Path) -> PathBuf {
+    let files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    assert_eq!(
+        files.len(),
+        1,
+        "one recording per run in {}: {files:?}",
+        dir.display()
+    );
+    files[0].clone()
+}
+
+/// `got` is 0, 1, ..., n-1 in order, where a sample may repeat right after itself (the
+/// lock-step plant re-sends a sample whose command is late: each copy was published, so each
+/// is recorded). A short report, not two long lists, when not.
+fn expect_all(got: &[u64], n: u64, what: &str) {
+    let mut got = got.to_vec();
+    got.dedup();
+    let gap = got.iter().enumerate().find(|(k, s)| **s != *k as u64);
+    assert!(
+        got.len() as u64 == n && gap.is_none(),
+        "{what}: {} of {n}, first {:?}, last {:?}, first mismatch {gap:?}",
+        got.len(),
+        got.first(),
+        got.last()
+    );
+}
+
+fn json_u64(text: &str, key: &str) -> Option<u64> {
+    let pat = format!("\"{key}\":");
+    let at = text.find(&pat)? + pat.len();
+    let rest = &text[at..];
+    let end = rest.find([',', '}']).unwrap_or(rest.len());
+    rest[..end].trim().parse().ok()
+}
+
+#[test]
+fn launcher_records_every_published_message_and_the_mode_changes() {
+    let dir = fresh_dir("launch_run");
+    let (code, all) = netns(
+        240,
+        &dir,
+        r#"
+        ( sleep 3; $B/capsule_ros set-mode backward --gain 0.1; $B/capsule_ros set-mode custom --gain 99 ) &
+        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 6 \
+            --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json"
+        rc=$?; wait; exit $rc"#,
+    );
+    assert_eq!(code, Some(0), "{all}");
+    let file = only_mcap(&dir.join("runs"));
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    assert!(
+        name.starts_with("capsule_control_point_20") && name.ends_with("Z.mcap"),
+        "{name}"
+    );
+    let plant = std::fs::read_to_string(dir.join("plant.json")).unwrap_or_default();
+    let published = json_u64(&plant, "samples").unwrap_or_else(|| panic!("{plant}\n{all}"));
+    assert!(published > 5000, "{plant}");
+    let v = python_decode(&file, "both");
+    for reader in ["mcap", "rosbags"] {
+        let t = &v[reader]["topics"];
+        // every state the plant published, in order, none twice
+        let seqs: Vec<u64> = t[topics::STATE]["rows"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|r| r[0].as_u64())
+            .collect();
+        expect_all(&seqs, published, &format!("{reader} states"));
+        // every command the controller sent: one per state it answered, in order, none twice;
+        // at least as many as its last status counted
+        let forces: Vec<u64> = t[topics::FORCE]["rows"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|r| r[0].as_u64())
+            .collect();
+        assert!(
+            forces.windows(2).all(|w| w[0] <= w[1]),
+            "{reader}: force state_seq going back"
+        );
+        let sent = t["/capsule_controller/status"]["rows"]
+            .as_array()
+            .and_then(|r| r.last())
+            .and_then(|r| r[1].as_u64())
+            .unwrap_or(u64::MAX);
+        assert!(
+            forces.len() as u64 >= sent && sent + 200 > published,
+            "{reader}: {} forces recorded, controller's last status: {sent} sent, {published} states",
+            forces.len()
+        );
+        assert_eq!(t[topics::CLOCK]["count"], published, "{reader}");
+        assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
+        let ev: Vec<String> = t[topics::SET_MODE_EVENT]["rows"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default()
+            .iter()
+            .map(|r| {
+                format!(
+                    "{} {} {} {}",
+                    r[0],
+                    r[2],
+                    r[4],
+                    r[1].as_i64().is_some_and(|s| s > 0)
+                )
+            })
+            .collect();
+        assert_eq!(
+            ev,
+            [
+                "1 2 null true",
+                "2 null true true",
+                "1 4 null true",
+                "2 null false true"
+            ],
+            "{reader}"
+        );
+    }
+    let info = capsule(&["record", "info", &file.display().to_string()]);
+    let info = String::from_utf8_lossy(&info.stdout);
+    assert!(info.contains("Scene:             control_point"), "{info}");
+    assert!(
+        info.contains("set_mode BACKWARD (gain 0.1): accepted -> BACKWARD k_p -0.1"),
+        "{info}"
+    );
+    assert!(
+        info.contains("set_mode CUSTOM (gain 99): refused -> BACKWARD k_p -0.1"),
+        "{info}"
+    );
+}
+
+#[test]
+fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
+    let dir = fresh_dir("sigkill_run");
+    let (code, all) = netns(
+        120,
+        &dir,
+        r#"
+        $B/capsule_controller --scene "$SCENE" --mode forward &
+        C=$!
+        $B/capsule_recorder --scene "$SCENE" --output "$D/killed.mcap" &
+        R=$!
+        $B/capsule_plant --scene "$SCENE" --until-s 30 --wait-subscribers 2 &
+        P=$!
+        sleep 6
+        echo "kill_ns=$(date +%s%N)"
+        kill -KILL $R
+        wait $R; echo "recorder rc=$?"
+        kill -TERM $P $C; wait $P $C
+        exit 0"#,
+    );
+    assert_eq!(code, Some(0), "{all}");
+    assert!(all.contains("recorder rc=137"), "{all}");
+    let kill_ns: u64 = all
+        .lines()
+        .find_map(|l| l.strip_prefix("kill_ns="))
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{all}"));
+    let file = dir.join("killed.mcap");
+    let f = file.display().to_string();
+    let before = capsule(&["record", "info", &f]);
+    assert_eq!(before.status.code(), Some(1), "a killed file has no footer");
+    let out = capsule(&["record", "recover", &f]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = python_decode(&file, "rosbags");
+    let st = &v["rosbags"]["topics"][topics::STATE];
+    let seqs: Vec<u64> = st["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default()
+        .iter()
+        .filter_map(|r| r[0].as_u64())
+        .collect();
+    assert!(seqs.len() > 1000, "{} states\n{text}", seqs.len());
+    // contiguous from the first sample: nothing lost before the cut
+    expect_all(&seqs, seqs.len() as u64, "recovered states");
+    let last_log = st["log_ns"]
+        .as_array()
+        .and_then(|a| a.last())
+        .and_then(|x| x.as_u64())
+        .unwrap_or(0);
+    let lost_s = kill_ns.saturating_sub(last_log) as f64 * 1e-9;
+    assert!(lost_s <= 1.0, "lost the last {lost_s:.3} s\n{text}");
+    assert!(text.contains(&format!("recovered ")), "{text}");
 }
