@@ -433,6 +433,14 @@ fn expect_all(got: &[u64], n: u64, what: &str) {
     );
 }
 
+/// Messages of all topics in a decoded file.
+fn v_total(v: &Value) -> u64 {
+    v["rosbags"]["topics"]
+        .as_object()
+        .map(|t| t.values().filter_map(|x| x["count"].as_u64()).sum())
+        .unwrap_or(0)
+}
+
 fn json_u64(text: &str, key: &str) -> Option<u64> {
     let pat = format!("\"{key}\":");
     let at = text.find(&pat)? + pat.len();
@@ -599,5 +607,8 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
         .unwrap_or(0);
     let lost_s = kill_ns.saturating_sub(last_log) as f64 * 1e-9;
     assert!(lost_s <= 1.0, "lost the last {lost_s:.3} s\n{text}");
-    assert!(text.contains(&format!("recovered ")), "{text}");
+    assert!(
+        text.contains(&format!("recovered {} messages", v_total(&v))),
+        "{text}"
+    );
 }
