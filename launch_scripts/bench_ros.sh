@@ -48,7 +48,8 @@ try:
 except Exception:
     print(f"{name}: no summary ({raw!r})"); sys.exit(0)
 ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
-print(f"{name}: samples {j['samples']}, unanswered {j['unanswered']}, latency p50 {ms(j['latency_p50_s'])} "
+print(f"{name}: samples {j['samples']} ({j['before_first_answer']} before the first answer), lost {j['unanswered']}, "
+      f"answered late {j['late_answers']}, latency p50 {ms(j['latency_p50_s'])} "
       f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
       f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}")
 PY
@@ -62,5 +63,6 @@ run_case() { # name seconds plant-args
 
 echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
 run_case rt1k 10 "--pacing realtime --until-s 10"
+run_case rt1k-clock10 10 "--pacing realtime --until-s 10 --clock-every 10"
 run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
 run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"

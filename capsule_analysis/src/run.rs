@@ -88,7 +88,7 @@ pub fn run_sampled(
     let mut poincare = Vec::with_capacity((periods - transient) as usize);
     let mut x2_start = sim.state().x2;
     if samples_per_period > 0 {
-        sample(&sim.snapshot(&law));
+        sample(&sim.snapshot());
     }
     for n in 0..periods {
         let measuring = n >= transient;
@@ -116,7 +116,7 @@ pub fn run_sampled(
                     t0 + period * i as f64 / samples_per_period as f64
                 };
                 sim.advance_observed(&law, t, &mut on_event)?;
-                sample(&sim.snapshot(&law));
+                sample(&sim.snapshot());
             }
         } else {
             sim.advance_observed(&law, (n + 1) as f64 * period, &mut on_event)?;

@@ -66,8 +66,36 @@ pub struct SweepPoint {
     pub result: Result<RunReport, String>,
 }
 
-/// Run `scene` for every value of `param` in `values`, in parallel; `progress` is called once
-/// per finished value (from worker threads).
+/// Run `scene` for every value of `param` in `values` in order, each run starting from the
+/// previous run's final state (continuation: it follows one attractor, as bifurcation diagrams
+/// are usually drawn); `progress` is called once per finished value.
+pub fn sweep_following(
+    scene: &Scene,
+    param: Param,
+    values: &[f64],
+    progress: &(dyn Fn() + Sync),
+) -> Vec<SweepPoint> {
+    let mut start = scene.initial;
+    values
+        .iter()
+        .map(|&v| {
+            let mut s = param.apply(scene, v);
+            s.initial = start;
+            let result = s
+                .validate()
+                .map_err(|(k, r)| format!("{k}: {r}"))
+                .and_then(|()| run(&s).map_err(|e: SimError| e.to_string()));
+            if let Ok(r) = &result {
+                start = r.final_state;
+            }
+            progress();
+            SweepPoint { value: v, result }
+        })
+        .collect()
+}
+
+/// Run `scene` for every value of `param` in `values`, in parallel, each from the scene's
+/// initial state; `progress` is called once per finished value (from worker threads).
 pub fn sweep(
     scene: &Scene,
     param: Param,

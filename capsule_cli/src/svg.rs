@@ -128,3 +128,123 @@ pub fn bifurcation(title: &str, param: &str, points: &[SweepPoint]) -> String {
     let _ = writeln!(out, "</svg>");
     out
 }
+
+/// A named curve for [`loglog`].
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// SVG colour.
+    pub colour: &'static str,
+    /// Points (x, y), both positive.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A log-log plot with one polyline and markers per series, decade grid and a legend.
+pub fn loglog(title: &str, xlabel: &str, ylabel: &str, series: &[Series]) -> String {
+    let all = || series.iter().flat_map(|s| s.points.iter().copied());
+    let lx = Axis::of(all().filter(|p| p.0 > 0.0).map(|p| p.0.log10()));
+    let ly = Axis::of(all().filter(|p| p.1 > 0.0).map(|p| p.1.log10()));
+    let (lx, ly) = (decades(lx), decades(ly));
+    let height = TOP + PANEL_H + 80.0;
+    let right = W - 180.0;
+    let bottom = TOP + PANEL_H;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{height}" viewBox="0 0 {W} {height}">"#
+    );
+    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        out,
+        r#"<text x="{:.1}" y="24" font-size="16" text-anchor="middle">{title}</text>"#,
+        (LEFT + right) / 2.0
+    );
+    let _ = writeln!(
+        out,
+        r#"<rect x="{LEFT}" y="{TOP}" width="{}" height="{PANEL_H}" fill="none" stroke="black"/>"#,
+        right - LEFT
+    );
+    for d in (lx.lo as i32)..=(lx.hi as i32) {
+        let px = lx.map(d as f64, LEFT, right);
+        let _ = writeln!(
+            out,
+            r#"<line x1="{px:.1}" y1="{TOP}" x2="{px:.1}" y2="{bottom}" stroke="lightgrey"/>"#
+        );
+        let _ = writeln!(
+            out,
+            r#"<text x="{px:.1}" y="{:.1}" font-size="12" text-anchor="middle">1e{d}</text>"#,
+            bottom + 16.0
+        );
+    }
+    for d in (ly.lo as i32)..=(ly.hi as i32) {
+        let py = ly.map(d as f64, bottom, TOP);
+        let _ = writeln!(
+            out,
+            r#"<line x1="{LEFT}" y1="{py:.1}" x2="{right}" y2="{py:.1}" stroke="lightgrey"/>"#
+        );
+        let _ = writeln!(
+            out,
+            r#"<text x="{:.1}" y="{:.1}" font-size="12" text-anchor="end">1e{d}</text>"#,
+            LEFT - 6.0,
+            py + 4.0
+        );
+    }
+    let _ = writeln!(
+        out,
+        r#"<text x="{:.1}" y="{:.1}" font-size="14" text-anchor="middle">{xlabel}</text>"#,
+        (LEFT + right) / 2.0,
+        bottom + 36.0
+    );
+    let mid = (TOP + bottom) / 2.0;
+    let _ = writeln!(
+        out,
+        r#"<text x="16" y="{mid:.1}" font-size="14" transform="rotate(-90 16 {mid:.1})" text-anchor="middle">{ylabel}</text>"#
+    );
+    for (i, s) in series.iter().enumerate() {
+        let mut path = String::new();
+        for (j, &(x, y)) in s
+            .points
+            .iter()
+            .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+            .enumerate()
+        {
+            let px = lx.map(x.log10(), LEFT, right);
+            let py = ly.map(y.log10(), bottom, TOP);
+            let _ = write!(path, "{}{px:.2},{py:.2} ", if j == 0 { "M" } else { "L" });
+            let _ = writeln!(
+                out,
+                r#"<circle cx="{px:.2}" cy="{py:.2}" r="3.5" fill="{}"/>"#,
+                s.colour
+            );
+        }
+        let _ = writeln!(
+            out,
+            r#"<path d="{path}" fill="none" stroke="{}" stroke-width="1.5"/>"#,
+            s.colour
+        );
+        let ly_leg = TOP + 20.0 + 22.0 * i as f64;
+        let _ = writeln!(
+            out,
+            r#"<circle cx="{:.1}" cy="{ly_leg:.1}" r="5" fill="{}"/>"#,
+            right + 20.0,
+            s.colour
+        );
+        let _ = writeln!(
+            out,
+            r#"<text x="{:.1}" y="{:.1}" font-size="13">{}</text>"#,
+            right + 32.0,
+            ly_leg + 4.0,
+            s.name
+        );
+    }
+    let _ = writeln!(out, "</svg>");
+    out
+}
+
+/// An axis widened to whole decades.
+fn decades(a: Axis) -> Axis {
+    Axis {
+        lo: a.lo.floor(),
+        hi: a.hi.ceil().max(a.lo.floor() + 1.0),
+    }
+}

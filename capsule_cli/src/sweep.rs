@@ -5,7 +5,7 @@
 use crate::scene_args::SceneArgs;
 use crate::svg;
 use anyhow::{bail, Context, Result};
-use capsule_analysis::{sweep, Param, SweepPoint};
+use capsule_analysis::{sweep, sweep_following, Param, SweepPoint};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -30,6 +30,10 @@ pub struct Args {
     /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg.
     #[arg(long, value_name = "PREFIX", default_value = "sweep")]
     out: PathBuf,
+    /// Follow one attractor: each value starts from the previous value's final state (runs
+    /// one after the other) instead of every value from the scene's initial state (in parallel).
+    #[arg(long)]
+    follow: bool,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -70,7 +74,11 @@ pub fn main(args: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let t0 = std::time::Instant::now();
-    let points = sweep(&scene, param, &values, &|| bar.inc(1));
+    let points = if args.follow {
+        sweep_following(&scene, param, &values, &|| bar.inc(1))
+    } else {
+        sweep(&scene, param, &values, &|| bar.inc(1))
+    };
     bar.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
     let csv = args.out.with_extension("csv");

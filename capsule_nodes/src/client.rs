@@ -30,18 +30,21 @@ impl ModeClient {
         Ok(ModeClient { client })
     }
 
-    /// Waits (up to `timeout`) for the service, then calls it, re-sending every `retry` until a
-    /// response comes (a first request can be lost while the reply path is still matching).
+    /// Calls the service, re-sending every 500 ms until a response comes or `timeout` passes
+    /// (a first request can be lost while the reply path is still matching). Waits at most 2 s
+    /// for the service to be matched first; a match event can be missed, so it does not rely on it.
     pub async fn call(
         &self,
         node: &Node,
         req: SetModeRequest,
         timeout: Duration,
     ) -> Result<SetModeResponse> {
-        tokio::time::timeout(timeout, self.client.wait_for_service(node))
-            .await
-            .context("set_mode service did not appear")?;
         let deadline = tokio::time::Instant::now() + timeout;
+        let _ = tokio::time::timeout(
+            timeout.min(Duration::from_secs(2)),
+            self.client.wait_for_service(node),
+        )
+        .await;
         let retry = Duration::from_millis(500);
         loop {
             let id = self

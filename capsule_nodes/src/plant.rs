@@ -18,7 +18,10 @@
 //!
 //! Time on the wire is simulation time (starting at 0), also published on `/clock`.
 
-use std::time::{Duration, Instant};
+use std::{
+    collections::VecDeque,
+    time::{Duration, Instant},
+};
 
 use anyhow::{Context as _, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
@@ -87,18 +90,78 @@ pub enum CommandOutcome {
     Future,
 }
 
-/// Loop statistics: command latency (publish of sample to arrival of its answer).
+/// Loop statistics: for every published sample, whether and when a command answering it
+/// (same seq) arrived, also after the next sample went out.
 #[derive(Debug, Clone, Default)]
 pub struct LoopStats {
-    /// Latencies [s] of answered samples.
+    /// Latencies [s] from publishing a sample to receiving its first answer.
     pub latencies: Vec<f64>,
     /// Samples published.
     pub published: u64,
-    /// Samples that never got an answer.
+    /// Samples published before the first answer (discovery, controller start-up).
+    pub before_first_answer: u64,
+    /// Samples after the first answer that never got one: lost.
     pub unanswered: u64,
+    /// Answers that arrived after the next sample was out (applied one sample late).
+    pub late_answers: u64,
+    in_flight: VecDeque<(u64, f64, bool)>,
+    answered_any: bool,
 }
 
 impl LoopStats {
+    const WINDOW: usize = 4096;
+
+    fn retire_front(&mut self) {
+        if let Some((_, _, answered)) = self.in_flight.pop_front() {
+            if !answered {
+                self.unanswered += 1;
+            }
+        }
+    }
+
+    /// Notes sample `seq` published at steady time `now`.
+    pub fn on_publish(&mut self, seq: u64, now: f64) {
+        self.published += 1;
+        self.in_flight.push_back((seq, now, false));
+        while self.in_flight.len() > Self::WINDOW {
+            self.retire_front();
+        }
+    }
+
+    /// Notes a command answering `seq` at `now`, while sample `current` is the newest.
+    pub fn on_answer(&mut self, seq: u64, now: f64, current: u64) {
+        let Ok(i) = self.in_flight.binary_search_by_key(&seq, |e| e.0) else {
+            return;
+        };
+        if self.in_flight[i].2 {
+            return;
+        }
+        self.in_flight[i].2 = true;
+        self.latencies.push(now - self.in_flight[i].1);
+        if seq < current {
+            self.late_answers += 1;
+        }
+        if !self.answered_any {
+            self.answered_any = true;
+            let before = self.in_flight.iter().take_while(|e| e.0 < seq).count();
+            self.before_first_answer += before as u64;
+            self.in_flight.drain(..before);
+        }
+    }
+
+    /// Ends the run: the newest sample may still be in flight; every older one without an
+    /// answer is lost (all of them count as start-up if nothing was ever answered).
+    pub fn finish(&mut self) {
+        self.in_flight.pop_back();
+        if !self.answered_any {
+            self.before_first_answer += self.in_flight.len() as u64;
+            self.in_flight.clear();
+        }
+        while !self.in_flight.is_empty() {
+            self.retire_front();
+        }
+    }
+
     /// `(p50, p99, max)` of the latencies [s], `None` if none.
     pub fn percentiles(&self) -> Option<(f64, f64, f64)> {
         if self.latencies.is_empty() {
@@ -220,7 +283,7 @@ impl<S: PlantSim> PlantCore<S> {
     pub fn published(&mut self, now: f64) {
         if self.published_at.is_none() {
             self.published_at = Some(now);
-            self.stats.published += 1;
+            self.stats.on_publish(self.step, now);
         }
     }
 
@@ -230,6 +293,7 @@ impl<S: PlantSim> PlantCore<S> {
         let stamp = cmd.header.stamp.to_nanos();
         if let Some((t, seq, f)) = self.last_accepted {
             if t == stamp && seq == cmd.state_seq && f.to_bits() == cmd.force.to_bits() {
+                self.stats.on_answer(cmd.state_seq, now, self.step);
                 return CommandOutcome::Duplicate;
             }
         }
@@ -258,11 +322,9 @@ impl<S: PlantSim> PlantCore<S> {
             );
         }
         self.stale = false;
-        if cmd.state_seq == self.step && !self.answered_current {
+        self.stats.on_answer(cmd.state_seq, now, self.step);
+        if cmd.state_seq == self.step {
             self.answered_current = true;
-            if let Some(p) = self.published_at {
-                self.stats.latencies.push(now - p);
-            }
         }
         outcome
     }
@@ -288,9 +350,6 @@ impl<S: PlantSim> PlantCore<S> {
 
     /// Integrates one sample period with the held force and moves to the next sample.
     pub fn step(&mut self) -> Result<()> {
-        if !self.answered_current && self.published_at.is_some() {
-            self.stats.unanswered += 1;
-        }
         let force = self.held_force() / self.scale.force_n();
         let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
         self.sim.advance(force, tau_end)?;
@@ -316,13 +375,16 @@ pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> Stri
     };
     format!(
         concat!(
-            "{{\"samples\":{},\"unanswered\":{},\"latency_p50_s\":{},\"latency_p99_s\":{},",
+            "{{\"samples\":{},\"before_first_answer\":{},\"unanswered\":{},\"late_answers\":{},",
+            "\"latency_p50_s\":{},\"latency_p99_s\":{},",
             "\"latency_max_s\":{},\"wall_s\":{},\"rejected_commands\":{},\"last\":{{\"seq\":{},",
             "\"stamp_ns\":{},\"mass_position\":{},\"mass_velocity\":{},\"capsule_position\":{},",
             "\"capsule_velocity\":{},\"actuator_force\":{},\"command_stale\":{}}}}}"
         ),
         stats.published,
+        stats.before_first_answer,
         stats.unanswered,
+        stats.late_answers,
         num(p50),
         num(p99),
         num(max),
@@ -352,6 +414,8 @@ pub struct PlantOptions {
     pub startup_timeout: Duration,
     /// Publish the first sample only once this many subscribers matched the state topic.
     pub wait_subscribers: usize,
+    /// Publish /clock with every this many samples (1: every sample).
+    pub clock_every: u64,
 }
 
 /// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
@@ -404,6 +468,17 @@ pub async fn run<S: PlantSim>(
 
     if opts.wait_subscribers > 0 {
         let waiting = Instant::now();
+        // the first match makes the publisher known to the node's graph bookkeeping; only then
+        // can it count subscribers
+        tokio::time::timeout(opts.startup_timeout, state_pub.wait_for_subscription(&node))
+            .await
+            .map_err(|_| {
+                anyhow::anyhow!(
+                    "no subscriber matched {} within {:?}",
+                    settings.resolve_name(names::STATE),
+                    opts.startup_timeout
+                )
+            })?;
         while state_pub.get_subscription_count(&node) < opts.wait_subscribers {
             if waiting.elapsed() > opts.startup_timeout {
                 anyhow::bail!(
@@ -462,7 +537,9 @@ pub async fn run<S: PlantSim>(
     let result: Result<()> = loop {
         if need_publish {
             let stamp = core.stamp();
-            let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
+            if core.seq().is_multiple_of(opts.clock_every.max(1)) {
+                let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
+            }
             if let Err(e) = state_pub.async_publish(core.state()).await {
                 warn!("state not sent: {e:?}");
             }
@@ -543,12 +620,15 @@ pub async fn run<S: PlantSim>(
         }
     };
     stop_timer.store(true, std::sync::atomic::Ordering::Relaxed);
+    core.stats.finish();
     let stats = core.stats.clone();
     match stats.percentiles() {
         Some((p50, p99, max)) => info!(
-            "loop: {} samples, {} unanswered, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused",
+            "loop: {} samples ({} before the first answer), {} lost, {} answered late, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused",
             stats.published,
+            stats.before_first_answer,
             stats.unanswered,
+            stats.late_answers,
             p50 * 1e3,
             p99 * 1e3,
             max * 1e3,
@@ -711,19 +791,45 @@ mod tests {
         let s = p.state();
         assert!(s.command_stale);
         assert_eq!(s.mass_velocity, 0.0);
-        assert_eq!(p.stats.unanswered, 0);
         p.published(0.08);
         p.step()?;
-        assert_eq!(p.stats.unanswered, 1);
+        p.published(0.09);
+        p.stats.finish();
+        // sample 0 answered; sample 1 never (lost); sample 2 was in flight at the end
+        assert_eq!(
+            (
+                p.stats.published,
+                p.stats.unanswered,
+                p.stats.before_first_answer
+            ),
+            (3, 1, 0)
+        );
         Ok(())
+    }
+
+    #[test]
+    fn stats_split_startup_lost_and_late_answers() {
+        let mut st = LoopStats::default();
+        for k in 0..10 {
+            st.on_publish(k, k as f64);
+        }
+        st.on_answer(3, 3.5, 3); // first answer: 0..3 were start-up
+        st.on_answer(5, 6.2, 6); // late: sample 6 already out
+        st.on_answer(5, 6.3, 6); // repeat: ignored
+        st.on_answer(42, 7.0, 9); // unknown seq: ignored
+        st.finish(); // 9 in flight; 4, 6, 7, 8 lost
+        assert_eq!(st.before_first_answer, 3);
+        assert_eq!(st.late_answers, 1);
+        assert_eq!(st.unanswered, 4);
+        assert_eq!(st.latencies.len(), 2);
+        assert!((st.latencies[1] - 1.2).abs() < 1e-12);
     }
 
     #[test]
     fn percentiles_are_order_statistics() {
         let stats = LoopStats {
             latencies: (1..=100).map(f64::from).collect(),
-            published: 100,
-            unanswered: 0,
+            ..LoopStats::default()
         };
         assert_eq!(stats.percentiles(), Some((51.0, 99.0, 100.0)));
         assert_eq!(LoopStats::default().percentiles(), None);

@@ -5,21 +5,19 @@ use capsule_plant::{ConstantForce, Simulator};
 
 use crate::plant::{PlantSample, PlantSim};
 
-/// The simulator of `capsule_plant` behind the plant node, with the force it holds.
-pub struct ExactSim(pub Simulator, pub f64);
+/// The simulator of `capsule_plant` behind the plant node.
+pub struct ExactSim(pub Simulator);
 
 impl PlantSim for ExactSim {
     fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
-        self.1 = force;
         self.0
             .advance(&ConstantForce(force), tau_end)
-            .map(|_| ())
             .map_err(|e| anyhow::anyhow!("{e}"))
             .with_context(|| format!("simulation failed on the way to tau = {tau_end}"))
     }
 
     fn sample(&self) -> PlantSample {
-        let s = self.0.snapshot(&ConstantForce(self.1));
+        let s = self.0.snapshot();
         PlantSample {
             tau: s.tau,
             x1: s.state.x1,

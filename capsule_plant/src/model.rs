@@ -86,7 +86,8 @@ impl Friction {
     }
 
     /// Sliding friction force for a capsule slipping in direction `dir` (+1/-1) at velocity
-    /// `y2`, with `y2_delayed = y2(tau - tau_d)` (used only by the seven-parameter law).
+    /// `y2`, with `y2_delayed = y2(tau - tau_d)` (used only by the seven-parameter law; pass `y2`
+    /// itself when `tau_d = 0`).
     pub fn sliding(&self, dir: f64, y2: f64, y2_delayed: f64) -> f64 {
         match *self {
             Friction::Coulomb => dir,

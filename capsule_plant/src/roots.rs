@@ -21,7 +21,6 @@ pub const NOISE: f64 = 1e-13;
 /// valid side immediately. `gd` gives the value and the derivative.
 pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
     let g = |t: f64| gd(t).0;
-    let dg = |t: f64| gd(t).1;
     let (g0_raw, d0) = gd(0.0);
     if g0_raw > BOUNDARY {
         return Some(0.0);
@@ -30,6 +29,10 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
     // On the boundary, measure from the start value so rounding there is not a crossing.
     let shift = if on_boundary { g0_raw } else { 0.0 };
     let f = |t: f64| g(t) - shift;
+    let fd = |t: f64| {
+        let (v, d) = gd(t);
+        (v - shift, d)
+    };
     let mut t_prev = 0.0;
     let mut g_prev = 0.0f64.min(f(0.0));
     let mut d_prev = d0;
@@ -42,9 +45,9 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
                 // Starts on the boundary and is above it at the first sample. If it heads
                 // inward first, the crossing is on the way back up, after the minimum.
                 if d_prev < 0.0 && dt > 0.0 {
-                    let tm = bisect_derivative(&dg, 0.0, t);
+                    let tm = turning_point(&gd, 0.0, d_prev, t, dt);
                     if f(tm) < 0.0 {
-                        return Some(refine(&f, tm, t));
+                        return Some(refine(&fd, tm, t));
                     }
                 }
                 // The derivative at 0 may be rounding noise: look for a dip on a geometric grid;
@@ -61,17 +64,17 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
                     }
                 }
                 return Some(match last_below {
-                    Some(a) => refine(&f, a, t),
+                    Some(a) => refine(&fd, a, t),
                     None => 0.0,
                 });
             }
-            return Some(refine(&f, t_prev, t));
+            return Some(refine(&fd, t_prev, t));
         }
         // a maximum hidden between two non-positive samples?
         if d_prev > 0.0 && dt < 0.0 {
-            let tm = bisect_derivative(&dg, t_prev, t);
+            let tm = turning_point(&gd, t_prev, d_prev, t, dt);
             if f(tm) > NOISE {
-                return Some(refine(&f, t_prev, tm));
+                return Some(refine(&fd, t_prev, tm));
             }
         }
         t_prev = t;
@@ -81,18 +84,45 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
     None
 }
 
-/// A root of `dg` in `[a, b]`, where `dg` changes sign.
-fn bisect_derivative(dg: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let sa = dg(a) > 0.0;
-    for _ in 0..60 {
-        let m = 0.5 * (a + b);
-        if (dg(m) > 0.0) == sa {
+/// Where `g'` vanishes in `[a, b]`, given its values `da`, `db` of opposite signs there
+/// (Illinois false position on the derivative: a few evaluations, not fifty bisections).
+fn turning_point(
+    gd: &impl Fn(f64) -> (f64, f64),
+    mut a: f64,
+    mut da: f64,
+    mut b: f64,
+    mut db: f64,
+) -> f64 {
+    // the value at a turning point is flat in t: locating it to 1e-9 of the interval puts
+    // the value there within rounding
+    let width = 1e-9 * (b - a);
+    let mut side = 0;
+    for _ in 0..100 {
+        if b - a <= width {
+            break;
+        }
+        let mut m = (a * db - b * da) / (db - da);
+        if !(m > a && m < b) {
+            m = 0.5 * (a + b);
+        }
+        let dm = gd(m).1;
+        if dm == 0.0 {
+            return m;
+        }
+        if (dm > 0.0) == (da > 0.0) {
             a = m;
+            da = dm;
+            if side == -1 {
+                db *= 0.5;
+            }
+            side = -1;
         } else {
             b = m;
-        }
-        if b - a <= f64::EPSILON * b.abs().max(1e-300) {
-            break;
+            db = dm;
+            if side == 1 {
+                da *= 0.5;
+            }
+            side = 1;
         }
     }
     0.5 * (a + b)
@@ -100,7 +130,9 @@ fn bisect_derivative(dg: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 
 /// Root of `f` in `[a, b]` with `f(a) <= 0 < f(b)` (Illinois false position), returning the
 /// right end of the final bracket so that `f` at the result is `>= 0` (the event has happened).
-fn refine(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+/// `fd` gives value and derivative; only the value is used.
+fn refine(fd: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64) -> f64 {
+    let f = |t: f64| fd(t).0;
     let mut fa = f(a);
     let mut fb = f(b);
     if fa > 0.0 {

@@ -1,6 +1,7 @@
 //! Workspace integration tests: one binary, one module per area.
 
 mod cli;
+mod hard_cases;
 mod paper;
 mod record;
 mod ros;

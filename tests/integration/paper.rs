@@ -123,6 +123,38 @@ fn fig7a_progression_grows_with_alpha() {
 }
 
 #[test]
+fn fig7a_progression_grows_with_alpha_along_the_main_attractor() {
+    // continuation from alpha 0.95 follows the paper's main branch (period-2, then period-1)
+    // through the range where the all-zero start lands on the coexisting period-3 orbit
+    let values: Vec<f64> = (0..22).map(|i| 0.95 + 0.05 * i as f64).collect();
+    let points = capsule_analysis::sweep_following(
+        &scene("fig02a_coulomb.toml"),
+        capsule_analysis::Param::Alpha,
+        &values,
+        &|| {},
+    );
+    let p: Vec<f64> = points
+        .iter()
+        .map(|q| {
+            q.result
+                .as_ref()
+                .map(|r| r.avg_progression)
+                .unwrap_or(f64::NAN)
+        })
+        .collect();
+    assert!(p.windows(2).all(|w| w[1] > w[0]), "{p:?}");
+    let period_at = |a: f64| {
+        points
+            .iter()
+            .find(|q| (q.value - a).abs() < 1e-9)
+            .and_then(|q| q.result.as_ref().ok())
+            .and_then(|r| r.period)
+    };
+    assert_eq!(period_at(1.1), Some(2), "main attractor at alpha 1.1");
+    assert_eq!(period_at(1.8), Some(1));
+}
+
+#[test]
 fn exact_and_adaptive_agree_to_1e8_in_average_progression() {
     let mut scenes = vec![
         scene("control_point.toml"),

@@ -7,6 +7,7 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   cyclone_peer.py state     [--samples N]   read rt/capsule/state, check the values, print JSON
   cyclone_peer.py force     --force F       command the plant (no controller running) and check
                                             that it applies F, refuses NaN, and falls back to zero
+  cyclone_peer.py status    [--periods N]   read the controller status once N periods are done
   cyclone_peer.py set-mode  MODE GAIN       call /capsule_controller/set_mode, print the answer
 
 Only typed readers and writers are used (Cyclone's built-in DCPSSubscription reader crashed with
@@ -70,6 +71,26 @@ class ActuatorForce(IdlStruct, typename="capsule_msgs::msg::dds_::ActuatorForce_
     header: Header
     state_seq: uint64
     force: float64
+
+
+@dataclass
+@annotate.final
+class ControllerStatus(IdlStruct, typename="capsule_msgs::msg::dds_::ControllerStatus_"):
+    header: Header
+    mode: uint8
+    mode_name: str
+    gain: float64
+    drive_amplitude: float64
+    drive_frequency: float64
+    drive_amplitude_si: float64
+    drive_frequency_hz: float64
+    commanding: bool
+    commands_sent: uint64
+    periods: uint32
+    progression_per_period: float64
+    progression_per_period_m: float64
+    mean_speed: float64
+    efficiency: float64
 
 
 # rmw_cyclonedds puts a 16-byte header (client GUID half, sequence number) before the request
@@ -210,6 +231,25 @@ def cmd_force(args):
                       "stale_fallback": True}))
 
 
+def cmd_status(args):
+    """Waits for a status with at least --periods complete periods and prints it."""
+    dp = participant()
+    reader = DataReader(dp, Topic(dp, "rt/capsule_controller/status", ControllerStatus), qos=RELIABLE)
+    deadline = time.time() + args.timeout
+    last = None
+    while time.time() < deadline:
+        for st in reader.take(N=16):
+            last = st
+        if last is not None and last.periods >= args.periods:
+            print(json.dumps({k: getattr(last, k) for k in (
+                "mode", "mode_name", "gain", "drive_amplitude", "drive_frequency", "commanding",
+                "commands_sent", "periods", "progression_per_period", "progression_per_period_m",
+                "mean_speed", "efficiency")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
+            return
+        time.sleep(0.01)
+    fail(f"no status with {args.periods} periods within {args.timeout} s (last: {last})")
+
+
 def cmd_set_mode(args):
     dp = participant()
     svc = args.service.strip("/")
@@ -242,13 +282,16 @@ def main():
     a = sub.add_parser("force")
     a.add_argument("--force", type=float, default=0.123)
     a.add_argument("--stale-wait", type=float, default=1.5)
+    a = sub.add_parser("status")
+    a.add_argument("--periods", type=int, default=10)
+    a.add_argument("--timeout", type=float, default=60.0)
     a = sub.add_parser("set-mode")
     a.add_argument("mode", type=int)
     a.add_argument("gain", type=float)
     a.add_argument("--service", default="/capsule_controller/set_mode")
     a.add_argument("--timeout", type=float, default=15.0)
     args = p.parse_args()
-    {"state": cmd_state, "force": cmd_force, "set-mode": cmd_set_mode}[args.cmd](args)
+    {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode}[args.cmd](args)
 
 
 if __name__ == "__main__":

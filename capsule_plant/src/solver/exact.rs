@@ -100,10 +100,11 @@ impl Linear {
 
 /// Horner evaluation of one scalar series and its derivative.
 #[inline]
-fn horner2(g: &[f64; K + 1], t: f64) -> (f64, f64) {
-    let mut acc = g[K];
+fn horner2(g: &[f64], t: f64) -> (f64, f64) {
+    let n = g.len() - 1;
+    let mut acc = g[n];
     let mut dacc = 0.0;
-    for k in (0..K).rev() {
+    for k in (0..n).rev() {
         dacc = dacc * t + acc;
         acc = acc * t + g[k];
     }
@@ -122,6 +123,8 @@ impl Simulator {
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
         let mut lin = Linear::new(self, &self.mode, drive);
         let mut lin_mode = self.mode;
+        // the step the series allowed last time: terms are summed only as far as that needs
+        let mut h_natural = f64::INFINITY;
         while self.tau < tau_end {
             if lin_mode != self.mode {
                 lin = Linear::new(self, &self.mode, drive);
@@ -135,6 +138,10 @@ impl Simulator {
             let trig = [c, -s, -c, s];
             let mut drive_k = drive.alpha; // alpha omega^k / k!
             let mut forcing = [0.0f64; K + 1];
+            let target = (tau_end - self.tau).min(h_natural);
+            let scale = 1.0 + norm(&series[0]);
+            let mut n = K;
+            let mut target_k = 1.0;
             for k in 0..K {
                 forcing[k] = drive_k * trig[k % 4];
                 let mut d = lin.apply(&series[k]);
@@ -150,41 +157,55 @@ impl Simulator {
                     *dst = v * inv;
                 }
                 drive_k *= drive.omega * inv;
+                target_k *= target;
+                // enough terms once two in a row are below rounding over the target step
+                if k >= 8
+                    && norm(&series[k + 1]) * target_k * target < TRUNCATION * scale
+                    && norm(&series[k]) * target_k < TRUNCATION * scale
+                {
+                    n = k + 1;
+                    break;
+                }
             }
-            forcing[K] = drive_k * trig[K % 4];
-            self.work.rhs_evals += K as u64;
-            let h = step_length(&series, tau_end - self.tau);
+            forcing[n] = drive_k * trig[n % 4];
+            self.work.rhs_evals += n as u64;
+            let h = if n < K {
+                h_natural = 1.5 * target;
+                growth_limit(&series, target)
+            } else {
+                let h = step_length(&series, tau_end - self.tau);
+                h_natural = h;
+                h
+            };
+            let series = &series[..=n];
             // first event in (0, h]
             self.event_functions(drive.kp != 0.0, &mut events);
             let mut t_hit = h;
             let mut hit: Option<EventKind> = None;
             for ev in &events {
-                for (k, g) in gser.iter_mut().enumerate() {
-                    let v = &series[k];
+                for (g, v) in gser.iter_mut().zip(series) {
                     *g = ev.c[0] * v[0] + ev.c[1] * v[1] + ev.c[2] * v[2] + ev.c[3] * v[3];
                 }
                 gser[0] += ev.c0;
-                // |g(t) - g(0)| <= sum |G_k| t^k: if that cannot reach zero, no crossing
+                // |g(t) - g(0)| <= sum |G_k| t^k: if that cannot reach zero, no crossing.
+                // Terms below rounding over this step are left out of the evaluations.
                 let mut reach = 0.0;
                 let mut tk = 1.0;
-                for gk in &gser[1..] {
+                let mut degree = 0;
+                let negligible = TRUNCATION * (1.0 + gser[0].abs());
+                for (k, gk) in gser.iter().enumerate().take(n + 1).skip(1) {
                     tk *= t_hit;
-                    reach += gk.abs() * tk;
+                    let term = gk.abs() * tk;
+                    reach += term;
+                    if term > negligible {
+                        degree = k;
+                    }
                 }
                 if gser[0] + reach <= crate::roots::NOISE {
                     continue;
                 }
-                if std::env::var("DBG").is_ok() && self.zeno > 3 {
-                    eprintln!(
-                        "tau {} mode {:?} ev {:?} g {:?} h {}",
-                        self.tau,
-                        self.mode,
-                        ev.kind,
-                        &gser[..5],
-                        t_hit
-                    );
-                }
-                if let Some(t) = first_crossing(|t| horner2(&gser, t), t_hit) {
+                let g = &gser[..=degree];
+                if let Some(t) = first_crossing(|t| horner2(g, t), t_hit) {
                     if hit.is_none() || t < t_hit {
                         t_hit = t;
                         hit = Some(ev.kind);
@@ -194,14 +215,14 @@ impl Simulator {
             // state at the end of the (possibly shortened) step
             let mut v = [0.0f64; 5];
             for (i, vi) in v.iter_mut().enumerate() {
-                let mut acc = series[K][i];
-                for k in (0..K).rev() {
+                let mut acc = series[n][i];
+                for k in (0..n).rev() {
                     acc = acc * t_hit + series[k][i];
                 }
                 *vi = acc;
             }
             let dw = if self.track_work {
-                self.step_work(&series, &forcing, drive, t_hit)
+                self.step_work(series, &forcing[..=n], drive, t_hit)
             } else {
                 0.0
             };
@@ -219,30 +240,25 @@ impl Simulator {
     /// `integral_0^t f_a y1` over a step from the series of `z`, `y1` and the drive: the product
     /// of two degree-`K` series, integrated term by term (all `2K` degrees kept: the product
     /// varies twice as fast as its factors).
-    fn step_work(
-        &self,
-        series: &[[f64; 5]; K + 1],
-        forcing: &[f64; K + 1],
-        drive: &Drive,
-        t: f64,
-    ) -> f64 {
+    fn step_work(&self, series: &[[f64; 5]], forcing: &[f64], drive: &Drive, t: f64) -> f64 {
         let ks = drive.kp * self.mode.sigma;
+        let n = series.len() - 1;
         let mut fa = [0.0f64; K + 1];
         let mut y1 = [0.0f64; K + 1];
-        for k in 0..=K {
+        for k in 0..=n {
             fa[k] = forcing[k] + ks * series[k][0];
             y1[k] = series[k][1];
         }
         fa[0] += drive.bias;
         let mut prod = [0.0f64; 2 * K + 1];
-        for (j, &a) in fa.iter().enumerate() {
-            for (p, &b) in prod[j..=j + K].iter_mut().zip(&y1) {
+        for (j, &a) in fa[..=n].iter().enumerate() {
+            for (p, &b) in prod[j..=j + n].iter_mut().zip(&y1[..=n]) {
                 *p += a * b;
             }
         }
         // integral of sum prod_k t^k = sum prod_k t^(k+1) / (k+1), by Horner
         let mut acc = 0.0;
-        for k in (0..=2 * K).rev() {
+        for k in (0..=2 * n).rev() {
             acc = acc * t + prod[k] / (k + 1) as f64;
         }
         acc * t
@@ -252,7 +268,6 @@ impl Simulator {
 /// The longest step (at most `max`) over which the series is accurate to rounding: its last two
 /// terms below [`TRUNCATION`] and no term above [`GROWTH`] times the state.
 fn step_length(series: &[[f64; 5]; K + 1], max: f64) -> f64 {
-    let norm = |v: &[f64; 5]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let scale = 1.0 + norm(&series[0]);
     let mut h = max;
     for k in [K - 1, K] {
@@ -261,11 +276,23 @@ fn step_length(series: &[[f64; 5]; K + 1], max: f64) -> f64 {
             h = h.min((TRUNCATION * scale / c).powf(1.0 / k as f64));
         }
     }
+    growth_limit(series, h)
+}
+
+/// `max`, shortened so that no term exceeds [`GROWTH`] times the state.
+fn growth_limit(series: &[[f64; 5]; K + 1], max: f64) -> f64 {
+    let scale = 1.0 + norm(&series[0]);
+    let mut h = max;
     for k in [2, 4, 8] {
         let c = norm(&series[k]);
-        if c > 0.0 {
+        if c * h.powi(k as i32) > GROWTH * scale {
             h = h.min((GROWTH * scale / c).powf(1.0 / k as f64));
         }
     }
     h
+}
+
+#[inline]
+fn norm(v: &[f64; 5]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }

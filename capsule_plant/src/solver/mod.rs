@@ -14,6 +14,7 @@
 //! at events; [`Simulator`] applies the same switching rules whichever method found the event.
 
 mod exact;
+mod friction;
 mod history;
 mod rk;
 
@@ -95,6 +96,13 @@ pub enum SimError {
     /// The state became non-finite.
     #[error("the state became non-finite at tau = {tau}")]
     NonFinite {
+        /// When.
+        tau: f64,
+    },
+    /// The motion runs away: the relative displacement or a velocity passed [`RUNAWAY`]. With
+    /// `|k_p| > 1` the feedback turns the spring's stiffness negative on one side of the kink.
+    #[error("the motion diverges at tau = {tau} (|x1 - x2| or a velocity above {RUNAWAY:e}; with |k_p| > 1 the effective stiffness 1 - |k_p| is negative)")]
+    Diverged {
         /// When.
         tau: f64,
     },
@@ -201,6 +209,9 @@ pub struct Snapshot {
     pub actuator_force: f64,
 }
 
+/// Bound on `|x1 - x2|` and the velocities beyond which a run counts as diverging.
+pub const RUNAWAY: f64 = 1e8;
+
 /// Compensated (Kahan) sum, for quantities that grow over long runs (capsule position, work).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Sum {
@@ -257,6 +268,7 @@ pub struct Simulator {
     history: Option<history::History>,
     rk_step: f64,
     zeno: u32,
+    last_force: f64,
 }
 
 impl Simulator {
@@ -326,6 +338,7 @@ impl Simulator {
             history,
             rk_step: 0.0,
             zeno: 0,
+            last_force: 0.0,
         })
     }
 
@@ -375,8 +388,9 @@ impl Simulator {
         self.actuator_work.value()
     }
 
-    /// What the plant shows at this instant under the actuator law `law`.
-    pub fn snapshot(&self, law: &impl ActuatorLaw) -> Snapshot {
+    /// What the plant shows at this instant; the actuator force is the one applied at the end
+    /// of the last [`Simulator::advance`] (zero before the first).
+    pub fn snapshot(&self) -> Snapshot {
         let [z, y1, y2, p] = self.core;
         let state = self.state();
         let m = &self.model;
@@ -387,7 +401,8 @@ impl Simulator {
                 None => f, // static friction balances the force on the capsule
             },
             Phase::Slip(d) => {
-                let y2d = self.history.as_ref().map_or(0.0, |h| h.delayed(self.tau));
+                // without frictional memory the Stribeck term follows the current velocity
+                let y2d = self.history.as_ref().map_or(y2, |h| h.delayed(self.tau));
                 m.friction.sliding(d, y2, y2d)
             }
         };
@@ -398,7 +413,7 @@ impl Simulator {
             contact: self.mode.contact,
             friction_force,
             contact_force: m.contact_force(z),
-            actuator_force: law.force(self.tau, &state),
+            actuator_force: self.last_force,
         }
     }
 
@@ -417,7 +432,7 @@ impl Simulator {
         if !tau_end.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau });
         }
-        match self.config.method {
+        let result = match self.config.method {
             Method::Exact => match law.shape() {
                 LawShape::PiecewiseAffine {
                     alpha,
@@ -435,9 +450,15 @@ impl Simulator {
                 }
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
-            Method::Adaptive => self.advance_adaptive(law, tau_end, on_event),
-            Method::Fixed => self.advance_fixed(law, tau_end, on_event),
-        }
+            Method::Adaptive => friction::with_friction!(self.model.friction, f => {
+                self.advance_adaptive(law, f, tau_end, on_event)
+            }),
+            Method::Fixed => friction::with_friction!(self.model.friction, f => {
+                self.advance_fixed(law, f, tau_end, on_event)
+            }),
+        };
+        self.last_force = law.force(self.tau, &self.state());
+        result
     }
 
     /// The event functions of the current mode; `kink` adds the feedback's `x1 = x2`.
@@ -505,6 +526,9 @@ impl Simulator {
     fn commit(&mut self, dt: f64, core: Core, dx2: f64, dw: f64) -> Result<(), SimError> {
         if !core.iter().all(|v| v.is_finite()) || !dx2.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau + dt });
+        }
+        if core[..3].iter().any(|v| v.abs() > RUNAWAY) {
+            return Err(SimError::Diverged { tau: self.tau + dt });
         }
         if dt > 1e-12 * (1.0 + self.tau.abs()) {
             self.zeno = 0;

