@@ -3,6 +3,7 @@
 
 mod bench;
 mod record;
+mod replay;
 mod scene_args;
 mod simulate;
 mod svg;
@@ -31,6 +32,8 @@ enum Command {
     Bench(bench::Args),
     /// Look into a recorded run (info) or complete a cut one (recover).
     Record(record::Args),
+    /// Publish a recording back onto ROS 2 at its pace, or check the controller against it.
+    Replay(replay::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -46,6 +49,7 @@ fn main() -> std::process::ExitCode {
         Command::Sweep(a) => sweep::main(a),
         Command::Bench(a) => bench::main(a),
         Command::Record(a) => record::main(a),
+        Command::Replay(a) => replay::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -4,8 +4,8 @@
 //!
 //! Bytes: ros2-client hands over deserialised messages, so the recorder serialises them again
 //! with the codec RustDDS uses (`cdr-encoding`, little endian, XCDR1 plain structs): for these
-//! fixed-layout types the bytes equal the wire bytes. Log time is the wall clock at receipt
-//! (as rosbag2 without `use_sim_time`); publish time is the sample's DDS source timestamp.
+//! fixed-layout types the bytes equal the wire bytes. Log time is DDS's reception time (wall
+//! clock, as rosbag2 without `use_sim_time`); publish time is the sample's source timestamp.
 //!
 //! No sample is lost to the recorder's own start: it subscribes to the state last, once the
 //! controller's force publisher has matched, and the launcher makes the plant wait for it
@@ -130,7 +130,12 @@ struct Sink {
 
 impl Sink {
     fn write<T: Serialize>(&mut self, k: usize, msg: &T, info: &MessageInfo) -> Result<()> {
-        let log = capsule_record::writer::now_ns();
+        // log time = when DDS received the sample (not when this loop got to it: the loop
+        // serves several readers, and must not reorder topics by its own scheduling)
+        let log = info
+            .received_timestamp()
+            .map(|t| t.to_nanos().max(0) as u64)
+            .unwrap_or_else(capsule_record::writer::now_ns);
         let publish = info
             .source_timestamp()
             .map(|t| t.to_nanos().max(0) as u64)

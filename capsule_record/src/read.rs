@@ -568,7 +568,7 @@ pub struct Message {
     pub data: Vec<u8>,
 }
 
-/// Every message of a complete recording in file (log-time) order, with the checks of
+/// Every message of a complete recording in log-time order (stable: file order on ties), with the checks of
 /// [`info`]: missing, non-MCAP, cut and foreign-schema files are errors.
 pub fn messages(path: &Path) -> Result<Vec<Message>, RecordError> {
     let (_, _) = open_checked(path)?;
@@ -586,8 +586,11 @@ pub fn messages(path: &Path) -> Result<Vec<Message>, RecordError> {
         let type_name = schema.map(|s| s.name.clone()).unwrap_or_default();
         topics.insert(*id, (ch.topic.clone(), type_name));
     }
-    let mut out = Vec::with_capacity(scan.messages.len());
-    for m in scan.messages {
+    let mut messages = scan.messages;
+    // log-time order (a recorder serving several readers may write a little out of order)
+    messages.sort_by_key(|m| m.header.log_time);
+    let mut out = Vec::with_capacity(messages.len());
+    for m in messages {
         let Some((topic, type_name)) = topics.get(&m.header.channel_id) else {
             return Err(corrupt(
                 path,
