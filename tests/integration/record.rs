@@ -310,12 +310,17 @@ fn bad_files_are_clear_errors_and_never_crash() {
         (&foreign, "is not ros2msg"),
     ] {
         let f = file.display().to_string();
-        let args = ["record", "info", f.as_str()];
-        let out = capsule(&args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-        assert!(err.contains(want) && err.contains(&f), "{args:?}: {err}");
-        assert!(!err.contains("panicked"), "{err}");
+        for args in [
+            vec!["record", "info", f.as_str()],
+            vec!["replay", "--check-controller", f.as_str()],
+            vec!["replay", f.as_str()],
+        ] {
+            let out = capsule(&args);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+            assert!(err.contains(want) && err.contains(&f), "{args:?}: {err}");
+            assert!(!err.contains("panicked"), "{err}");
+        }
     }
     for file in [&missing, &text] {
         let out = capsule(&["record", "recover", &file.display().to_string()]);
