@@ -7,6 +7,8 @@
 //! drift. The interface texts are embedded ([`CapsuleState::MSG_TEXT`], ...) so that
 //! recorders can write `ros2msg` schemas.
 
+#![warn(missing_docs)]
+
 use serde::{Deserialize, Serialize};
 
 pub mod interface;

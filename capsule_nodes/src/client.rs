@@ -148,7 +148,7 @@ pub fn state_subscription(
             &qos::data(),
         )
         .context("state topic")?;
-    node.create_subscription::<CapsuleState>(&topic, None)
+    node.create_subscription::<CapsuleState>(&topic, Some(qos::data_reader()))
         .context("state subscription")
 }
 

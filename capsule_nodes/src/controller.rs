@@ -268,7 +268,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
         )
         .context("status topic")?;
     let state_sub = node
-        .create_subscription::<CapsuleState>(&state_topic, None)
+        .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
         .context("state subscription")?;
     let force_pub = node
         .create_publisher::<ActuatorForce>(&force_topic, None)

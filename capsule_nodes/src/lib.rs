@@ -7,6 +7,8 @@
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
 //! - [`sim`]: [`plant::PlantSim`] for the exact simulator of `capsule_plant`
 
+#![warn(missing_docs)]
+
 pub mod client;
 pub mod controller;
 pub mod plant;

@@ -454,7 +454,7 @@ pub async fn run<S: PlantSim>(
         .create_publisher::<Clock>(&clock_topic, None)
         .context("clock publisher")?;
     let force_sub = node
-        .create_subscription::<ActuatorForce>(&force_topic, None)
+        .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
         .context("force subscription")?;
     info!(
         "{}: {:?} at {} Hz, state {} <- force {}, clock {}",

@@ -18,9 +18,12 @@ pub const BOUNDARY: f64 = 1e-10;
 pub const NOISE: f64 = 1e-13;
 
 /// First `t` in `(0, h]` where `g` crosses from `<= 0` to `> 0`, or `Some(0.0)` if `g` leaves the
-/// valid side immediately. `gd` gives the value and the derivative.
-pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
-    let g = |t: f64| gd(t).0;
+/// valid side immediately. `g` gives the value, `gd` the value and the derivative.
+pub fn first_crossing(
+    g: impl Fn(f64) -> f64,
+    gd: impl Fn(f64) -> (f64, f64),
+    h: f64,
+) -> Option<f64> {
     let (g0_raw, d0) = gd(0.0);
     if g0_raw > BOUNDARY {
         return Some(0.0);
@@ -29,10 +32,7 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
     // On the boundary, measure from the start value so rounding there is not a crossing.
     let shift = if on_boundary { g0_raw } else { 0.0 };
     let f = |t: f64| g(t) - shift;
-    let fd = |t: f64| {
-        let (v, d) = gd(t);
-        (v - shift, d)
-    };
+
     let mut t_prev = 0.0;
     let mut g_prev = 0.0f64.min(f(0.0));
     let mut d_prev = d0;
@@ -47,7 +47,7 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
                 if d_prev < 0.0 && dt > 0.0 {
                     let tm = turning_point(&gd, 0.0, d_prev, t, dt);
                     if f(tm) < 0.0 {
-                        return Some(refine(&fd, tm, t));
+                        return Some(refine(&f, tm, t));
                     }
                 }
                 // The derivative at 0 may be rounding noise: look for a dip on a geometric grid;
@@ -64,17 +64,17 @@ pub fn first_crossing(gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
                     }
                 }
                 return Some(match last_below {
-                    Some(a) => refine(&fd, a, t),
+                    Some(a) => refine(&f, a, t),
                     None => 0.0,
                 });
             }
-            return Some(refine(&fd, t_prev, t));
+            return Some(refine(&f, t_prev, t));
         }
         // a maximum hidden between two non-positive samples?
         if d_prev > 0.0 && dt < 0.0 {
             let tm = turning_point(&gd, t_prev, d_prev, t, dt);
             if f(tm) > NOISE {
-                return Some(refine(&fd, t_prev, tm));
+                return Some(refine(&f, t_prev, tm));
             }
         }
         t_prev = t;
@@ -130,9 +130,7 @@ fn turning_point(
 
 /// Root of `f` in `[a, b]` with `f(a) <= 0 < f(b)` (Illinois false position), returning the
 /// right end of the final bracket so that `f` at the result is `>= 0` (the event has happened).
-/// `fd` gives value and derivative; only the value is used.
-fn refine(fd: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64) -> f64 {
-    let f = |t: f64| fd(t).0;
+fn refine(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     let mut fa = f(a);
     let mut fb = f(b);
     if fa > 0.0 {
@@ -176,7 +174,7 @@ mod tests {
 
     #[test]
     fn finds_a_simple_crossing() {
-        let t = first_crossing(|t| (t - 0.3, 1.0), 1.0).unwrap_or(f64::NAN);
+        let t = first_crossing(|t| t - 0.3, |t| (t - 0.3, 1.0), 1.0).unwrap_or(f64::NAN);
         assert!((t - 0.3).abs() < 1e-14, "{t}");
     }
 
@@ -185,19 +183,25 @@ mod tests {
         // g peaks at t = 0.51 just above zero; both ends and all samples are negative
         let g = |t: f64| 1e-6 - 50.0 * (t - 0.51) * (t - 0.51);
         let dg = |t: f64| -100.0 * (t - 0.51);
-        let t = first_crossing(|t| (g(t), dg(t)), 1.0).unwrap_or(f64::NAN);
+        let t = first_crossing(g, |t| (g(t), dg(t)), 1.0).unwrap_or(f64::NAN);
         let expected = 0.51 - (1e-6f64 / 50.0).sqrt();
         assert!((t - expected).abs() < 1e-12, "{t} vs {expected}");
     }
 
     #[test]
     fn no_crossing_when_function_stays_below() {
-        assert_eq!(first_crossing(|t| (-1.0 - t * t, -2.0 * t), 2.0), None);
+        assert_eq!(
+            first_crossing(|t| -1.0 - t * t, |t| (-1.0 - t * t, -2.0 * t), 2.0),
+            None
+        );
     }
 
     #[test]
     fn starting_on_the_boundary_and_moving_in_is_not_an_event() {
-        assert_eq!(first_crossing(|t| (1e-13 - t, -1.0), 1.0), None);
+        assert_eq!(
+            first_crossing(|t| 1e-13 - t, |t| (1e-13 - t, -1.0), 1.0),
+            None
+        );
         // ... nor is a derivative of rounding size pointing out while the curve bends in
         let g = |t: f64| {
             (
@@ -205,10 +209,11 @@ mod tests {
                 5e-17 - 17.4e-3 * t + 0.0894 * t * t,
             )
         };
-        let t = first_crossing(g, 1.6).unwrap_or(f64::NAN);
+        let t = first_crossing(|t| g(t).0, g, 1.6).unwrap_or(f64::NAN);
         assert!((t - 8.7e-3 / 0.0298).abs() < 1e-6, "{t}");
         // ... but moving in then out again is
-        let t = first_crossing(|t| (t * (t - 0.5), 2.0 * t - 0.5), 1.0).unwrap_or(f64::NAN);
+        let t = first_crossing(|t| t * (t - 0.5), |t| (t * (t - 0.5), 2.0 * t - 0.5), 1.0)
+            .unwrap_or(f64::NAN);
         assert!((t - 0.5).abs() < 1e-12, "{t}");
     }
 }

@@ -187,3 +187,33 @@ fn exact_and_adaptive_agree_to_1e8_in_average_progression() {
         );
     }
 }
+
+#[test]
+fn fig2c_2d_fastest_motion_is_a_period_three_orbit_with_five_impacts() {
+    // sec. 3.3: best progression by a period-3 motion with five impacts per period-3, at alpha
+    // 1.762 (Stribeck) and 1.882 (seven-parameter); here at 1.76 and 1.86
+    for (file, alpha, neighbours) in [
+        ("fig02c_stribeck.toml", 1.76, [1.5, 1.6, 1.95]),
+        ("fig02d_seven_parameter.toml", 1.86, [1.5, 1.7, 1.98]),
+    ] {
+        let mut s = scene(file);
+        s.drive.alpha = alpha;
+        s.horizon.periods = 299; // 99 measured periods: whole period-3 cycles
+        let best = go(&s);
+        assert_eq!(best.period, Some(3), "{file}");
+        assert!(
+            (best.impacts_per_period * 3.0 - 5.0).abs() < 1e-9,
+            "{file}: {}",
+            best.impacts_per_period
+        );
+        for a in neighbours {
+            s.drive.alpha = a;
+            let other = go(&s).avg_progression;
+            assert!(
+                other < best.avg_progression,
+                "{file}: alpha {a} moves {other} >= {}",
+                best.avg_progression
+            );
+        }
+    }
+}

@@ -205,6 +205,17 @@ async fn run(cli: Cli) -> Result<()> {
                 );
             }
             println!("sim time {t:.3} s in {wall:.2} s wall");
+            let results = meter.results();
+            let get = |m: &str| results.iter().find(|r| r.mode == m).map(|r| r.per_period);
+            if let (Some(f), Some(b), Some(o)) = (get("FORWARD"), get("BACKWARD"), get("OFF")) {
+                let yes = |ok: bool| if ok { "yes" } else { "NO" };
+                println!(
+                    "forward > 0: {}, backward < 0: {}, off near 0 (under 5 % of forward): {}",
+                    yes(f > 0.0),
+                    yes(b < 0.0),
+                    yes(o.abs() < 0.05 * f.abs())
+                );
+            }
             Ok(())
         }
     }

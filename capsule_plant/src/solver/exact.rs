@@ -98,6 +98,12 @@ impl Linear {
     }
 }
 
+/// Horner evaluation of one scalar series.
+#[inline]
+fn horner(g: &[f64], t: f64) -> f64 {
+    g.iter().rev().fold(0.0, |acc, &c| acc * t + c)
+}
+
 /// Horner evaluation of one scalar series and its derivative.
 #[inline]
 fn horner2(g: &[f64], t: f64) -> (f64, f64) {
@@ -205,7 +211,7 @@ impl Simulator {
                     continue;
                 }
                 let g = &gser[..=degree];
-                if let Some(t) = first_crossing(|t| horner2(g, t), t_hit) {
+                if let Some(t) = first_crossing(|t| horner(g, t), |t| horner2(g, t), t_hit) {
                     if hit.is_none() || t < t_hit {
                         t_hit = t;
                         hit = Some(ev.kind);

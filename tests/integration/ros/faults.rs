@@ -171,3 +171,41 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
     let stops = run.stderr.matches("SIGTERM: shutting down").count();
     assert_eq!(stops, 2, "{}", run.all());
 }
+
+#[test]
+fn namespaces_remaps_and_help_work_end_to_end() {
+    let run = netns(
+        90,
+        r#"
+        for b in capsule_plant capsule_controller capsule_ros; do $B/$b --help > /dev/null || exit 1; done
+        echo "help ok"
+        NS="--namespace robot1 -r capsule/state:=/robot1/sim_state"
+        $B/capsule_controller --scene "$SCENE" --mode forward $NS &
+        C=$!
+        $B/capsule_ros set-mode backward --service /robot1/capsule_controller/set_mode || exit 1
+        $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 0.5 --wait-subscribers 1 \
+            --summary-json $TMP/ns.json $NS || exit 1
+        kill -TERM $C; wait $C
+        echo "SUMMARY $(cat $TMP/ns.json)""#,
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    assert!(run.stdout.contains("help ok"), "{}", run.all());
+    assert!(
+        run.stdout.contains("accepted=true mode=BACKWARD"),
+        "{}",
+        run.all()
+    );
+    assert!(
+        run.stderr
+            .contains("state /robot1/sim_state <- force /robot1/capsule/actuator_force"),
+        "{}",
+        run.all()
+    );
+    let json = run
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("SUMMARY"))
+        .unwrap_or_else(|| panic!("{}", run.all()));
+    assert_eq!(json_number(json, "samples"), Some(501.0), "{json}");
+    assert_eq!(json_number(json, "unanswered"), Some(0.0), "{json}");
+}

@@ -126,11 +126,13 @@ fn cyclone_peer_reads_the_controller_status() {
     // forward motion from rest: positive progression (the steady state is ~3.08 per period)
     assert!(prog > 1.0 && prog < 4.0, "{st}");
     assert!(eff > 0.0 && eff.is_finite(), "{st}");
-    // use_sim_time: the status is stamped with /clock (sim time, seq / 1 kHz), not wall time
+    // use_sim_time: the status is stamped with /clock (sim time, about seq / 1 kHz after 30
+    // periods = 2.7 s), not wall time (~1.7e9 s) nor zero (no clock); the node's clock may lag a
+    // little behind the samples under load
     let stamp = json_number(st, "stamp_s").unwrap_or(f64::NAN);
     let sent = json_number(st, "commands_sent").unwrap_or(f64::NAN);
     assert!(
-        (stamp - (sent - 1.0) / 1000.0).abs() < 0.05,
+        stamp > 2.0 && (stamp - (sent - 1.0) / 1000.0).abs() < 0.5,
         "stamp {stamp} vs {sent} commands: {st}"
     );
 }
