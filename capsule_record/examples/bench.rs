@@ -7,7 +7,10 @@
 //!
 //!     cargo run --release -p capsule_record --example bench -- [DIR] [SIZE_MIB]
 
-use std::{path::PathBuf, time::Instant};
+use std::{
+    path::{Path, PathBuf},
+    time::Instant,
+};
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
 use capsule_record::{
@@ -27,7 +30,7 @@ fn cpu_s() -> f64 {
 }
 
 fn write(
-    path: &PathBuf,
+    path: &Path,
     rate_hz: u64,
     seconds: u64,
     stop_at_bytes: Option<u64>,

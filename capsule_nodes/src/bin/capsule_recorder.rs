@@ -27,6 +27,9 @@ struct Cli {
     /// Close the open chunk at least this often [ms] (bounds what a SIGKILL loses)
     #[arg(long, default_value_t = 250)]
     flush_ms: u64,
+    /// Drain the DDS readers this often [ms]
+    #[arg(long, default_value_t = 2)]
+    poll_ms: u64,
     /// Seconds to wait for the controller's publishers before subscribing to the state
     #[arg(long, default_value_t = 10.0)]
     wait_publishers_s: f64,
@@ -49,8 +52,8 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
         .as_deref()
         .map(recorder::scene_record)
         .transpose()?;
-    if cli.flush_ms == 0 {
-        bail!("--flush-ms must be > 0");
+    if cli.flush_ms == 0 || cli.poll_ms == 0 {
+        bail!("--flush-ms and --poll-ms must be > 0");
     }
     for (v, name) in [
         (cli.wait_publishers_s, "--wait-publishers-s"),
@@ -83,6 +86,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
             output,
             scene,
             flush_period: Duration::from_millis(cli.flush_ms),
+            poll_period: Duration::from_millis(cli.poll_ms),
             wait_publishers: Duration::from_secs_f64(cli.wait_publishers_s),
             controller_node: cli.controller_node.clone(),
             idle_stop: (cli.idle_stop_s > 0.0).then(|| Duration::from_secs_f64(cli.idle_stop_s)),
