@@ -52,12 +52,13 @@ done
 "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
 pl=(--scene "$scene" --pacing "$pacing")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
-# --- recording (issue 4): the plant also waits for the recorder, in every pacing
+# --- recording (issue 4): the plant also waits for the recorder (so it records sample 0)
 if [ "$record" = 1 ]; then
   [ -x "$bin/capsule_recorder" ] || { echo "capsule_launch: $bin/capsule_recorder not built (cargo build --workspace)" >&2; exit 2; }
   rec=("$bin/capsule_recorder" --scene "$scene" --record-dir "$record_dir" ${rec_args[@]+"${rec_args[@]}"})
   "${rec[@]}" --check || exit 2
-  pl+=(--wait-subscribers "$(( 2 + ${#withs[@]} ))")
+  # lock-step waits for the extras as before; real time only for controller + recorder
+  if [ "$pacing" = lockstep ]; then pl+=(--wait-subscribers "$(( 2 + ${#withs[@]} ))"); else pl+=(--wait-subscribers 2); fi
 else
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
 fi
