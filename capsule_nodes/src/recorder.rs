@@ -277,7 +277,20 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         loop {
             tokio::select! {
                 sig = &mut shutdown => {
-                    drain(&mut sink)?;
+                    // samples still in flight when the graph stops (the plant's last one):
+                    // keep draining until the readers stay empty for 100 ms (at most 0.5 s)
+                    let until = tokio::time::Instant::now() + Duration::from_millis(500);
+                    let mut quiet = tokio::time::Instant::now();
+                    loop {
+                        if drain(&mut sink)? > 0 {
+                            quiet = tokio::time::Instant::now();
+                        }
+                        let now = tokio::time::Instant::now();
+                        if now >= until || now - quiet >= Duration::from_millis(100) {
+                            break;
+                        }
+                        tokio::time::sleep(Duration::from_millis(5)).await;
+                    }
                     info!("{}: finishing {}", sig?, opts.output.display());
                     return Ok(());
                 }
