@@ -2,6 +2,8 @@
 //! and benchmark the integrators.
 
 mod bench;
+mod record;
+mod replay;
 mod scene_args;
 mod simulate;
 mod svg;
@@ -28,6 +30,10 @@ enum Command {
     Sweep(sweep::Args),
     /// Time the integrators on the paper's scenes and print the figures.
     Bench(bench::Args),
+    /// Look into a recorded run (info) or complete a cut one (recover).
+    Record(record::Args),
+    /// Publish a recording back onto ROS 2 at its pace, or check the controller against it.
+    Replay(replay::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -48,6 +54,8 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => simulate::main(a),
         Command::Sweep(a) => sweep::main(a),
         Command::Bench(a) => bench::main(a),
+        Command::Record(a) => record::main(a),
+        Command::Replay(a) => replay::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

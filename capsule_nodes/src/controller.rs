@@ -276,6 +276,18 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let status_pub = node
         .create_publisher::<ControllerStatus>(&status_topic, None)
         .context("status publisher")?;
+    // --- recording (issue 4): set_mode service events, as ROS 2 service introspection does
+    let event_topic = node
+        .create_topic(
+            &settings.ros_name(&crate::recorder::service_event_topic("~"))?,
+            crate::recorder::service_event_type(),
+            &qos::service(),
+        )
+        .context("service-event topic")?;
+    let event_pub = node
+        .create_publisher::<capsule_record::types::SetModeEvent>(&event_topic, None)
+        .context("service-event publisher")?;
+    // --- end recording
     let server = node
         .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
             settings.mapping.into(),
@@ -329,12 +341,37 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
             },
             req = requests.select_next_some() => match req {
                 Ok((id, Wire(req))) => {
+                    // --- recording (issue 4): the request as a service event
+                    let event = |kind, req: Vec<SetModeRequest>, resp: Vec<SetModeResponse>| {
+                        capsule_record::types::SetModeEvent {
+                            info: capsule_record::types::ServiceEventInfo {
+                                event_type: kind,
+                                stamp: stamp_now(&node),
+                                client_gid: id.writer_gid.to_bytes16(),
+                                sequence_number: id.sequence_number,
+                            },
+                            request: req,
+                            response: resp,
+                        }
+                    };
+                    use capsule_record::types::ServiceEventInfo as Ev;
+                    let ev = event(Ev::REQUEST_RECEIVED, vec![req.clone()], vec![]);
+                    if let Err(e) = event_pub.async_publish(ev).await {
+                        warn!("service event not sent: {e:?}");
+                    }
+                    // --- end recording
                     let resp = core.set_mode(&req);
                     if resp.accepted {
                         info!("set_mode accepted: {}", resp.reason);
                     } else {
                         warn!("set_mode refused (mode {} gain {}): {}", req.mode, req.gain, resp.reason);
                     }
+                    // --- recording (issue 4): the response as a service event
+                    let ev = event(Ev::RESPONSE_SENT, vec![], vec![resp.clone()]);
+                    if let Err(e) = event_pub.async_publish(ev).await {
+                        warn!("service event not sent: {e:?}");
+                    }
+                    // --- end recording
                     if let Err(e) = server.async_send_response(id, Wire(resp)).await {
                         warn!("set_mode response not sent: {e:?}");
                     }

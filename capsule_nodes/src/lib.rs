@@ -12,6 +12,7 @@
 pub mod client;
 pub mod controller;
 pub mod plant;
+pub mod recorder;
 pub mod ros;
 pub mod scale;
 pub mod sim;

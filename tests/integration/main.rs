@@ -3,6 +3,7 @@
 mod cli;
 mod hard_cases;
 mod paper;
+mod record;
 mod ros;
 mod scenes;
 mod solver;

@@ -1,0 +1,261 @@
+//! `capsule record info|recover`: look into a recording (like `ros2 bag info`, from the
+//! summary, no scan) and complete a recording whose writer was killed.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use capsule_record::{read::InfoSource, RecordingInfo};
+use clap::{Args as ClapArgs, Subcommand};
+
+/// `capsule record ...`
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Duration, start/end, topics with type, count and rate, mode changes, scene.
+    Info {
+        /// The recording (.mcap)
+        file: PathBuf,
+        /// Print the scene file that was run as well
+        #[arg(long)]
+        scene: bool,
+    },
+    /// Rebuild a complete file (summary, footer, ros2 profile) from a cut one.
+    Recover {
+        /// The cut recording (.mcap)
+        file: PathBuf,
+        /// Write here instead of replacing FILE
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+}
+
+/// Runs `capsule record`.
+pub fn main(args: Args) -> Result<()> {
+    match args.command {
+        Command::Info { file, scene } => {
+            let info = capsule_record::info(&file)?;
+            print!("{}", format_info(&info));
+            if scene {
+                match &info.scene_toml {
+                    Some(t) => print!("\n# scene.toml\n{t}"),
+                    None => println!("\n(no scene attached)"),
+                }
+            }
+            Ok(())
+        }
+        Command::Recover { file, output } => recover(&file, output.as_deref()),
+    }
+}
+
+fn recover(file: &Path, output: Option<&Path>) -> Result<()> {
+    let in_place = output.is_none();
+    let target = match output {
+        Some(o) => o.to_path_buf(),
+        None => {
+            let mut name = file
+                .file_name()
+                .context("FILE has no file name")?
+                .to_os_string();
+            name.push(".recovering");
+            file.with_file_name(name)
+        }
+    };
+    if in_place {
+        // a leftover from an interrupted recovery
+        let _ = std::fs::remove_file(&target);
+    }
+    let r = capsule_record::recover(file, &target).inspect_err(|_| {
+        if in_place {
+            let _ = std::fs::remove_file(&target);
+        }
+    })?;
+    let out = if in_place {
+        std::fs::rename(&target, file)
+            .with_context(|| format!("replacing {} with {}", file.display(), target.display()))?;
+        file.to_path_buf()
+    } else {
+        target
+    };
+    if r.was_complete {
+        println!(
+            "{}: the file was already complete; rewrote it",
+            file.display()
+        );
+    }
+    let span = r
+        .bounds
+        .map(|(a, b)| format!(" spanning {:.3} s", (b - a) as f64 * 1e-9))
+        .unwrap_or_default();
+    println!(
+        "recovered {} messages{span} into {}",
+        r.messages,
+        out.display()
+    );
+    for (topic, n) in &r.per_topic {
+        println!("  {topic}: {n}");
+    }
+    if let Some(cut) = &r.cut {
+        println!("dropped the cut tail (the open chunk): {cut}");
+    }
+    Ok(())
+}
+
+fn human_size(bytes: u64) -> String {
+    let b = bytes as f64;
+    if b >= 1024.0 * 1024.0 * 1024.0 {
+        format!("{:.2} GiB", b / (1024.0 * 1024.0 * 1024.0))
+    } else if b >= 1024.0 * 1024.0 {
+        format!("{:.2} MiB", b / (1024.0 * 1024.0))
+    } else if b >= 1024.0 {
+        format!("{:.2} KiB", b / 1024.0)
+    } else {
+        format!("{bytes} B")
+    }
+}
+
+/// `YYYY-MM-DD HH:MM:SS.nnnnnnnnn UTC` of nanoseconds since the epoch.
+pub fn utc(ns: u64) -> String {
+    let secs = ns / 1_000_000_000;
+    let nanos = ns % 1_000_000_000;
+    let days = (secs / 86_400) as i64;
+    let tod = secs % 86_400;
+    // civil-from-days (H. Hinnant's algorithm)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02}.{nanos:09} UTC ({secs}.{nanos:09})",
+        tod / 3600,
+        tod / 60 % 60,
+        tod % 60
+    )
+}
+
+/// The `capsule record info` text.
+pub fn format_info(i: &RecordingInfo) -> String {
+    let mut s = String::new();
+    let dur = i.duration_ns() as f64 * 1e-9;
+    s += &format!("File:              {}\n", i.path.display());
+    s += &format!("Size:              {}\n", human_size(i.size));
+    s += &format!(
+        "Storage:           mcap (profile {}, written by {})\n",
+        i.profile, i.library
+    );
+    s += &format!(
+        "Read from:         {}\n",
+        match i.source {
+            InfoSource::Summary => "summary",
+            InfoSource::Scan => "full scan (the file has no summary)",
+        }
+    );
+    s += &format!(
+        "Scene:             {}\n",
+        i.scene_name.as_deref().unwrap_or("(not recorded)")
+    );
+    s += &format!("Duration:          {dur:.9} s\n");
+    s += &format!("Start:             {}\n", utc(i.bounds.0));
+    s += &format!("End:               {}\n", utc(i.bounds.1));
+    s += &format!("Messages:          {}\n", i.messages);
+    s += &format!("Chunks:            {}\n", i.chunks);
+    let width = i.topics.iter().map(|t| t.topic.len()).max().unwrap_or(0);
+    for (k, t) in i.topics.iter().enumerate() {
+        let rate = if dur > 0.0 && t.count > 1 {
+            format!("{:.1} Hz", t.count as f64 / dur)
+        } else {
+            "-".to_string()
+        };
+        s += &format!(
+            "{}{:width$} | {} | count {} | rate {}\n",
+            if k == 0 {
+                "Topics:            "
+            } else {
+                "                   "
+            },
+            t.topic,
+            t.type_name,
+            t.count,
+            rate,
+        );
+    }
+    if i.topics.is_empty() {
+        s += "Topics:            (none)\n";
+    }
+    // one line per call: the request paired with its response by sequence number
+    let mut first = true;
+    let call = |m: &capsule_record::read::ModeChange| {
+        (m.event.info.client_gid, m.event.info.sequence_number)
+    };
+    let answered: Vec<_> = i
+        .mode_changes
+        .iter()
+        .filter(|m| m.response().is_some())
+        .map(call)
+        .collect();
+    for m in &i.mode_changes {
+        let seq = call(m);
+        let request = m.request().or_else(|| {
+            i.mode_changes
+                .iter()
+                .filter(|o| call(o) == seq)
+                .find_map(|o| o.request())
+        });
+        let asked = |q: &capsule_msgs::SetModeRequest| {
+            format!(
+                "{} (gain {})",
+                capsule_msgs::mode_name(q.mode).unwrap_or("?"),
+                q.gain
+            )
+        };
+        let what = match (request, m.response()) {
+            (q, Some(r)) => format!(
+                "set_mode {}: {} -> {} k_p {}: {}",
+                q.map(asked).unwrap_or_else(|| "?".into()),
+                if r.accepted { "accepted" } else { "refused" },
+                capsule_msgs::mode_name(r.mode).unwrap_or("?"),
+                r.gain,
+                r.reason
+            ),
+            // the request line is shown with its answer
+            (Some(_), None) if answered.contains(&seq) => continue,
+            (Some(q), None) => format!("set_mode {}: no answer recorded", asked(q)),
+            (None, None) => format!("service event {}", m.event.info.event_type),
+        };
+        let at = m.log_time.saturating_sub(i.bounds.0) as f64 * 1e-9;
+        s += &format!(
+            "{}+{at:.6} s  {what}\n",
+            if first {
+                "Mode changes:      "
+            } else {
+                "                   "
+            }
+        );
+        first = false;
+    }
+    if first {
+        s += "Mode changes:      (none)\n";
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::utc;
+
+    #[test]
+    fn utc_formats_known_instants() {
+        assert!(utc(0).starts_with("1970-01-01 00:00:00.000000000"));
+        // 2024-02-29 12:34:56.5 UTC
+        assert!(utc(1_709_210_096_500_000_000).starts_with("2024-02-29 12:34:56.500000000"));
+    }
+}

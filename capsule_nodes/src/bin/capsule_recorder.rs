@@ -1,0 +1,121 @@
+//! `capsule_recorder`: records the capsule graph to one MCAP file per run (ROS 2 profile).
+
+use std::{path::PathBuf, time::Duration};
+
+use anyhow::{bail, Context as _, Result};
+use capsule_nodes::{
+    recorder::{self, RecorderOptions},
+    ros::{self, RosArgs, RosEnv, RosSettings},
+};
+use clap::Parser;
+
+/// Records state, force commands, controller status, /clock and the set_mode service events to
+/// `<record-dir>/capsule_<scene>_<UTC time>.mcap` (or --output), the way rosbag2 writes MCAP.
+/// SIGINT / SIGTERM finish the file; after a SIGKILL, `capsule record recover FILE` completes it.
+#[derive(Debug, Parser)]
+#[command(name = "capsule_recorder", version)]
+struct Cli {
+    /// Directory for the run's file (created if missing)
+    #[arg(long, default_value = "runs")]
+    record_dir: PathBuf,
+    /// Write exactly this file instead (must not exist)
+    #[arg(long)]
+    output: Option<PathBuf>,
+    /// The scene that is run: attached to the file, and its name goes into the file name
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Close the open chunk at least this often [ms] (bounds what a SIGKILL loses)
+    #[arg(long, default_value_t = 250)]
+    flush_ms: u64,
+    /// Drain the DDS readers this often [ms]
+    #[arg(long, default_value_t = 2)]
+    poll_ms: u64,
+    /// Seconds to wait for the controller's publishers before subscribing to the state
+    #[arg(long, default_value_t = 10.0)]
+    wait_publishers_s: f64,
+    /// Controller node name (its status and service-event topics are private to it)
+    #[arg(long, default_value = "capsule_controller")]
+    controller_node: String,
+    /// Finish by itself after this many seconds without a message (0: only on a signal)
+    #[arg(long, default_value_t = 0.0)]
+    idle_stop_s: f64,
+    /// Check the flags and the output place, print the file name, and exit (no DDS)
+    #[arg(long)]
+    check: bool,
+    #[command(flatten)]
+    ros: RosArgs,
+}
+
+fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
+    let scene = cli
+        .scene
+        .as_deref()
+        .map(recorder::scene_record)
+        .transpose()?;
+    if cli.flush_ms == 0 || cli.poll_ms == 0 {
+        bail!("--flush-ms and --poll-ms must be > 0");
+    }
+    for (v, name) in [
+        (cli.wait_publishers_s, "--wait-publishers-s"),
+        (cli.idle_stop_s, "--idle-stop-s"),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            bail!("{name} {v}: must be finite and >= 0");
+        }
+    }
+    let output = match &cli.output {
+        Some(o) => o.clone(),
+        None => {
+            std::fs::create_dir_all(&cli.record_dir).with_context(|| {
+                format!("cannot create --record-dir {}", cli.record_dir.display())
+            })?;
+            let name = scene.as_ref().map(|s| s.name.as_str()).unwrap_or("run");
+            cli.record_dir.join(recorder::run_file_name(
+                name,
+                capsule_record::writer::now_ns(),
+            ))
+        }
+    };
+    if output.exists() {
+        bail!("{} exists: not overwriting a recording", output.display());
+    }
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_recorder")?;
+    Ok((
+        settings,
+        RecorderOptions {
+            output,
+            scene,
+            flush_period: Duration::from_millis(cli.flush_ms),
+            poll_period: Duration::from_millis(cli.poll_ms),
+            wait_publishers: Duration::from_secs_f64(cli.wait_publishers_s),
+            controller_node: cli.controller_node.clone(),
+            idle_stop: (cli.idle_stop_s > 0.0).then(|| Duration::from_secs_f64(cli.idle_stop_s)),
+        },
+    ))
+}
+
+fn main() -> std::process::ExitCode {
+    ros::init_logging();
+    let cli = Cli::parse();
+    let result = build(&cli).and_then(|(settings, opts)| {
+        if cli.check {
+            println!(
+                "capsule_recorder: ok: {}, would write {}",
+                settings.describe(),
+                opts.output.display()
+            );
+            return Ok(());
+        }
+        let report = ros::block_on(recorder::run(settings, opts))?;
+        let total: u64 = report.per_topic.values().sum();
+        println!(
+            "capsule_recorder: wrote {total} messages to {}",
+            report.path.display()
+        );
+        for (topic, n) in &report.per_topic {
+            println!("  {topic}: {n}");
+        }
+        Ok(())
+    });
+    ros::exit_code("capsule_recorder", result)
+}

@@ -1,0 +1,379 @@
+//! The recording writer: one MCAP file in rosbag2's `ros2` profile, chunked and flushed often so
+//! that a killed run leaves every closed chunk readable.
+
+use std::{
+    collections::BTreeMap,
+    fs::{File, OpenOptions},
+    io::BufWriter,
+    path::{Path, PathBuf},
+};
+
+use mcap::{records::MessageHeader, WriteOptions};
+
+use crate::{
+    types::{ros2msg_schema, OfferedQos},
+    RecordError,
+};
+
+/// Name of the attachment that holds the scene file.
+pub const SCENE_ATTACHMENT: &str = "scene.toml";
+/// Name of the metadata record with capsule's own facts (scene name, start time, tool).
+pub const CAPSULE_METADATA: &str = "capsule";
+/// Name of the metadata record rosbag2 writes.
+pub const ROSBAG2_METADATA: &str = "rosbag2";
+/// Channel metadata key with the publisher's QoS (rosbag2's).
+pub const QOS_KEY: &str = "offered_qos_profiles";
+
+/// The scene a run used, stored with the recording.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneRecord {
+    /// The scene's name (file stem unless the scene names itself).
+    pub name: String,
+    /// The scene file's text (TOML).
+    pub toml: String,
+}
+
+/// How to write a recording.
+#[derive(Debug, Clone)]
+pub struct WriterOptions {
+    /// Close the open chunk once it holds this much log time (ns); bounds what a kill loses.
+    pub flush_interval_ns: u64,
+    /// Close the open chunk once it holds this many bytes.
+    pub chunk_bytes: u64,
+    /// The scene of the run, written as an attachment and metadata at the start.
+    pub scene: Option<SceneRecord>,
+    /// Wall-clock start of the recording (ns since the epoch), for the metadata.
+    pub created_ns: u64,
+    /// `ROS_DISTRO` written into the rosbag2 metadata record.
+    pub ros_distro: String,
+    /// Extra key/values for the `capsule` metadata record.
+    pub extra_metadata: BTreeMap<String, String>,
+    /// Replace an existing file instead of refusing it.
+    pub overwrite: bool,
+}
+
+impl Default for WriterOptions {
+    fn default() -> Self {
+        WriterOptions {
+            flush_interval_ns: 500_000_000,
+            chunk_bytes: 4 << 20,
+            scene: None,
+            created_ns: now_ns(),
+            ros_distro: "jazzy".into(),
+            extra_metadata: BTreeMap::new(),
+            overwrite: false,
+        }
+    }
+}
+
+/// Wall-clock time in nanoseconds since the epoch (0 if the clock is before it).
+pub fn now_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// A channel of an open recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ChannelId(pub u16);
+
+#[derive(Debug, Clone)]
+struct TopicEntry {
+    topic: String,
+    type_name: String,
+    qos_yaml: String,
+    count: u64,
+}
+
+/// What a finished recording holds.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WriteSummary {
+    /// The file.
+    pub path: PathBuf,
+    /// Messages written.
+    pub messages: u64,
+    /// First and last log time (ns), if any message.
+    pub bounds: Option<(u64, u64)>,
+}
+
+/// Writes one recording. Call [`RecordWriter::finish`] to end it properly; a writer dropped
+/// without it (or a killed process) leaves a file that [`crate::recover`] completes.
+pub struct RecordWriter {
+    path: PathBuf,
+    mcap: mcap::Writer<BufWriter<File>>,
+    options: WriterOptions,
+    topics: BTreeMap<u16, TopicEntry>,
+    chunk_start_ns: Option<u64>,
+    bounds: Option<(u64, u64)>,
+    messages: u64,
+}
+
+impl std::fmt::Debug for RecordWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordWriter")
+            .field("path", &self.path)
+            .field("messages", &self.messages)
+            .finish_non_exhaustive()
+    }
+}
+
+impl RecordWriter {
+    /// Creates the file (refusing an existing one unless `overwrite`), writes the `ros2` header,
+    /// the scene attachment and the `capsule` metadata, and flushes them to disk.
+    pub fn create(path: &Path, options: WriterOptions) -> Result<Self, RecordError> {
+        let mut open = OpenOptions::new();
+        open.write(true);
+        if options.overwrite {
+            open.create(true).truncate(true);
+        } else {
+            open.create_new(true);
+        }
+        let file = open.open(path).map_err(|e| RecordError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        let werr = |source| RecordError::Write {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mcap = WriteOptions::new()
+            .profile("ros2")
+            .library(format!(
+                "capsule_record/{} (mcap-rust/{})",
+                env!("CARGO_PKG_VERSION"),
+                mcap::VERSION
+            ))
+            .compression(None)
+            .chunk_size(Some(options.chunk_bytes))
+            .create(BufWriter::with_capacity(1 << 16, file))
+            .map_err(werr)?;
+        let mut w = RecordWriter {
+            path: path.to_path_buf(),
+            mcap,
+            options,
+            topics: BTreeMap::new(),
+            chunk_start_ns: None,
+            bounds: None,
+            messages: 0,
+        };
+        let mut meta = w.options.extra_metadata.clone();
+        meta.insert("created_ns".into(), w.options.created_ns.to_string());
+        if let Some(scene) = w.options.scene.clone() {
+            meta.insert("scene_name".into(), scene.name.clone());
+            let attachment = mcap::Attachment {
+                log_time: w.options.created_ns,
+                create_time: w.options.created_ns,
+                name: SCENE_ATTACHMENT.into(),
+                media_type: "application/toml".into(),
+                data: std::borrow::Cow::Owned(scene.toml.into_bytes()),
+            };
+            w.mcap.attach(&attachment).map_err(werr)?;
+        }
+        w.write_metadata(CAPSULE_METADATA, meta)?;
+        w.flush()?;
+        Ok(w)
+    }
+
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Messages written so far.
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    fn werr(&self, source: mcap::McapError) -> RecordError {
+        RecordError::Write {
+            path: self.path.clone(),
+            source,
+        }
+    }
+
+    /// Adds a channel of a type this crate knows, with the publisher's QoS.
+    pub fn add_topic(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        qos: &OfferedQos,
+    ) -> Result<ChannelId, RecordError> {
+        let schema = ros2msg_schema(type_name).ok_or_else(|| {
+            RecordError::Usage(format!("{topic}: no ros2msg schema for type {type_name}"))
+        })?;
+        let mut metadata = BTreeMap::new();
+        metadata.insert(QOS_KEY.to_string(), qos.to_yaml());
+        self.add_channel(topic, type_name, schema.as_bytes(), metadata)
+    }
+
+    /// Adds a channel with a given `ros2msg` schema text and channel metadata (used by recovery).
+    pub fn add_channel(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        schema: &[u8],
+        metadata: BTreeMap<String, String>,
+    ) -> Result<ChannelId, RecordError> {
+        let schema_id = self
+            .mcap
+            .add_schema(type_name, "ros2msg", schema)
+            .map_err(|e| self.werr(e))?;
+        let id = self
+            .mcap
+            .add_channel(schema_id, topic, "cdr", &metadata)
+            .map_err(|e| self.werr(e))?;
+        self.topics.entry(id).or_insert_with(|| TopicEntry {
+            topic: topic.to_string(),
+            type_name: type_name.to_string(),
+            qos_yaml: metadata.get(QOS_KEY).cloned().unwrap_or_default(),
+            count: 0,
+        });
+        Ok(ChannelId(id))
+    }
+
+    /// Writes one message (CDR with its encapsulation header). Times in ns; `sequence` is the
+    /// per-channel counter. Closes the chunk when it spans the flush interval of log time.
+    pub fn write(
+        &mut self,
+        channel: ChannelId,
+        sequence: u32,
+        log_time: u64,
+        publish_time: u64,
+        data: &[u8],
+    ) -> Result<(), RecordError> {
+        let entry = self
+            .topics
+            .get_mut(&channel.0)
+            .ok_or_else(|| RecordError::Usage(format!("unknown channel {}", channel.0)))?;
+        entry.count += 1;
+        let header = MessageHeader {
+            channel_id: channel.0,
+            sequence,
+            log_time,
+            publish_time,
+        };
+        self.mcap
+            .write_to_known_channel(&header, data)
+            .map_err(|e| self.werr(e))?;
+        self.messages += 1;
+        self.bounds = Some(match self.bounds {
+            None => (log_time, log_time),
+            Some((a, b)) => (a.min(log_time), b.max(log_time)),
+        });
+        let start = *self.chunk_start_ns.get_or_insert(log_time);
+        if log_time.saturating_sub(start) >= self.options.flush_interval_ns {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Closes the open chunk and hands everything to the operating system (a killed process
+    /// then loses nothing written before). Call it on a wall-clock timer too.
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.chunk_start_ns = None;
+        self.mcap.flush().map_err(|e| self.werr(e))
+    }
+
+    /// Writes a metadata record.
+    pub fn write_metadata(
+        &mut self,
+        name: &str,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<(), RecordError> {
+        let m = mcap::records::Metadata {
+            name: name.to_string(),
+            metadata,
+        };
+        self.mcap.write_metadata(&m).map_err(|e| self.werr(e))
+    }
+
+    /// Writes an attachment.
+    pub fn attach(
+        &mut self,
+        name: &str,
+        media_type: &str,
+        log_time: u64,
+        data: &[u8],
+    ) -> Result<(), RecordError> {
+        let a = mcap::Attachment {
+            log_time,
+            create_time: log_time,
+            name: name.into(),
+            media_type: media_type.into(),
+            data: std::borrow::Cow::Borrowed(data),
+        };
+        self.mcap.attach(&a).map_err(|e| self.werr(e))
+    }
+
+    /// Writes the `rosbag2` metadata record, the summary (statistics, indexes) and the footer,
+    /// and syncs the file to disk.
+    pub fn finish(mut self) -> Result<WriteSummary, RecordError> {
+        let rosbag2 = self.rosbag2_metadata();
+        self.write_metadata(ROSBAG2_METADATA, rosbag2)?;
+        self.mcap.finish().map_err(|e| self.werr(e))?;
+        let path = self.path.clone();
+        let buf = self.mcap.into_inner();
+        let file = buf.into_inner().map_err(|e| RecordError::Io {
+            path: path.clone(),
+            source: e.into_error(),
+        })?;
+        file.sync_all().map_err(|e| RecordError::Io {
+            path: path.clone(),
+            source: e,
+        })?;
+        Ok(WriteSummary {
+            path,
+            messages: self.messages,
+            bounds: self.bounds,
+        })
+    }
+
+    fn rosbag2_metadata(&self) -> BTreeMap<String, String> {
+        let (start, end) = self.bounds.unwrap_or((0, 0));
+        let file = self
+            .path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let mut y = String::new();
+        y.push_str("rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n");
+        y.push_str(&format!(
+            "  duration:\n    nanoseconds: {}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {}\n  topics_with_message_count:\n",
+            end - start,
+            self.messages
+        ));
+        for t in self.topics.values() {
+            y.push_str(&format!(
+                "    - topic_metadata:\n        name: {}\n        type: {}\n        serialization_format: cdr\n        offered_qos_profiles: {}\n      message_count: {}\n",
+                t.topic,
+                t.type_name,
+                yaml_quote(&t.qos_yaml),
+                t.count
+            ));
+        }
+        y.push_str(&format!(
+            "  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - {file}\n  files:\n    - path: {file}\n      starting_time:\n        nanoseconds_since_epoch: {start}\n      duration:\n        nanoseconds: {}\n      message_count: {}\n",
+            end - start,
+            self.messages
+        ));
+        let mut m = BTreeMap::new();
+        m.insert("serialized_metadata".to_string(), y);
+        m.insert("ROS_DISTRO".to_string(), self.options.ros_distro.clone());
+        m
+    }
+}
+
+fn yaml_quote(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
