@@ -21,9 +21,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
 usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
-# --- recording (issue 4)
 record=1 record_dir="./runs" rec_args=()
-# --- end recording
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene="$2"; shift 2 ;;
@@ -34,9 +32,9 @@ while [ $# -gt 0 ]; do
     --extra-wait-s) extra_wait="$2"; shift 2 ;;
     --plant-arg) plant_args+=("$2"); shift 2 ;;
     --controller-arg) ctl_args+=("$2"); shift 2 ;;
-    --record-dir) record_dir="$2"; shift 2 ;;   # recording (issue 4)
-    --no-record) record=0; shift ;;             # recording (issue 4)
-    --recorder-arg) rec_args+=("$2"); shift 2 ;; # recording (issue 4)
+    --record-dir) record_dir="$2"; shift 2 ;;
+    --no-record) record=0; shift ;;
+    --recorder-arg) rec_args+=("$2"); shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "capsule_launch: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
@@ -52,7 +50,7 @@ done
 "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
 pl=(--scene "$scene" --pacing "$pacing")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
-# --- recording (issue 4): the plant also waits for the recorder (so it records sample 0)
+# recording: the plant also waits for the recorder (so it records sample 0)
 if [ "$record" = 1 ]; then
   [ -x "$bin/capsule_recorder" ] || { echo "capsule_launch: $bin/capsule_recorder not built (cargo build --workspace)" >&2; exit 2; }
   rec=("$bin/capsule_recorder" --scene "$scene" --record-dir "$record_dir" ${rec_args[@]+"${rec_args[@]}"})
@@ -62,7 +60,6 @@ if [ "$record" = 1 ]; then
 else
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
 fi
-# --- end recording
 "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2
 
 pids=() names=()
@@ -85,7 +82,7 @@ start() { # name cmd...
 }
 
 start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
-[ "$record" = 1 ] && start recorder "${rec[@]}"   # recording (issue 4)
+[ "$record" = 1 ] && start recorder "${rec[@]}"
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
 start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
 

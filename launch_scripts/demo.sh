@@ -7,6 +7,9 @@
 #
 #   launch_scripts/demo.sh [SCENE] [PERIODS_PER_SEGMENT]     (defaults: scenes/control_point.toml 60)
 #
+# The run is recorded to runs/demo-<UTC time>/capsule_<scene>_<time>.mcap and summarised with
+# `capsule record info` at the end.
+#
 # Build first: cargo build --workspace (or set CAPSULE_BIN to a directory with the binaries).
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -24,9 +27,19 @@ export ROS_LOCALHOST_ONLY="${ROS_LOCALHOST_ONLY:-1}"
 # sim end time = 3 segments of the drive period, read from the scene by the tool itself
 until_s=$("$bin/capsule_ros" period --scene "$scene" --periods $(( 3 * periods ))) || exit 2
 
+record_dir="${CAPSULE_RECORD_DIR:-runs}/demo-$(date -u +%Y%m%dT%H%M%SZ)"
 echo "demo: $scene, lock-step, ${periods} drive periods per segment (first ${settle} not measured), until t = ${until_s} s"
 "$here/capsule_launch.sh" --scene "$scene" --pacing lockstep --until-s "$until_s" --mode forward \
+  --record-dir "$record_dir" \
   --with "'$bin/capsule_ros' demo --scene '$scene' --segments forward:$periods,backward:$periods,off:$periods --settle-periods $settle"
 rc=$?
-echo "recording: none written - the MCAP recorder is a later issue; when it lands, the launcher starts it and this line names the file"
+recording=$(ls "$record_dir"/*.mcap 2>/dev/null | head -n 1)
+if [ -n "$recording" ]; then
+  echo
+  echo "recorded: $recording"
+  "$bin/capsule" record info "$recording" || rc=1
+else
+  echo "demo: no recording found in $record_dir" >&2
+  rc=1
+fi
 exit $rc

@@ -155,7 +155,7 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
     let run = netns(
         60,
         r#"
-        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward &
+        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --record-dir "$TMP/runs" &
         L=$!
         sleep 2
         KIDS=$(pgrep -P $L)

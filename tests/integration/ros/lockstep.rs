@@ -6,7 +6,7 @@ use super::harness::{json_raw, netns};
 fn demo_goes_forward_then_backward_then_stops() {
     let run = netns(
         240,
-        r#"$ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 8.2 --mode forward \
+        r#"$ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 8.2 --mode forward --record-dir "$TMP/runs" \
              --with "$B/capsule_ros demo --scene '$SCENE' --segments forward:30,backward:30,off:30 --settle-periods 15""#,
     );
     assert_eq!(run.code, Some(0), "{}", run.all());
