@@ -2,6 +2,7 @@
 //! and benchmark the integrators.
 
 mod bench;
+mod offline_record;
 mod record;
 mod replay;
 mod scene_args;

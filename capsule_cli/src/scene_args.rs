@@ -163,6 +163,19 @@ impl SceneArgs {
         Ok(scene)
     }
 
+    /// The scene as a TOML text to store with a recording: the file as read, followed by the
+    /// command-line overrides as given (or only those, for the defaults).
+    pub fn scene_text(&self) -> Result<String> {
+        let mut text = match &self.scene {
+            Some(path) => std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read scene file {}", path.display()))?,
+            None => "# the paper's section-3 defaults of `capsule simulate`\n".to_string(),
+        };
+        let overrides: Vec<String> = std::env::args().skip(2).collect();
+        text.push_str(&format!("\n# command line: {}\n", overrides.join(" ")));
+        Ok(text)
+    }
+
     fn apply_friction_constants(&self, f: &mut Friction) -> Result<()> {
         let name = f.name();
         let use_flag = |flag: &str, v: Option<f64>, slot: Option<&mut f64>| -> Result<()> {

@@ -1,5 +1,6 @@
 //! `capsule simulate`: one run, a summary, optionally JSON and a CSV time history.
 
+use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
 use anyhow::{Context, Result};
 use capsule_analysis::{run_sampled, RunReport};
@@ -20,7 +21,11 @@ pub struct Args {
     /// Write the time history to this CSV file.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
-    /// Time-history samples per drive period (with --csv).
+    /// Also write the sampled run as a ROS 2 MCAP recording: /capsule/state in SI units (the
+    /// scene's physical scale) and /clock, with the scene attached, as the plant node would.
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
+    /// Time-history samples per drive period (with --csv or --record).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
     samples_per_period: u32,
 }
@@ -36,17 +41,20 @@ struct Output<'a> {
 pub fn main(args: Args) -> Result<()> {
     let scene = args.scene.scene()?;
     let mut rows: Vec<Snapshot> = Vec::new();
-    let samples = if args.csv.is_some() {
-        args.samples_per_period
-    } else {
-        0
-    };
+    let sampled = args.csv.is_some() || args.record.is_some();
+    let samples = if sampled { args.samples_per_period } else { 0 };
     let t0 = std::time::Instant::now();
     let report = run_sampled(&scene, samples, &mut |s| rows.push(*s))
         .with_context(|| format!("simulating {}", scene.name))?;
     let wall = t0.elapsed().as_secs_f64();
     if let Some(path) = &args.csv {
         write_csv(path, &rows).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.record {
+        let n = record::write(path, &scene, args.scene.scene_text()?, &rows)?;
+        if !args.json {
+            println!("recording      {} ({n} messages)", path.display());
+        }
     }
     if args.json {
         let out = Output {

@@ -9,12 +9,12 @@ pub enum RecordError {
     #[error("{}: no such file", .0.display())]
     Missing(PathBuf),
     /// An I/O error on the file (permission, full disk, ...).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not a separate source: printed once).
+        cause: std::io::Error,
     },
     /// The file does not start with the MCAP magic bytes.
     #[error("{}: not an MCAP file (it does not start with the MCAP magic bytes)", .0.display())]
@@ -23,12 +23,12 @@ pub enum RecordError {
     #[error("{}: truncated MCAP file (no footer: the recording was cut short); `capsule record recover {}` rebuilds a complete file from what it holds", .0.display(), .0.display())]
     Truncated(PathBuf),
     /// The MCAP structure is damaged.
-    #[error("{}: damaged MCAP file: {source}", path.display())]
+    #[error("{}: damaged MCAP file: {cause}", path.display())]
     Corrupt {
         /// The file.
         path: PathBuf,
         /// What the MCAP reader found.
-        source: mcap::McapError,
+        cause: mcap::McapError,
     },
     /// A channel refers to a schema the file does not hold or this tool cannot read.
     #[error("{}: topic {topic}: {reason}", path.display())]
@@ -41,12 +41,12 @@ pub enum RecordError {
         reason: String,
     },
     /// Writing failed (full disk, unwritable path, ...): the recording stops here.
-    #[error("writing {}: {source}", path.display())]
+    #[error("writing {}: {cause}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
         /// The cause.
-        source: mcap::McapError,
+        cause: mcap::McapError,
     },
     /// A message's bytes are not valid CDR for its type.
     #[error("CDR: {0}")]
@@ -64,7 +64,7 @@ impl RecordError {
         } else {
             RecordError::Io {
                 path: path.to_path_buf(),
-                source,
+                cause: source,
             }
         }
     }

@@ -113,7 +113,7 @@ fn corrupt(path: &Path, e: McapError) -> RecordError {
         },
         source => RecordError::Corrupt {
             path: path.to_path_buf(),
-            source,
+            cause: source,
         },
     }
 }
@@ -125,7 +125,7 @@ fn open_checked(path: &Path) -> Result<(File, u64), RecordError> {
     if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
         return Err(RecordError::Io {
             path: path.to_path_buf(),
-            source: std::io::Error::other("is a directory"),
+            cause: std::io::Error::other("is a directory"),
         });
     }
     let mut head = [0u8; 8];
@@ -170,7 +170,7 @@ fn read_header(f: &mut File, path: &Path) -> Result<records::Header, RecordError
     if prefix[0] != 0x01 || len > 1 << 20 {
         return Err(RecordError::Corrupt {
             path: path.to_path_buf(),
-            source: McapError::BadIndex,
+            cause: McapError::BadIndex,
         });
     }
     let body = read_at(f, path, 17, len)?;

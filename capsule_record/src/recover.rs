@@ -46,7 +46,7 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
     }
     let found = scan(&bytes, true).map_err(|e| RecordError::Corrupt {
         path: input.to_path_buf(),
-        source: e,
+        cause: e,
     })?;
     let created_ns = found
         .metadata

@@ -131,11 +131,11 @@ impl RecordWriter {
         }
         let file = open.open(path).map_err(|e| RecordError::Io {
             path: path.to_path_buf(),
-            source: e,
+            cause: e,
         })?;
         let werr = |source| RecordError::Write {
             path: path.to_path_buf(),
-            source,
+            cause: source,
         };
         let mcap = WriteOptions::new()
             .profile("ros2")
@@ -188,7 +188,7 @@ impl RecordWriter {
     fn werr(&self, source: mcap::McapError) -> RecordError {
         RecordError::Write {
             path: self.path.clone(),
-            source,
+            cause: source,
         }
     }
 
@@ -316,11 +316,11 @@ impl RecordWriter {
         let buf = self.mcap.into_inner();
         let file = buf.into_inner().map_err(|e| RecordError::Io {
             path: path.clone(),
-            source: e.into_error(),
+            cause: e.into_error(),
         })?;
         file.sync_all().map_err(|e| RecordError::Io {
             path: path.clone(),
-            source: e,
+            cause: e,
         })?;
         Ok(WriteSummary {
             path,

@@ -175,3 +175,44 @@ fn sweep_writes_csv_json_and_svg_and_csv_history_has_rows() {
     assert_eq!(rows.lines().count(), 1 + 1 + 3 * 10);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn simulate_record_writes_a_ros2_recording_of_the_run() {
+    let dir = std::env::temp_dir().join(format!("capsule-cli-rec-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let file = dir.join("run.mcap");
+    let path = file.to_str().unwrap_or_default();
+    let args = [
+        "simulate",
+        "--scene",
+        "scenes/fig15_forward.toml",
+        "--periods",
+        "4",
+        "--transient",
+        "2",
+    ];
+    let out = capsule(&[&args[..], &["--samples-per-period", "25", "--record", path]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = capsule_record::info(&file).unwrap_or_else(|e| panic!("{e}"));
+    let count = |topic: &str| {
+        info.topics
+            .iter()
+            .find(|t| t.topic == topic)
+            .map(|t| t.count)
+    };
+    assert_eq!(count("/capsule/state"), Some(1 + 4 * 25));
+    assert_eq!(count("/clock"), Some(1 + 4 * 25));
+    assert_eq!(
+        info.scene_name.as_deref(),
+        Some("Section 5.2 forward motion, k_p = 0.1 (Fig 15)")
+    );
+    // an existing recording is never overwritten
+    let again = capsule(&[&args[..], &["--record", path]].concat());
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("File exists"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
