@@ -82,25 +82,16 @@ pub fn run_file_name(scene: &str, now_ns: u64) -> String {
 
 /// `YYYYmmddTHHMMSS.mmmZ` of nanoseconds since the epoch.
 pub fn utc_compact(ns: u64) -> String {
-    let secs = ns / 1_000_000_000;
-    let ms = ns % 1_000_000_000 / 1_000_000;
-    let days = (secs / 86_400) as i64;
-    let tod = secs % 86_400;
-    // days to civil date (proleptic Gregorian)
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
+    let c = capsule_record::civil::civil(ns);
     format!(
-        "{y:04}{m:02}{d:02}T{:02}{:02}{:02}.{ms:03}Z",
-        tod / 3600,
-        tod / 60 % 60,
-        tod % 60
+        "{:04}{:02}{:02}T{:02}{:02}{:02}.{:03}Z",
+        c.year,
+        c.month,
+        c.day,
+        c.hour,
+        c.minute,
+        c.second,
+        c.nanos / 1_000_000
     )
 }
 

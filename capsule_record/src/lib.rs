@@ -14,6 +14,7 @@
 //! No ROS, no DDS here: the recorder node feeds this crate with bytes.
 
 pub mod cdr;
+pub mod civil;
 pub mod error;
 pub mod read;
 pub mod recover;
