@@ -141,13 +141,7 @@ pub fn state_subscription(
     node: &mut Node,
     settings: &RosSettings,
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
-    let topic = node
-        .create_topic(
-            &settings.ros_name(names::STATE)?,
-            types::state(),
-            &qos::data(),
-        )
-        .context("state topic")?;
+    let topic = settings.topic(node, names::STATE, types::state(), &qos::data())?;
     node.create_subscription::<CapsuleState>(&topic, Some(qos::data_reader()))
         .context("state subscription")
 }

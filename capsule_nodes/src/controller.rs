@@ -246,27 +246,9 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
-    let state_topic = node
-        .create_topic(
-            &settings.ros_name(names::STATE)?,
-            types::state(),
-            &qos::data(),
-        )
-        .context("state topic")?;
-    let force_topic = node
-        .create_topic(
-            &settings.ros_name(names::FORCE)?,
-            types::force(),
-            &qos::data(),
-        )
-        .context("force topic")?;
-    let status_topic = node
-        .create_topic(
-            &settings.ros_name(names::STATUS)?,
-            types::status(),
-            &qos::data(),
-        )
-        .context("status topic")?;
+    let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
+    let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
+    let status_topic = settings.topic(&node, names::STATUS, types::status(), &qos::data())?;
     let state_sub = node
         .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
         .context("state subscription")?;
@@ -276,18 +258,16 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let status_pub = node
         .create_publisher::<ControllerStatus>(&status_topic, None)
         .context("status publisher")?;
-    // --- recording (issue 4): set_mode service events, as ROS 2 service introspection does
-    let event_topic = node
-        .create_topic(
-            &settings.ros_name(&crate::recorder::service_event_topic("~"))?,
-            crate::recorder::service_event_type(),
-            &qos::service(),
-        )
-        .context("service-event topic")?;
+    // set_mode service events, as ROS 2 service introspection publishes them
+    let event_topic = settings.topic(
+        &node,
+        &crate::recorder::service_event_topic("~"),
+        crate::recorder::service_event_type(),
+        &qos::service(),
+    )?;
     let event_pub = node
         .create_publisher::<capsule_record::types::SetModeEvent>(&event_topic, None)
         .context("service-event publisher")?;
-    // --- end recording
     let server = node
         .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
             settings.mapping.into(),
@@ -359,8 +339,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                     if let Err(e) = event_pub.async_publish(ev).await {
                         warn!("service event not sent: {e:?}");
                     }
-                    // --- end recording
-                    let resp = core.set_mode(&req);
+                                    let resp = core.set_mode(&req);
                     if resp.accepted {
                         info!("set_mode accepted: {}", resp.reason);
                     } else {
@@ -371,8 +350,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                     if let Err(e) = event_pub.async_publish(ev).await {
                         warn!("service event not sent: {e:?}");
                     }
-                    // --- end recording
-                    if let Err(e) = server.async_send_response(id, Wire(resp)).await {
+                                    if let Err(e) = server.async_send_response(id, Wire(resp)).await {
                         warn!("set_mode response not sent: {e:?}");
                     }
                     let _ = status_pub.async_publish(core.status(stamp_now(&node))).await;

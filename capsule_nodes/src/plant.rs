@@ -426,27 +426,9 @@ pub async fn run<S: PlantSim>(
 ) -> Result<(LoopStats, CapsuleState)> {
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
-    let state_topic = node
-        .create_topic(
-            &settings.ros_name(names::STATE)?,
-            types::state(),
-            &qos::data(),
-        )
-        .context("state topic")?;
-    let force_topic = node
-        .create_topic(
-            &settings.ros_name(names::FORCE)?,
-            types::force(),
-            &qos::data(),
-        )
-        .context("force topic")?;
-    let clock_topic = node
-        .create_topic(
-            &settings.ros_name(names::CLOCK)?,
-            types::clock(),
-            &qos::clock(),
-        )
-        .context("clock topic")?;
+    let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
+    let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
+    let clock_topic = settings.topic(&node, names::CLOCK, types::clock(), &qos::clock())?;
     let state_pub = node
         .create_publisher::<CapsuleState>(&state_topic, None)
         .context("state publisher")?;

@@ -214,6 +214,18 @@ impl RosSettings {
         Name::parse(&full).map_err(|e| anyhow::anyhow!("bad ROS name {full:?}: {e:?}"))
     }
 
+    /// The topic `name` (resolved with namespace and remapping) of `type_name` on `node`.
+    pub fn topic(
+        &self,
+        node: &Node,
+        name: &str,
+        type_name: MessageTypeName,
+        qos: &QosProfile,
+    ) -> Result<rustdds::Topic> {
+        node.create_topic(&self.ros_name(name)?, type_name, qos)
+            .with_context(|| format!("topic {name}"))
+    }
+
     /// Creates the DDS participant (loopback only when the range says so) and the ROS context.
     pub fn context(&self) -> Result<Context> {
         let mut builder = rustdds::DomainParticipantBuilder::new(self.domain_id);
