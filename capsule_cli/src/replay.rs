@@ -10,10 +10,10 @@ use std::{
 };
 
 use anyhow::{bail, Context as _, Result};
-use capsule_controller::mode::{Mode, ModeConfig};
+use capsule_controller::mode::Mode;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_nodes::{
-    controller::ControllerCore,
+    controller::{ControllerCore, GainArgs},
     ros::{self, qos, RosArgs, RosEnv, RosSettings},
     scale::ControlScene,
 };
@@ -56,15 +56,9 @@ pub struct Args {
     /// --check-controller: largest accepted |command difference| [N]
     #[arg(long, default_value_t = 1e-9)]
     tolerance: f64,
-    /// --check-controller: |k_p| of FORWARD / BACKWARD when a request gives 0
-    #[arg(long, default_value_t = 0.2)]
-    direction_gain: f64,
-    /// --check-controller: k_p of CHAOS_CONTROL when a request gives 0
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    chaos_gain: f64,
-    /// --check-controller: largest |k_p| any mode accepts
-    #[arg(long, default_value_t = 2.0)]
-    gain_limit: f64,
+    /// --check-controller: the controller's gain settings
+    #[command(flatten)]
+    gains: GainArgs,
     #[command(flatten)]
     ros: RosArgs,
 }
@@ -278,12 +272,7 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
         .scene_toml
         .with_context(|| format!("{file}: no scene attached: cannot configure the controller"))?;
     let scene = ControlScene::from_toml_str(&scene, &format!("{file}:scene.toml"))?;
-    let config = ModeConfig {
-        direction_gain: args.direction_gain,
-        chaos_gain: args.chaos_gain,
-        gain_limit: args.gain_limit,
-    };
-    config.validate().context("gain flags")?;
+    let config = args.gains.config()?;
     // the mode in force at the start: the controller's first status, else the scene's gain
     let first_status = msgs
         .iter()

@@ -100,15 +100,19 @@ pub struct ModeConfig {
     pub gain_limit: f64,
 }
 
-impl Default for ModeConfig {
+impl ModeConfig {
     /// 0.2 for direction control (the edge of the paper's Fig. 15 sweep), 1.0 for chaos control
     /// (Fig. 16), and a limit of 2.
+    pub const DEFAULT: ModeConfig = ModeConfig {
+        direction_gain: 0.2,
+        chaos_gain: 1.0,
+        gain_limit: 2.0,
+    };
+}
+
+impl Default for ModeConfig {
     fn default() -> Self {
-        ModeConfig {
-            direction_gain: 0.2,
-            chaos_gain: 1.0,
-            gain_limit: 2.0,
-        }
+        ModeConfig::DEFAULT
     }
 }
 

@@ -241,6 +241,34 @@ pub struct ControllerOptions {
     pub status_period: Duration,
 }
 
+/// The controller's gain settings on the command line (the node's and `capsule replay
+/// --check-controller`'s, so that a check re-drives the controller as it was configured).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct GainArgs {
+    /// |k_p| of FORWARD / BACKWARD when a request gives 0
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.direction_gain)]
+    pub direction_gain: f64,
+    /// k_p of CHAOS_CONTROL when a request gives 0
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.chaos_gain, allow_negative_numbers = true)]
+    pub chaos_gain: f64,
+    /// Largest |k_p| any mode accepts
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.gain_limit)]
+    pub gain_limit: f64,
+}
+
+impl GainArgs {
+    /// The validated configuration; the error names the bad flag.
+    pub fn config(&self) -> Result<ModeConfig> {
+        let config = ModeConfig {
+            direction_gain: self.direction_gain,
+            chaos_gain: self.chaos_gain,
+            gain_limit: self.gain_limit,
+        };
+        config.validate().context("gain flags")?;
+        Ok(config)
+    }
+}
+
 /// Runs the controller node until SIGINT/SIGTERM.
 pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;

@@ -3,9 +3,9 @@
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
-use capsule_controller::mode::{Mode, ModeConfig};
+use capsule_controller::mode::Mode;
 use capsule_nodes::{
-    controller::{self, ControllerCore, ControllerOptions},
+    controller::{self, ControllerCore, ControllerOptions, GainArgs},
     ros::{self, RosArgs, RosEnv, RosSettings},
     scale::{ControlScene, Scale},
 };
@@ -43,15 +43,8 @@ struct Cli {
     /// Initial gain (as in a SetMode request for --mode)
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     gain: f64,
-    /// |k_p| of FORWARD / BACKWARD when a request gives 0
-    #[arg(long, default_value_t = 0.2)]
-    direction_gain: f64,
-    /// k_p of CHAOS_CONTROL when a request gives 0
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    chaos_gain: f64,
-    /// Largest |k_p| any mode accepts
-    #[arg(long, default_value_t = 2.0)]
-    gain_limit: f64,
+    #[command(flatten)]
+    gains: GainArgs,
     /// Seconds (steady clock) without a state sample before the controller stops commanding
     #[arg(long, default_value_t = 0.5)]
     state_timeout_s: f64,
@@ -93,12 +86,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
     if !(omega.is_finite() && omega > 0.0) {
         bail!("--omega {omega}: must be finite and > 0");
     }
-    let config = ModeConfig {
-        direction_gain: cli.direction_gain,
-        chaos_gain: cli.chaos_gain,
-        gain_limit: cli.gain_limit,
-    };
-    config.validate().context("gain flags")?;
+    let config = cli.gains.config()?;
     let scene_kp = scene.map(|s| s.kp).unwrap_or(0.0);
     let (mode, gain) = match cli.mode.as_deref() {
         Some(name) => {
