@@ -273,7 +273,8 @@ impl GainArgs {
 pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
-    let mut node = settings.node(&context)?;
+    let (mut node, _graph) = settings.loop_node(&context)?;
+    let clock = crate::graph::RosClock::new(&settings, &mut node)?;
     let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
     let status_topic = settings.topic(&node, names::STATUS, types::status(), &qos::data())?;
@@ -325,7 +326,6 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let shutdown = crate::ros::shutdown_signal();
     tokio::pin!(shutdown);
-    let stamp_now = |node: &ros2_client::Node| Time::from_nanos(node.time_now().to_nanos());
 
     loop {
         tokio::select! {
@@ -354,7 +354,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                         capsule_record::types::SetModeEvent {
                             info: capsule_record::types::ServiceEventInfo {
                                 event_type: kind,
-                                stamp: stamp_now(&node),
+                                stamp: clock.now(),
                                 client_gid: id.writer_gid.to_bytes16(),
                                 sequence_number: id.sequence_number,
                             },
@@ -381,7 +381,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                                     if let Err(e) = server.async_send_response(id, Wire(resp)).await {
                         warn!("set_mode response not sent: {e:?}");
                     }
-                    let _ = status_pub.async_publish(core.status(stamp_now(&node))).await;
+                    let _ = status_pub.async_publish(core.status(clock.now())).await;
                 }
                 Err(e) => warn!("bad set_mode request: {e:?}"),
             },
@@ -389,7 +389,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                 if core.check_stale(steady()) {
                     warn!("state stale (no sample for the timeout; plant gone?): stopped commanding");
                 }
-                if let Err(e) = status_pub.async_publish(core.status(stamp_now(&node))).await {
+                if let Err(e) = status_pub.async_publish(core.status(clock.now())).await {
                     warn!("status not sent: {e:?}");
                 }
             }

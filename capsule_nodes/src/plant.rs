@@ -8,8 +8,9 @@
 //! loop statistics (command latency, steps without an answer). [`run`] wires it to ROS in one of
 //! two pacings:
 //!
-//! - **real time**: sample `k` is published at `start + k / rate` (steady clock, a dedicated
-//!   timer thread); whatever command is held at the next sample drives the next step;
+//! - **real time**: sample `k` is published at `start + k / rate` (steady clock, on one
+//!   thread that sleeps, takes the commands received meanwhile and steps); whatever command is
+//!   held at the next sample drives the next step;
 //! - **lock-step**: sample `k` is published and the plant waits for the command that answers
 //!   seq `k` (re-sending the sample every `retransmit` until it comes), then integrates one step
 //!   with it. The run is then a function of the scene and the controller only: reproducible bit
@@ -418,26 +419,48 @@ pub struct PlantOptions {
     pub clock_every: u64,
 }
 
+/// The plant's DDS endpoints.
+struct Endpoints {
+    state_pub: ros2_client::Publisher<CapsuleState>,
+    clock_pub: ros2_client::Publisher<Clock>,
+    force_sub: ros2_client::Subscription<ActuatorForce>,
+}
+
+/// Logs a refused command: the first ten, then at powers of two.
+fn log_refused(outcome: CommandOutcome, cmd: &ActuatorForce, refused_logged: &mut u32, total: u32) {
+    *refused_logged += 1;
+    if *refused_logged <= 10 || refused_logged.is_power_of_two() {
+        warn!(
+            "command refused ({outcome:?}): seq {} stamp {:.6} s force {} N; {total} refused so far",
+            cmd.state_seq,
+            cmd.header.stamp.as_secs_f64(),
+            cmd.force,
+        );
+    }
+}
+
 /// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
-pub async fn run<S: PlantSim>(
+pub async fn run<S: PlantSim + Send + 'static>(
     settings: RosSettings,
-    mut core: PlantCore<S>,
+    core: PlantCore<S>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
     let context = settings.context()?;
-    let mut node = settings.node(&context)?;
+    let (mut node, graph) = settings.loop_node(&context)?;
     let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
     let clock_topic = settings.topic(&node, names::CLOCK, types::clock(), &qos::clock())?;
-    let state_pub = node
-        .create_publisher::<CapsuleState>(&state_topic, None)
-        .context("state publisher")?;
-    let clock_pub = node
-        .create_publisher::<Clock>(&clock_topic, None)
-        .context("clock publisher")?;
-    let force_sub = node
-        .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
-        .context("force subscription")?;
+    let io = Endpoints {
+        state_pub: node
+            .create_publisher::<CapsuleState>(&state_topic, None)
+            .context("state publisher")?,
+        clock_pub: node
+            .create_publisher::<Clock>(&clock_topic, None)
+            .context("clock publisher")?,
+        force_sub: node
+            .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
+            .context("force subscription")?,
+    };
     info!(
         "{}: {:?} at {} Hz, state {} <- force {}, clock {}",
         settings.describe(),
@@ -449,159 +472,50 @@ pub async fn run<S: PlantSim>(
     );
 
     if opts.wait_subscribers > 0 {
-        let waiting = Instant::now();
-        // the first match makes the publisher known to the node's graph bookkeeping; only then
-        // can it count subscribers
-        tokio::time::timeout(opts.startup_timeout, state_pub.wait_for_subscription(&node))
+        let writer = io.state_pub.guid();
+        if !graph
+            .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
             .await
-            .map_err(|_| {
-                anyhow::anyhow!(
-                    "no subscriber matched {} within {:?}",
-                    settings.resolve_name(names::STATE),
-                    opts.startup_timeout
-                )
-            })?;
-        while state_pub.get_subscription_count(&node) < opts.wait_subscribers {
-            if waiting.elapsed() > opts.startup_timeout {
-                anyhow::bail!(
-                    "only {} of {} subscribers matched {} within {:?}",
-                    state_pub.get_subscription_count(&node),
-                    opts.wait_subscribers,
-                    settings.resolve_name(names::STATE),
-                    opts.startup_timeout
-                );
-            }
-            tokio::time::sleep(Duration::from_millis(10)).await;
+        {
+            anyhow::bail!(
+                "only {} of {} subscribers matched {} within {:?}",
+                graph.subscribers(writer),
+                opts.wait_subscribers,
+                settings.resolve_name(names::STATE),
+                opts.startup_timeout
+            );
         }
         info!("{} subscribers matched: starting", opts.wait_subscribers);
     }
-    let start = Instant::now();
-    let steady = move || start.elapsed().as_secs_f64();
-    let commands = force_sub.async_stream();
-    tokio::pin!(commands);
-    let shutdown = crate::ros::shutdown_signal();
-    tokio::pin!(shutdown);
-    let lockstep = opts.pacing == Pacing::Lockstep;
-    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
-
-    // real time: a timer thread sends the index of every due sample
-    let (tick_tx, mut tick_rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
-    let stop_timer = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    if !lockstep {
-        let period = Duration::from_secs_f64(1.0 / core.rate_hz);
-        let stop = stop_timer.clone();
-        std::thread::Builder::new()
-            .name("plant-timer".into())
-            .spawn(move || {
-                let t0 = Instant::now();
-                let mut k: u64 = 1;
-                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
-                    let due = t0 + period.mul_f64(k as f64);
-                    let now = Instant::now();
-                    if due > now {
-                        std::thread::sleep(due - now);
-                    }
-                    if tick_tx.send(k).is_err() {
-                        break;
-                    }
-                    k += 1;
-                }
-            })
-            .context("cannot start the timer thread")?;
-    }
-
-    let mut wait_started = steady();
-    let mut resend = tokio::time::interval(opts.retransmit);
-    resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut ever_commanded = false;
-    let mut refused_logged = 0u32;
-    let mut need_publish = true;
-    let result: Result<()> = loop {
-        if need_publish {
-            let stamp = core.stamp();
-            if core.seq().is_multiple_of(opts.clock_every.max(1)) {
-                let _ = clock_pub.async_publish(Clock { clock: stamp }).await;
-            }
-            if let Err(e) = state_pub.async_publish(core.state()).await {
-                warn!("state not sent: {e:?}");
-            }
-            core.published(steady());
-            need_publish = false;
-            wait_started = steady();
-            resend.reset();
+    let (result, mut core) = match opts.pacing {
+        Pacing::Lockstep => {
+            let mut core = core;
+            (lockstep_loop(&mut core, &io, &opts).await, core)
         }
-        if until_nanos.is_some_and(|u| core.stamp().to_nanos() >= u) {
-            info!("reached the end time {:.3} s", core.stamp().as_secs_f64());
-            break Ok(());
-        }
-        let ready = lockstep && core.answered();
-        if ready {
-            if let Err(e) = core.step() {
-                break Err(e);
-            }
-            need_publish = true;
-            continue;
-        }
-        tokio::select! {
-            sig = &mut shutdown => {
-                match sig {
-                    Ok(s) => info!("{s}: shutting down"),
-                    Err(e) => warn!("{e:#}"),
-                }
-                break Ok(());
-            }
-            msg = commands.select_next_some() => match msg {
-                Ok((cmd, _)) => {
-                    let outcome = core.on_command(&cmd, steady(), lockstep);
-                    match outcome {
-                        CommandOutcome::Accepted => ever_commanded = true,
-                        CommandOutcome::Duplicate => {}
-                        refused => {
-                            refused_logged += 1;
-                            if refused_logged <= 10 || refused_logged.is_power_of_two() {
-                                warn!(
-                                    "command refused ({refused:?}): seq {} stamp {:.6} s force {} N; {} refused so far",
-                                    cmd.state_seq, cmd.header.stamp.as_secs_f64(), cmd.force, core.rejected()
-                                );
-                            }
-                        }
+        Pacing::Realtime => {
+            let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let stop_loop = stop.clone();
+            let opts = opts.clone();
+            let mut looping = tokio::task::spawn_blocking(move || {
+                let mut core = core;
+                let r = realtime_loop(&mut core, &io, &opts, &stop_loop);
+                (r, core)
+            });
+            let shutdown = crate::ros::shutdown_signal();
+            tokio::pin!(shutdown);
+            tokio::select! {
+                done = &mut looping => done.context("the real-time loop panicked")?,
+                sig = &mut shutdown => {
+                    match sig {
+                        Ok(s) => info!("{s}: shutting down"),
+                        Err(e) => warn!("{e:#}"),
                     }
-                }
-                Err(e) => {
-                    warn!("undecodable command: {e:?}");
-                }
-            },
-            k = tick_rx.recv(), if !lockstep => {
-                if k.is_none() {
-                    break Err(anyhow::anyhow!("the timer thread stopped"));
-                }
-                if core.check_watchdog(steady()) {
-                    warn!("no command for {:.3} s: applying zero force", core.command_timeout);
-                }
-                if let Err(e) = core.step() {
-                    break Err(e);
-                }
-                need_publish = true;
-            }
-            _ = resend.tick(), if lockstep => {
-                let waited = steady() - wait_started;
-                let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
-                if waited > limit {
-                    if core.force_stale() || !ever_commanded {
-                        warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
-                    }
-                    ever_commanded = true;
-                    if let Err(e) = core.step() {
-                        break Err(e);
-                    }
-                    need_publish = true;
-                } else if let Err(e) = state_pub.async_publish(core.state()).await {
-                    warn!("state not re-sent: {e:?}");
+                    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                    looping.await.context("the real-time loop panicked")?
                 }
             }
         }
     };
-    stop_timer.store(true, std::sync::atomic::Ordering::Relaxed);
     core.stats.finish();
     let stats = core.stats.clone();
     match stats.percentiles() {
@@ -619,6 +533,147 @@ pub async fn run<S: PlantSim>(
         None => info!("loop: {} samples, no command answered", stats.published),
     }
     result.map(|()| (stats, core.state()))
+}
+
+/// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
+/// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
+/// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
+/// DDS's own (an earlier timer thread -> tokio -> DDS hand-off, with a wake-up per command,
+/// cost a third of the plant's CPU at 1 kHz). Latency is measured from DDS's reception time.
+fn realtime_loop<S: PlantSim>(
+    core: &mut PlantCore<S>,
+    io: &Endpoints,
+    opts: &PlantOptions,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<()> {
+    let period = Duration::from_secs_f64(1.0 / core.rate_hz);
+    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
+    let start = Instant::now();
+    // loop times are wall-clock seconds since the start, the clock DDS stamps receptions with
+    let wall0 = crate::ros::wall_nanos();
+    let now = || (crate::ros::wall_nanos() - wall0) as f64 * 1e-9;
+    let mut refused_logged = 0u32;
+    loop {
+        let stamp = core.stamp();
+        if core.seq().is_multiple_of(opts.clock_every.max(1)) {
+            let _ = io.clock_pub.publish(Clock { clock: stamp });
+        }
+        if let Err(e) = io.state_pub.publish(core.state()) {
+            warn!("state not sent: {e:?}");
+        }
+        core.published(now());
+        if until_nanos.is_some_and(|u| stamp.to_nanos() >= u) {
+            info!("reached the end time {:.3} s", stamp.as_secs_f64());
+            return Ok(());
+        }
+        let due = start + period.mul_f64((core.seq() + 1) as f64);
+        let wait = due.saturating_duration_since(Instant::now());
+        if !wait.is_zero() {
+            std::thread::sleep(wait);
+        }
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
+            return Ok(());
+        }
+        loop {
+            match io.force_sub.take() {
+                Ok(Some((cmd, info))) => {
+                    let at = info
+                        .received_timestamp()
+                        .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9);
+                    match core.on_command(&cmd, at, false) {
+                        CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
+                        refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => warn!("undecodable command: {e:?}"),
+            }
+        }
+        if core.check_watchdog(now()) {
+            warn!(
+                "no command for {:.3} s: applying zero force",
+                core.command_timeout
+            );
+        }
+        core.step()?;
+    }
+}
+
+/// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
+/// every `retransmit`), step with it; zero force after the command timeout.
+async fn lockstep_loop<S: PlantSim>(
+    core: &mut PlantCore<S>,
+    io: &Endpoints,
+    opts: &PlantOptions,
+) -> Result<()> {
+    let start = Instant::now();
+    let steady = move || start.elapsed().as_secs_f64();
+    let commands = io.force_sub.async_stream();
+    tokio::pin!(commands);
+    let shutdown = crate::ros::shutdown_signal();
+    tokio::pin!(shutdown);
+    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
+    let mut wait_started = steady();
+    let mut resend = tokio::time::interval(opts.retransmit);
+    resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut ever_commanded = false;
+    let mut refused_logged = 0u32;
+    let mut need_publish = true;
+    loop {
+        if need_publish {
+            let stamp = core.stamp();
+            if core.seq().is_multiple_of(opts.clock_every.max(1)) {
+                let _ = io.clock_pub.async_publish(Clock { clock: stamp }).await;
+            }
+            if let Err(e) = io.state_pub.async_publish(core.state()).await {
+                warn!("state not sent: {e:?}");
+            }
+            core.published(steady());
+            need_publish = false;
+            wait_started = steady();
+            resend.reset();
+        }
+        if until_nanos.is_some_and(|u| core.stamp().to_nanos() >= u) {
+            info!("reached the end time {:.3} s", core.stamp().as_secs_f64());
+            return Ok(());
+        }
+        if core.answered() {
+            core.step()?;
+            need_publish = true;
+            continue;
+        }
+        tokio::select! {
+            sig = &mut shutdown => {
+                match sig {
+                    Ok(s) => info!("{s}: shutting down"),
+                    Err(e) => warn!("{e:#}"),
+                }
+                return Ok(());
+            }
+            msg = commands.select_next_some() => match msg {
+                Ok((cmd, _)) => match core.on_command(&cmd, steady(), true) {
+                    CommandOutcome::Accepted => ever_commanded = true,
+                    CommandOutcome::Duplicate => {}
+                    refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
+                },
+                Err(e) => warn!("undecodable command: {e:?}"),
+            },
+            _ = resend.tick() => {
+                let waited = steady() - wait_started;
+                let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
+                if waited > limit {
+                    if core.force_stale() || !ever_commanded {
+                        warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
+                    }
+                    ever_commanded = true;
+                    core.step()?;
+                    need_publish = true;
+                } else if let Err(e) = io.state_pub.async_publish(core.state()).await {
+                    warn!("state not re-sent: {e:?}");
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]

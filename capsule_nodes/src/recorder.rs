@@ -174,7 +174,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         },
     )?;
     let context = settings.context()?;
-    let mut node = settings.node(&context)?;
+    let (mut node, graph) = settings.loop_node(&context)?;
     let status_name = format!("{}/status", opts.controller_node);
     let event_name = service_event_topic(&opts.controller_node);
     let specs: [(&str, MessageTypeName, &str, ros2_client::QosProfile); 5] = [
@@ -207,7 +207,10 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         sink.channels.push((id, full, 0));
         topics.push(topic);
     }
-    // deep reader queues: a slow disk moment must not drop samples
+    // Deep reader queues: a slow disk moment must not drop samples. Reliable readers: with
+    // best-effort ones RustDDS's writers sent only part of the samples at 10 kHz (a third of
+    // /clock went missing before it reached the kernel), although they spare the
+    // acknowledgement each reliable reader sends back per sample.
     let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 100_000 });
     let force_sub = node
         .create_subscription::<ActuatorForce>(&topics[1], Some(reader_qos.clone()))
@@ -221,9 +224,9 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     let event_sub = node
         .create_subscription::<SetModeEvent>(&topics[4], Some(reader_qos.clone()))
         .context("service-event subscription")?;
-    if tokio::time::timeout(opts.wait_publishers, force_sub.wait_for_publisher(&node))
+    if !graph
+        .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)
         .await
-        .is_err()
     {
         warn!(
             "no force publisher after {:?}: recording without waiting for the controller",

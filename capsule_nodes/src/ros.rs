@@ -12,6 +12,8 @@ use ros2_client::{
 };
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
+use crate::graph::Graph;
+
 /// How far DDS discovery reaches (the ROS 2 `ROS_AUTOMATIC_DISCOVERY_RANGE` idea).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DiscoveryRange {
@@ -241,17 +243,22 @@ impl RosSettings {
         Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
     }
 
-    /// Creates the node (with `use_sim_time` declared as asked) and starts its spinner.
-    pub fn node(&self, context: &Context) -> Result<Node> {
+    fn bare_node(&self, context: &Context) -> Result<Node> {
         let name = NodeName::new(&self.namespace, &self.node_name).map_err(|e| {
             anyhow::anyhow!("bad node name {}/{}: {e:?}", self.namespace, self.node_name)
         })?;
         let options = NodeOptions::new()
             .enable_rosout(true)
             .declare_parameter("use_sim_time", ParameterValue::Boolean(self.use_sim_time));
-        let mut node = context
+        context
             .new_node(name, options)
-            .context("cannot create the ROS node")?;
+            .context("cannot create the ROS node")
+    }
+
+    /// Creates a node for a command-line tool, with ros2-client's spinner (graph, parameter
+    /// services, sim time).
+    pub fn node(&self, context: &Context) -> Result<Node> {
+        let mut node = self.bare_node(context)?;
         let spinner = node.spinner().context("cannot create the node spinner")?;
         tokio::spawn(async move {
             if let Err(e) = spinner.spin().await {
@@ -259,6 +266,13 @@ impl RosSettings {
             }
         });
         Ok(node)
+    }
+
+    /// Creates a node for a sample-rate loop (plant, controller, recorder): no spinner (it
+    /// would receive every /clock sample), the graph followed by [`Graph`] instead.
+    pub fn loop_node(&self, context: &Context) -> Result<(Node, Graph)> {
+        let graph = Graph::follow(context.domain_participant());
+        Ok((self.bare_node(context)?, graph))
     }
 
     /// One line for the log: where this node talks.
@@ -371,6 +385,10 @@ pub mod qos {
     pub fn data_reader() -> QosProfile {
         QosProfile::subscription_default().history(History::KeepLast { depth: 16 })
     }
+    /// /clock readers: best effort keep-last 1, like rclcpp's and rclpy's time source.
+    pub fn clock_reader() -> QosProfile {
+        QosProfile::subscription_default()
+    }
     /// /clock: reliable keep-last 1 (matches rclcpp's best-effort clock subscription too).
     pub fn clock() -> QosProfile {
         QosProfile::publisher_default()
@@ -418,6 +436,13 @@ pub fn exit_code(name: &str, result: Result<()>) -> std::process::ExitCode {
             std::process::ExitCode::from(2)
         }
     }
+}
+
+/// Wall-clock time in nanoseconds since the Unix epoch (0 before it).
+pub fn wall_nanos() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as i64)
 }
 
 /// Resolves when the process gets Ctrl-C (SIGINT) or SIGTERM.

@@ -1,0 +1,243 @@
+//! What the capsule nodes need of the ROS graph, without ros2-client's `Spinner`.
+//!
+//! The `Spinner` also subscribes every node to `/clock` (whether or not it uses sim time), so
+//! each node received every clock sample, and the plant its own: measured 5-6 % of a core per
+//! node at 1 kHz. The nodes need only two things from it, both taken here straight from DDS:
+//!
+//! - [`Graph`]: which remote readers and writers matched our endpoints (discovery events of the
+//!   participant), to wait for subscribers or publishers before starting;
+//! - [`RosClock`]: ROS time, from our own `/clock` subscription only under `use_sim_time`.
+//!
+//! What goes with the Spinner: the nodes do not serve the `rcl_interfaces` parameter services
+//! (they are configured by flags and the scene, not by ROS parameters). The command-line tools
+//! (`capsule_ros`, `capsule replay`) keep the Spinner.
+
+use std::{
+    collections::{HashMap, HashSet},
+    sync::{
+        atomic::{AtomicI64, Ordering},
+        Arc, Mutex, PoisonError,
+    },
+    time::Duration,
+};
+
+use anyhow::{Context as _, Result};
+use capsule_msgs::Time;
+use futures::StreamExt;
+use ros2_client::Node;
+use rustdds::{DomainParticipant, DomainParticipantStatusEvent, StatusEvented, GUID};
+use tokio::sync::watch;
+
+use crate::ros::{names, qos, types, Clock, RosSettings};
+
+#[derive(Debug, Default)]
+struct Matches {
+    /// local writer -> matched remote readers
+    readers_of: HashMap<GUID, HashSet<GUID>>,
+    /// local reader -> matched remote writers
+    writers_of: HashMap<GUID, HashSet<GUID>>,
+}
+
+impl Matches {
+    /// Applies one discovery event; true if the matches changed.
+    fn apply(&mut self, event: &DomainParticipantStatusEvent) -> bool {
+        use DomainParticipantStatusEvent as E;
+        match event {
+            E::RemoteReaderMatched {
+                local_writer,
+                remote_reader,
+            } => self
+                .readers_of
+                .entry(*local_writer)
+                .or_default()
+                .insert(*remote_reader),
+            E::RemoteWriterMatched {
+                local_reader,
+                remote_writer,
+            } => self
+                .writers_of
+                .entry(*local_reader)
+                .or_default()
+                .insert(*remote_writer),
+            E::ReaderLost { guid, .. } => remove(&mut self.readers_of, |g| g == guid),
+            E::WriterLost { guid, .. } => remove(&mut self.writers_of, |g| g == guid),
+            E::ParticipantLost { id, .. } => {
+                let r = remove(&mut self.readers_of, |g| g.prefix == *id);
+                let w = remove(&mut self.writers_of, |g| g.prefix == *id);
+                r || w
+            }
+            _ => false,
+        }
+    }
+}
+
+fn remove(map: &mut HashMap<GUID, HashSet<GUID>>, gone: impl Fn(&GUID) -> bool) -> bool {
+    let mut changed = false;
+    for set in map.values_mut() {
+        let before = set.len();
+        set.retain(|g| !gone(g));
+        changed |= set.len() != before;
+    }
+    changed
+}
+
+/// Matched remote endpoints of this participant's readers and writers, kept current by a task
+/// that follows the participant's discovery events.
+#[derive(Clone)]
+pub struct Graph {
+    matches: Arc<Mutex<Matches>>,
+    changed: watch::Receiver<u64>,
+}
+
+impl Graph {
+    /// Starts following `participant`'s discovery events (call before creating endpoints).
+    pub fn follow(participant: DomainParticipant) -> Graph {
+        let matches = Arc::new(Mutex::new(Matches::default()));
+        let (tx, changed) = watch::channel(0u64);
+        let m = Arc::clone(&matches);
+        tokio::spawn(async move {
+            let listener = participant.status_listener();
+            let events = listener.as_async_status_stream();
+            futures::pin_mut!(events);
+            while let Some(event) = events.next().await {
+                let changed = m
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .apply(&event);
+                if changed {
+                    tx.send_modify(|v| *v += 1);
+                }
+            }
+        });
+        Graph { matches, changed }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Matches> {
+        self.matches.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Remote readers matched by our writer `writer`.
+    pub fn subscribers(&self, writer: GUID) -> usize {
+        self.lock().readers_of.get(&writer).map_or(0, HashSet::len)
+    }
+
+    /// Remote writers matched by our reader `reader`.
+    pub fn publishers(&self, reader: GUID) -> usize {
+        self.lock().writers_of.get(&reader).map_or(0, HashSet::len)
+    }
+
+    /// Waits until `count()` reaches `n`; false after `timeout`.
+    async fn wait(&self, n: usize, timeout: Duration, count: impl Fn(&Self) -> usize) -> bool {
+        let mut changed = self.changed.clone();
+        let reached = async {
+            loop {
+                changed.borrow_and_update();
+                if count(self) >= n {
+                    return;
+                }
+                if changed.changed().await.is_err() {
+                    // the follower ended (participant gone): nothing will change any more
+                    std::future::pending::<()>().await;
+                }
+            }
+        };
+        tokio::time::timeout(timeout, reached).await.is_ok()
+    }
+
+    /// Waits for `n` subscribers of our writer `writer`; false after `timeout`.
+    pub async fn wait_subscribers(&self, writer: GUID, n: usize, timeout: Duration) -> bool {
+        self.wait(n, timeout, |g| g.subscribers(writer)).await
+    }
+
+    /// Waits for `n` publishers of our reader `reader`; false after `timeout`.
+    pub async fn wait_publishers(&self, reader: GUID, n: usize, timeout: Duration) -> bool {
+        self.wait(n, timeout, |g| g.publishers(reader)).await
+    }
+}
+
+/// ROS time as a node sees it: the wall clock, or under `use_sim_time` the latest `/clock`
+/// (zero until the first one arrives, as in rclcpp).
+#[derive(Clone)]
+pub struct RosClock {
+    sim_nanos: Option<Arc<AtomicI64>>,
+}
+
+impl RosClock {
+    /// The wall clock, or (under `settings.use_sim_time`) a `/clock` subscription on `node`.
+    pub fn new(settings: &RosSettings, node: &mut Node) -> Result<RosClock> {
+        if !settings.use_sim_time {
+            return Ok(RosClock { sim_nanos: None });
+        }
+        let topic = settings.topic(node, names::CLOCK, types::clock(), &qos::clock())?;
+        // best effort, like rclcpp's and rclpy's time source
+        let sub = node
+            .create_subscription::<Clock>(&topic, Some(qos::clock_reader()))
+            .context("clock subscription")?;
+        let nanos = Arc::new(AtomicI64::new(0));
+        let n = Arc::clone(&nanos);
+        tokio::spawn(async move {
+            let stream = sub.async_stream();
+            futures::pin_mut!(stream);
+            while let Some(msg) = stream.next().await {
+                if let Ok((clock, _)) = msg {
+                    n.store(clock.clock.to_nanos(), Ordering::Relaxed);
+                }
+            }
+        });
+        Ok(RosClock {
+            sim_nanos: Some(nanos),
+        })
+    }
+
+    /// Now, in ROS time.
+    pub fn now(&self) -> Time {
+        match &self.sim_nanos {
+            Some(n) => Time::from_nanos(n.load(Ordering::Relaxed)),
+            None => Time::from_nanos(crate::ros::wall_nanos()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh GUID (random prefix): stands for a remote endpoint.
+    fn guid() -> GUID {
+        GUID::new_participant_guid()
+    }
+
+    #[test]
+    fn matches_follow_discovery_events() {
+        use DomainParticipantStatusEvent as E;
+        let mut m = Matches::default();
+        let (w, r1, r2) = (guid(), guid(), guid());
+        assert!(m.apply(&E::RemoteReaderMatched {
+            local_writer: w,
+            remote_reader: r1
+        }));
+        // a repeated match changes nothing
+        assert!(!m.apply(&E::RemoteReaderMatched {
+            local_writer: w,
+            remote_reader: r1
+        }));
+        assert!(m.apply(&E::RemoteReaderMatched {
+            local_writer: w,
+            remote_reader: r2
+        }));
+        assert_eq!(m.readers_of[&w].len(), 2);
+        assert!(m.apply(&E::ReaderLost {
+            guid: r1,
+            reason: rustdds::LostReason::Timeout {
+                lease: rustdds::Duration::from_secs(1),
+                elapsed: rustdds::Duration::from_secs(2),
+            }
+        }));
+        assert_eq!(m.readers_of[&w].len(), 1);
+        assert!(m.apply(&E::ParticipantLost {
+            id: r2.prefix,
+            reason: rustdds::LostReason::Disposed,
+        }));
+        assert!(m.readers_of[&w].is_empty());
+    }
+}
