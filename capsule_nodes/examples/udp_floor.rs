@@ -65,7 +65,12 @@ fn receive(n: u64, rate: f64, with_epoll: bool) -> Result<(u64, f64, f64)> {
     let port = sock.local_addr()?.port();
     // another process, like the nodes: a thread of the same process wakes the receiver cheaper
     let mut send = std::process::Command::new(std::env::current_exe()?)
-        .args(["--send", &port.to_string(), &rate.to_string(), &n.to_string()])
+        .args([
+            "--send",
+            &port.to_string(),
+            &rate.to_string(),
+            &n.to_string(),
+        ])
         .spawn()
         .context("starting the sender process")?;
     let mut buf = [0u8; 65536];
@@ -134,7 +139,9 @@ fn main() -> Result<()> {
         }
     }
     let rate: f64 = match args.first() {
-        Some(a) => a.parse().with_context(|| format!("RATE {a:?}: not a number"))?,
+        Some(a) => a
+            .parse()
+            .with_context(|| format!("RATE {a:?}: not a number"))?,
         None => 30_000.0,
     };
     let secs: f64 = match args.get(1) {
