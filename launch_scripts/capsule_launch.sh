@@ -6,9 +6,11 @@
 #
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
-#       [--record-dir DIR | --no-record] [--recorder-arg ARG]...
+#       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
 #
 # Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
+# --record-in-plant: the plant writes the same file itself instead (no recorder process; at
+# 10 kHz that costs 1-2 % of a core instead of half a core, see docs/recording.md).
 #
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
@@ -20,8 +22,8 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=()
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene="$2"; shift 2 ;;
@@ -34,6 +36,7 @@ while [ $# -gt 0 ]; do
     --controller-arg) ctl_args+=("$2"); shift 2 ;;
     --record-dir) record_dir="$2"; shift 2 ;;
     --no-record) record=0; shift ;;
+    --record-in-plant) in_plant=1; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "capsule_launch: unknown argument $1 (see --help)" >&2; exit 2 ;;
@@ -51,7 +54,10 @@ done
 pl=(--scene "$scene" --pacing "$pacing")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
-if [ "$record" = 1 ]; then
+if [ "$record" = 1 ] && [ "$in_plant" = 1 ]; then
+  pl+=(--record-dir "$record_dir")
+  [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
+elif [ "$record" = 1 ]; then
   [ -x "$bin/capsule_recorder" ] || { echo "capsule_launch: $bin/capsule_recorder not built (cargo build --workspace)" >&2; exit 2; }
   rec=("$bin/capsule_recorder" --scene "$scene" --record-dir "$record_dir" ${rec_args[@]+"${rec_args[@]}"})
   "${rec[@]}" --check || exit 2
@@ -82,7 +88,7 @@ start() { # name cmd...
 }
 
 start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
-[ "$record" = 1 ] && start recorder "${rec[@]}"
+[ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
 start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
 

@@ -30,9 +30,12 @@ use futures::StreamExt;
 use tracing::{info, warn};
 
 use crate::{
+    recorder::{drain_into, service_event_topic, service_event_type, Channel, GraphRecording},
     ros::{names, qos, types, Clock, RosSettings},
     scale::Scale,
 };
+use capsule_msgs::ControllerStatus;
+use capsule_record::types::SetModeEvent;
 
 /// A non-dimensional sample of the simulated plant (the simulator's snapshot, SI-free).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -417,6 +420,61 @@ pub struct PlantOptions {
     pub wait_subscribers: usize,
     /// Publish /clock with every this many samples (1: every sample).
     pub clock_every: u64,
+    /// Record the graph in this process (see [`InPlantRecording`]).
+    pub record: Option<InPlantRecordOptions>,
+}
+
+/// Where and how the plant records the graph itself.
+#[derive(Debug, Clone)]
+pub struct InPlantRecordOptions {
+    /// The file to write (must not exist).
+    pub output: std::path::PathBuf,
+    /// The scene, stored in the file.
+    pub scene: Option<capsule_record::SceneRecord>,
+    /// Name of the controller node (its status and service-event topics are recorded).
+    pub controller_node: String,
+    /// Close the open chunk at least this often (wall clock).
+    pub flush_period: Duration,
+}
+
+/// The graph recorded inside the plant: what it publishes (state, /clock) as it publishes it,
+/// every command as DDS delivered it, and the controller's status and service events from
+/// their own (low-rate) readers. The same file as `capsule_recorder` writes, without a
+/// second process receiving every sample over the network (which costs that process, on this
+/// machine, 5-10 us of kernel time per datagram).
+pub struct InPlantRecording {
+    rec: GraphRecording,
+    status_sub: ros2_client::Subscription<ControllerStatus>,
+    event_sub: ros2_client::Subscription<SetModeEvent>,
+    last_poll: Instant,
+}
+
+impl InPlantRecording {
+    /// Records a published state sample and, if published with it, the clock.
+    fn published(&mut self, state: &CapsuleState, clock: Option<&Clock>) -> Result<()> {
+        let now = crate::ros::wall_nanos().max(0) as u64;
+        if let Some(c) = clock {
+            self.rec.write(Channel::Clock, c, now, now)?;
+        }
+        self.rec.write(Channel::State, state, now, now)
+    }
+
+    /// Records a command as DDS delivered it.
+    fn received(&mut self, cmd: &ActuatorForce, info: &ros2_client::MessageInfo) -> Result<()> {
+        self.rec.write_received(Channel::Force, cmd, info)
+    }
+
+    /// Every 10 ms: takes the controller's status and service events, closes the chunk when due.
+    /// (A `take` on a DDS reader costs microseconds even when it is empty: not every sample.)
+    fn poll(&mut self) -> Result<()> {
+        if self.last_poll.elapsed() < Duration::from_millis(10) {
+            return Ok(());
+        }
+        self.last_poll = Instant::now();
+        drain_into(&self.status_sub, &mut self.rec, Channel::Status)?;
+        drain_into(&self.event_sub, &mut self.rec, Channel::ServiceEvent)?;
+        self.rec.flush_if_due()
+    }
 }
 
 /// The plant's DDS endpoints.
@@ -445,6 +503,20 @@ pub async fn run<S: PlantSim + Send + 'static>(
     core: PlantCore<S>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
+    // the file first: an unwritable place is an error before anything else starts
+    let recording = opts
+        .record
+        .as_ref()
+        .map(|r| {
+            GraphRecording::create(
+                &r.output,
+                r.scene.clone(),
+                &settings,
+                &r.controller_node,
+                r.flush_period,
+            )
+        })
+        .transpose()?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
     let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
@@ -460,6 +532,30 @@ pub async fn run<S: PlantSim + Send + 'static>(
         force_sub: node
             .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
             .context("force subscription")?,
+    };
+    let mut recording = match (recording, &opts.record) {
+        (Some(rec), Some(r)) => {
+            // reliable, deep: status and service events are few and must all be kept
+            let deep = qos::data().history(ros2_client::qos::History::KeepLast { depth: 1000 });
+            let status_name = format!("{}/status", r.controller_node);
+            let status_topic =
+                settings.topic(&node, &status_name, types::status(), &qos::data())?;
+            let event_name = service_event_topic(&r.controller_node);
+            let event_topic =
+                settings.topic(&node, &event_name, service_event_type(), &qos::service())?;
+            info!("recording the graph in-process to {}", r.output.display());
+            Some(InPlantRecording {
+                rec,
+                status_sub: node
+                    .create_subscription(&status_topic, Some(deep.clone()))
+                    .context("status subscription")?,
+                event_sub: node
+                    .create_subscription(&event_topic, Some(deep))
+                    .context("service-event subscription")?,
+                last_poll: Instant::now(),
+            })
+        }
+        _ => None,
     };
     info!(
         "{}: {:?} at {} Hz, state {} <- force {}, clock {}",
@@ -487,10 +583,11 @@ pub async fn run<S: PlantSim + Send + 'static>(
         }
         info!("{} subscribers matched: starting", opts.wait_subscribers);
     }
-    let (result, mut core) = match opts.pacing {
+    let (result, mut core, recording) = match opts.pacing {
         Pacing::Lockstep => {
             let mut core = core;
-            (lockstep_loop(&mut core, &io, &opts).await, core)
+            let r = lockstep_loop(&mut core, &io, &opts, recording.as_mut()).await;
+            (r, core, recording)
         }
         Pacing::Realtime => {
             let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -498,8 +595,8 @@ pub async fn run<S: PlantSim + Send + 'static>(
             let opts = opts.clone();
             let mut looping = tokio::task::spawn_blocking(move || {
                 let mut core = core;
-                let r = realtime_loop(&mut core, &io, &opts, &stop_loop);
-                (r, core)
+                let r = realtime_loop(&mut core, &io, &opts, &stop_loop, recording.as_mut());
+                (r, core, recording)
             });
             let shutdown = crate::ros::shutdown_signal();
             tokio::pin!(shutdown);
@@ -532,6 +629,23 @@ pub async fn run<S: PlantSim + Send + 'static>(
         ),
         None => info!("loop: {} samples, no command answered", stats.published),
     }
+    if let Some(r) = recording {
+        let mut rec = r.rec;
+        let ended = result.and_then(|()| {
+            // status and service events still in flight: the controller's last ones
+            drain_into(&r.status_sub, &mut rec, Channel::Status)?;
+            drain_into(&r.event_sub, &mut rec, Channel::ServiceEvent)
+        });
+        return match ended {
+            Ok(_) => {
+                let report = rec.finish()?;
+                let total: u64 = report.per_topic.values().sum();
+                info!("recorded {total} messages to {}", report.path.display());
+                Ok((stats, core.state()))
+            }
+            Err(e) => Err(rec.abandon(e)),
+        };
+    }
     result.map(|()| (stats, core.state()))
 }
 
@@ -545,6 +659,7 @@ fn realtime_loop<S: PlantSim>(
     io: &Endpoints,
     opts: &PlantOptions,
     stop: &std::sync::atomic::AtomicBool,
+    mut rec: Option<&mut InPlantRecording>,
 ) -> Result<()> {
     let period = Duration::from_secs_f64(1.0 / core.rate_hz);
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
@@ -555,10 +670,19 @@ fn realtime_loop<S: PlantSim>(
     let mut refused_logged = 0u32;
     loop {
         let stamp = core.stamp();
-        if core.seq().is_multiple_of(opts.clock_every.max(1)) {
-            let _ = io.clock_pub.publish(Clock { clock: stamp });
+        let clock = core
+            .seq()
+            .is_multiple_of(opts.clock_every.max(1))
+            .then_some(Clock { clock: stamp });
+        if let Some(c) = &clock {
+            let _ = io.clock_pub.publish(*c);
         }
-        if let Err(e) = io.state_pub.publish(core.state()) {
+        let state = core.state();
+        if let Some(r) = rec.as_deref_mut() {
+            r.published(&state, clock.as_ref())?;
+            r.poll()?;
+        }
+        if let Err(e) = io.state_pub.publish(state) {
             warn!("state not sent: {e:?}");
         }
         core.published(now());
@@ -577,6 +701,9 @@ fn realtime_loop<S: PlantSim>(
         loop {
             match io.force_sub.take() {
                 Ok(Some((cmd, info))) => {
+                    if let Some(r) = rec.as_deref_mut() {
+                        r.received(&cmd, &info)?;
+                    }
                     let at = info
                         .received_timestamp()
                         .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9);
@@ -605,6 +732,7 @@ async fn lockstep_loop<S: PlantSim>(
     core: &mut PlantCore<S>,
     io: &Endpoints,
     opts: &PlantOptions,
+    mut rec: Option<&mut InPlantRecording>,
 ) -> Result<()> {
     let start = Instant::now();
     let steady = move || start.elapsed().as_secs_f64();
@@ -622,10 +750,19 @@ async fn lockstep_loop<S: PlantSim>(
     loop {
         if need_publish {
             let stamp = core.stamp();
-            if core.seq().is_multiple_of(opts.clock_every.max(1)) {
-                let _ = io.clock_pub.async_publish(Clock { clock: stamp }).await;
+            let clock = core
+                .seq()
+                .is_multiple_of(opts.clock_every.max(1))
+                .then_some(Clock { clock: stamp });
+            if let Some(c) = &clock {
+                let _ = io.clock_pub.async_publish(*c).await;
             }
-            if let Err(e) = io.state_pub.async_publish(core.state()).await {
+            let state = core.state();
+            if let Some(r) = rec.as_deref_mut() {
+                r.published(&state, clock.as_ref())?;
+                r.poll()?;
+            }
+            if let Err(e) = io.state_pub.async_publish(state).await {
                 warn!("state not sent: {e:?}");
             }
             core.published(steady());
@@ -651,11 +788,16 @@ async fn lockstep_loop<S: PlantSim>(
                 return Ok(());
             }
             msg = commands.select_next_some() => match msg {
-                Ok((cmd, _)) => match core.on_command(&cmd, steady(), true) {
-                    CommandOutcome::Accepted => ever_commanded = true,
-                    CommandOutcome::Duplicate => {}
-                    refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
-                },
+                Ok((cmd, info)) => {
+                    if let Some(r) = rec.as_deref_mut() {
+                        r.received(&cmd, &info)?;
+                    }
+                    match core.on_command(&cmd, steady(), true) {
+                        CommandOutcome::Accepted => ever_commanded = true,
+                        CommandOutcome::Duplicate => {}
+                        refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
+                    }
+                }
                 Err(e) => warn!("undecodable command: {e:?}"),
             },
             _ = resend.tick() => {
@@ -668,8 +810,15 @@ async fn lockstep_loop<S: PlantSim>(
                     ever_commanded = true;
                     core.step()?;
                     need_publish = true;
-                } else if let Err(e) = io.state_pub.async_publish(core.state()).await {
-                    warn!("state not re-sent: {e:?}");
+                } else {
+                    let state = core.state();
+                    if let Some(r) = rec.as_deref_mut() {
+                        r.published(&state, None)?;
+                        r.poll()?;
+                    }
+                    if let Err(e) = io.state_pub.async_publish(state).await {
+                        warn!("state not re-sent: {e:?}");
+                    }
                 }
             }
         }

@@ -95,6 +95,32 @@ pub fn utc_compact(ns: u64) -> String {
     )
 }
 
+/// Where a run's recording goes: `output` if given, else `record_dir` (created if missing) /
+/// [`run_file_name`]. Refused if the file exists: a recording is never overwritten.
+pub fn output_path(
+    record_dir: &Path,
+    output: Option<&Path>,
+    scene: Option<&SceneRecord>,
+) -> Result<PathBuf> {
+    let path = match output {
+        Some(o) => o.to_path_buf(),
+        None => {
+            std::fs::create_dir_all(record_dir).with_context(|| {
+                format!(
+                    "cannot create the record directory {}",
+                    record_dir.display()
+                )
+            })?;
+            let name = scene.map(|s| s.name.as_str()).unwrap_or("run");
+            record_dir.join(run_file_name(name, capsule_record::writer::now_ns()))
+        }
+    };
+    if path.exists() {
+        anyhow::bail!("{} exists: not overwriting a recording", path.display());
+    }
+    Ok(path)
+}
+
 /// Reads a scene file for the recording: its name is the file stem.
 pub fn scene_record(path: &Path) -> Result<SceneRecord> {
     let toml = std::fs::read_to_string(path)
@@ -115,15 +141,130 @@ pub struct RecorderReport {
     pub per_topic: BTreeMap<String, u64>,
 }
 
-struct Sink {
-    writer: RecordWriter,
-    channels: Vec<(ChannelId, String, u32)>,
+/// The channels of a capsule graph recording, in the order [`GraphRecording`] creates them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Channel {
+    /// `capsule/state`
+    State = 0,
+    /// `capsule/actuator_force`
+    Force = 1,
+    /// `<controller>/status`
+    Status = 2,
+    /// `/clock`
+    Clock = 3,
+    /// `<controller>/set_mode/_service_event`
+    ServiceEvent = 4,
 }
 
-impl Sink {
-    fn write<T: Serialize>(&mut self, k: usize, msg: &T, info: &MessageInfo) -> Result<()> {
-        // log time = when DDS received the sample (not when this loop got to it: the loop
-        // serves several readers, and must not reorder topics by its own scheduling)
+/// The graph's topics as the recorder subscribes to them: relative name, DDS type, ROS type,
+/// the QoS the capsule nodes offer.
+fn graph_topics(
+    controller_node: &str,
+) -> [(
+    String,
+    MessageTypeName,
+    &'static str,
+    ros2_client::QosProfile,
+); 5] {
+    [
+        (
+            names::STATE.to_string(),
+            types::state(),
+            rtypes::STATE,
+            qos::data(),
+        ),
+        (
+            names::FORCE.to_string(),
+            types::force(),
+            rtypes::FORCE,
+            qos::data(),
+        ),
+        (
+            format!("{controller_node}/status"),
+            types::status(),
+            rtypes::STATUS,
+            qos::data(),
+        ),
+        (
+            names::CLOCK.to_string(),
+            types::clock(),
+            rtypes::CLOCK,
+            qos::clock(),
+        ),
+        (
+            service_event_topic(controller_node),
+            service_event_type(),
+            rtypes::SET_MODE_EVENT,
+            qos::service(),
+        ),
+    ]
+}
+
+/// An MCAP file of the capsule graph being written: one channel per topic (see [`Channel`]),
+/// chunks closed at least every `flush_period` of wall time.
+pub struct GraphRecording {
+    writer: RecordWriter,
+    channels: Vec<(ChannelId, String, u32)>,
+    flush_period: Duration,
+    last_flush: std::time::Instant,
+}
+
+impl GraphRecording {
+    /// Creates `path` (refused if it exists or cannot be written) with the graph's channels.
+    pub fn create(
+        path: &Path,
+        scene: Option<SceneRecord>,
+        settings: &RosSettings,
+        controller_node: &str,
+        flush_period: Duration,
+    ) -> Result<GraphRecording> {
+        let mut writer = RecordWriter::create(
+            path,
+            WriterOptions {
+                scene,
+                ..WriterOptions::default()
+            },
+        )?;
+        let mut channels = Vec::new();
+        for (name, _, ros_type, _) in graph_topics(controller_node) {
+            let full = settings.resolve_name(&name);
+            // the QoS the capsule nodes offer (reliable, volatile, keep last)
+            let depth = if ros_type == rtypes::CLOCK { 1 } else { 16 };
+            let id = writer.add_topic(&full, ros_type, &OfferedQos::reliable(depth))?;
+            channels.push((id, full, 0));
+        }
+        Ok(GraphRecording {
+            writer,
+            channels,
+            flush_period,
+            last_flush: std::time::Instant::now(),
+        })
+    }
+
+    /// Writes `msg` on `channel` with log and publish times in ns since the epoch.
+    pub fn write<T: Serialize>(
+        &mut self,
+        channel: Channel,
+        msg: &T,
+        log_ns: u64,
+        publish_ns: u64,
+    ) -> Result<()> {
+        let data = cdr::encode(msg)?;
+        let (id, _, seq) = &mut self.channels[channel as usize];
+        *seq = seq.wrapping_add(1);
+        let (id, seq) = (*id, *seq);
+        self.writer.write(id, seq, log_ns, publish_ns, &data)?;
+        Ok(())
+    }
+
+    /// Writes a received sample: log time = when DDS received it (not when a loop got to it,
+    /// which would reorder topics by its own scheduling), publish time = its source stamp.
+    pub fn write_received<T: Serialize>(
+        &mut self,
+        channel: Channel,
+        msg: &T,
+        info: &MessageInfo,
+    ) -> Result<()> {
         let log = info
             .received_timestamp()
             .map(|t| t.to_nanos().max(0) as u64)
@@ -132,31 +273,61 @@ impl Sink {
             .source_timestamp()
             .map(|t| t.to_nanos().max(0) as u64)
             .unwrap_or(log);
-        let data = cdr::encode(msg)?;
-        let (id, _, seq) = &mut self.channels[k];
-        *seq = seq.wrapping_add(1);
-        let (id, seq) = (*id, *seq);
-        self.writer.write(id, seq, log, publish, &data)?;
+        self.write(channel, msg, log, publish)
+    }
+
+    /// Closes the open chunk if `flush_period` has passed since the last time.
+    pub fn flush_if_due(&mut self) -> Result<()> {
+        if self.last_flush.elapsed() >= self.flush_period {
+            self.writer.flush()?;
+            self.last_flush = std::time::Instant::now();
+        }
         Ok(())
+    }
+
+    /// Messages written per topic so far.
+    pub fn per_topic(&self) -> BTreeMap<String, u64> {
+        self.channels
+            .iter()
+            .map(|c| (c.1.clone(), c.2 as u64))
+            .collect()
+    }
+
+    /// Finishes the file (summary, indexes, rosbag2 metadata).
+    pub fn finish(self) -> Result<RecorderReport> {
+        let per_topic = self.per_topic();
+        let path = self.writer.path().to_path_buf();
+        self.writer.finish()?;
+        Ok(RecorderReport { path, per_topic })
+    }
+
+    /// Ends after an error: flushes what it can and says how to complete the file.
+    pub fn abandon(mut self, e: anyhow::Error) -> anyhow::Error {
+        let path = self.writer.path().to_path_buf();
+        let _ = self.writer.flush();
+        e.context(format!(
+            "recording to {} stopped; `capsule record recover` completes the file",
+            path.display()
+        ))
     }
 }
 
-fn drain_one<M: Serialize + serde::de::DeserializeOwned + 'static>(
+/// Takes every sample `sub` holds into `rec` on `channel`; returns how many.
+pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
     sub: &ros2_client::Subscription<M>,
-    sink: &mut Sink,
-    k: usize,
-    what: &str,
+    rec: &mut GraphRecording,
+    channel: Channel,
 ) -> Result<usize> {
     let mut n = 0;
     loop {
         match sub.take() {
             Ok(Some((msg, mi))) => {
-                sink.write(k, &msg, &mi)?;
+                rec.write_received(channel, &msg, &mi)?;
                 n += 1;
             }
             Ok(None) => return Ok(n),
             Err(e) => {
-                warn!("bad {what} sample: {e:?}");
+                warn!("bad {channel:?} sample: {e:?}");
                 return Ok(n);
             }
         }
@@ -166,45 +337,20 @@ fn drain_one<M: Serialize + serde::de::DeserializeOwned + 'static>(
 /// Runs the recorder until SIGINT / SIGTERM (or `idle_stop`), then finishes the file.
 pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<RecorderReport> {
     // the file first: an unwritable place is an error before anything else starts
-    let writer = RecordWriter::create(
+    let mut sink = GraphRecording::create(
         &opts.output,
-        WriterOptions {
-            scene: opts.scene.clone(),
-            ..WriterOptions::default()
-        },
+        opts.scene.clone(),
+        &settings,
+        &opts.controller_node,
+        opts.flush_period,
     )?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let status_name = format!("{}/status", opts.controller_node);
-    let event_name = service_event_topic(&opts.controller_node);
-    let specs: [(&str, MessageTypeName, &str, ros2_client::QosProfile); 5] = [
-        (names::STATE, types::state(), rtypes::STATE, qos::data()),
-        (names::FORCE, types::force(), rtypes::FORCE, qos::data()),
-        (&status_name, types::status(), rtypes::STATUS, qos::data()),
-        (names::CLOCK, types::clock(), rtypes::CLOCK, qos::clock()),
-        (
-            &event_name,
-            service_event_type(),
-            rtypes::SET_MODE_EVENT,
-            qos::service(),
-        ),
-    ];
-    let mut sink = Sink {
-        writer,
-        channels: Vec::new(),
-    };
     let mut topics = Vec::new();
-    for (name, dds_type, ros_type, q) in specs {
-        let full = settings.resolve_name(name);
+    for (name, dds_type, _, q) in graph_topics(&opts.controller_node) {
         let topic = node
-            .create_topic(&settings.ros_name(name)?, dds_type, &q)
-            .with_context(|| format!("topic {full}"))?;
-        // the QoS the capsule nodes offer (reliable, volatile, keep last)
-        let depth = if ros_type == rtypes::CLOCK { 1 } else { 16 };
-        let id = sink
-            .writer
-            .add_topic(&full, ros_type, &OfferedQos::reliable(depth))?;
-        sink.channels.push((id, full, 0));
+            .create_topic(&settings.ros_name(&name)?, dds_type, &q)
+            .with_context(|| format!("topic {}", settings.resolve_name(&name)))?;
         topics.push(topic);
     }
     // Deep reader queues: a slow disk moment must not drop samples. Reliable readers: with
@@ -239,11 +385,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     info!(
         "{}: recording {} to {}",
         settings.describe(),
-        sink.channels
-            .iter()
-            .map(|c| c.1.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
+        sink.per_topic().into_keys().collect::<Vec<_>>().join(", "),
         opts.output.display()
     );
 
@@ -255,16 +397,13 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     let shutdown = crate::ros::shutdown_signal();
     tokio::pin!(shutdown);
     let mut last_msg = tokio::time::Instant::now();
-    let mut last_flush = tokio::time::Instant::now();
     let mut got_any = false;
-    let drain = |sink: &mut Sink| -> Result<usize> {
-        let mut n = 0;
-        n += drain_one(&state_sub, sink, 0, "state")?;
-        n += drain_one(&force_sub, sink, 1, "force")?;
-        n += drain_one(&status_sub, sink, 2, "status")?;
-        n += drain_one(&clock_sub, sink, 3, "clock")?;
-        n += drain_one(&event_sub, sink, 4, "service event")?;
-        Ok(n)
+    let drain = |sink: &mut GraphRecording| -> Result<usize> {
+        Ok(drain_into(&state_sub, sink, Channel::State)?
+            + drain_into(&force_sub, sink, Channel::Force)?
+            + drain_into(&status_sub, sink, Channel::Status)?
+            + drain_into(&clock_sub, sink, Channel::Clock)?
+            + drain_into(&event_sub, sink, Channel::ServiceEvent)?)
     };
 
     let result: Result<()> = async {
@@ -293,10 +432,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
                         got_any = true;
                         last_msg = tokio::time::Instant::now();
                     }
-                    if last_flush.elapsed() >= opts.flush_period {
-                        sink.writer.flush()?;
-                        last_flush = tokio::time::Instant::now();
-                    }
+                    sink.flush_if_due()?;
                     if let Some(idle) = opts.idle_stop {
                         if got_any && last_msg.elapsed() >= idle {
                             info!("no message for {idle:?}: finishing {}", opts.output.display());
@@ -308,25 +444,10 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         }
     }
     .await;
-    let per_topic = sink
-        .channels
-        .iter()
-        .map(|c| (c.1.clone(), c.2 as u64))
-        .collect();
-    let path = sink.writer.path().to_path_buf();
     match result {
-        Ok(()) => {
-            sink.writer.finish()?;
-            Ok(RecorderReport { path, per_topic })
-        }
-        Err(e) => {
-            // keep what is on disk readable by `capsule record recover`
-            let _ = sink.writer.flush();
-            Err(e.context(format!(
-                "recording to {} stopped; `capsule record recover` completes the file",
-                path.display()
-            )))
-        }
+        Ok(()) => sink.finish(),
+        // keep what is on disk readable by `capsule record recover`
+        Err(e) => Err(sink.abandon(e)),
     }
 }
 

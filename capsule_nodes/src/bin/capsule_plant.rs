@@ -4,7 +4,8 @@ use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
 use capsule_nodes::{
-    plant::{self, Pacing, PlantCore, PlantOptions},
+    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
+    recorder,
     ros::{self, RosArgs, RosEnv, RosSettings},
     scale::Scale,
     sim::ExactSim,
@@ -48,6 +49,20 @@ struct Cli {
     /// at the cost of a coarser sim clock for use_sim_time nodes)
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     clock_every: u64,
+    /// Record the graph in this process to DIR/capsule_<scene>_<UTC time>.mcap (what the plant
+    /// publishes and receives, the controller's status and mode changes): the same file as
+    /// capsule_recorder writes, at a fraction of its CPU at high rates
+    #[arg(long, value_name = "DIR")]
+    record_dir: Option<std::path::PathBuf>,
+    /// Record in-process to exactly this file (must not exist)
+    #[arg(long, value_name = "FILE", conflicts_with = "record_dir")]
+    record_output: Option<std::path::PathBuf>,
+    /// Controller node whose status and service events the in-process recording takes
+    #[arg(long, default_value = "capsule_controller")]
+    controller_node: String,
+    /// In-process recording: close the open chunk at least this often [ms]
+    #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(1..))]
+    flush_ms: u64,
     /// Write a JSON summary (loop statistics, last sample) to this file at the end
     #[arg(long)]
     summary_json: Option<String>,
@@ -64,6 +79,26 @@ fn positive(name: &str, v: f64) -> Result<f64> {
     } else {
         bail!("{name} = {v}: must be finite and > 0")
     }
+}
+
+fn record_options(cli: &Cli) -> Result<Option<InPlantRecordOptions>> {
+    if cli.record_dir.is_none() && cli.record_output.is_none() {
+        return Ok(None);
+    }
+    let scene = recorder::scene_record(std::path::Path::new(&cli.scene))?;
+    let output = recorder::output_path(
+        cli.record_dir
+            .as_deref()
+            .unwrap_or(std::path::Path::new("runs")),
+        cli.record_output.as_deref(),
+        Some(&scene),
+    )?;
+    Ok(Some(InPlantRecordOptions {
+        output,
+        scene: Some(scene),
+        controller_node: cli.controller_node.clone(),
+        flush_period: Duration::from_millis(cli.flush_ms),
+    }))
 }
 
 fn build(cli: &Cli) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> {
@@ -106,6 +141,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> 
         startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
         wait_subscribers: cli.wait_subscribers,
         clock_every: cli.clock_every,
+        record: record_options(cli)?,
     };
     Ok((settings, core, opts))
 }
@@ -116,9 +152,13 @@ fn main() -> std::process::ExitCode {
     let result = build(&cli).and_then(|(settings, core, opts)| {
         if cli.check {
             println!(
-                "capsule_plant: ok: {}, {:?}",
+                "capsule_plant: ok: {}, {:?}{}",
                 settings.describe(),
-                opts.pacing
+                opts.pacing,
+                opts.record
+                    .as_ref()
+                    .map(|r| format!(", would record to {}", r.output.display()))
+                    .unwrap_or_default()
             );
             return Ok(());
         }

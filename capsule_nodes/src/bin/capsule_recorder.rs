@@ -2,7 +2,7 @@
 
 use std::{path::PathBuf, time::Duration};
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, Result};
 use capsule_nodes::{
     recorder::{self, RecorderOptions},
     ros::{self, RosArgs, RosEnv, RosSettings},
@@ -63,22 +63,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
             bail!("{name} {v}: must be finite and >= 0");
         }
     }
-    let output = match &cli.output {
-        Some(o) => o.clone(),
-        None => {
-            std::fs::create_dir_all(&cli.record_dir).with_context(|| {
-                format!("cannot create --record-dir {}", cli.record_dir.display())
-            })?;
-            let name = scene.as_ref().map(|s| s.name.as_str()).unwrap_or("run");
-            cli.record_dir.join(recorder::run_file_name(
-                name,
-                capsule_record::writer::now_ns(),
-            ))
-        }
-    };
-    if output.exists() {
-        bail!("{} exists: not overwriting a recording", output.display());
-    }
+    let output = recorder::output_path(&cli.record_dir, cli.output.as_deref(), scene.as_ref())?;
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_recorder")?;
     Ok((
         settings,
