@@ -649,6 +649,26 @@ pub async fn run<S: PlantSim + Send + 'static>(
     result.map(|()| (stats, core.state()))
 }
 
+/// The current sample and, every `clock_every`-th sample, its /clock, recorded when recording.
+fn outgoing<S: PlantSim>(
+    core: &PlantCore<S>,
+    opts: &PlantOptions,
+    rec: Option<&mut InPlantRecording>,
+) -> Result<(CapsuleState, Option<Clock>)> {
+    let clock = core
+        .seq()
+        .is_multiple_of(opts.clock_every.max(1))
+        .then_some(Clock {
+            clock: core.stamp(),
+        });
+    let state = core.state();
+    if let Some(r) = rec {
+        r.published(&state, clock.as_ref())?;
+        r.poll()?;
+    }
+    Ok((state, clock))
+}
+
 /// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
 /// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
 /// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
@@ -670,17 +690,9 @@ fn realtime_loop<S: PlantSim>(
     let mut refused_logged = 0u32;
     loop {
         let stamp = core.stamp();
-        let clock = core
-            .seq()
-            .is_multiple_of(opts.clock_every.max(1))
-            .then_some(Clock { clock: stamp });
-        if let Some(c) = &clock {
-            let _ = io.clock_pub.publish(*c);
-        }
-        let state = core.state();
-        if let Some(r) = rec.as_deref_mut() {
-            r.published(&state, clock.as_ref())?;
-            r.poll()?;
+        let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
+        if let Some(c) = clock {
+            let _ = io.clock_pub.publish(c);
         }
         if let Err(e) = io.state_pub.publish(state) {
             warn!("state not sent: {e:?}");
@@ -749,18 +761,9 @@ async fn lockstep_loop<S: PlantSim>(
     let mut need_publish = true;
     loop {
         if need_publish {
-            let stamp = core.stamp();
-            let clock = core
-                .seq()
-                .is_multiple_of(opts.clock_every.max(1))
-                .then_some(Clock { clock: stamp });
-            if let Some(c) = &clock {
-                let _ = io.clock_pub.async_publish(*c).await;
-            }
-            let state = core.state();
-            if let Some(r) = rec.as_deref_mut() {
-                r.published(&state, clock.as_ref())?;
-                r.poll()?;
+            let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
+            if let Some(c) = clock {
+                let _ = io.clock_pub.async_publish(c).await;
             }
             if let Err(e) = io.state_pub.async_publish(state).await {
                 warn!("state not sent: {e:?}");
