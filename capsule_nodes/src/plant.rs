@@ -725,7 +725,11 @@ fn realtime_loop<S: PlantSim>(
                     }
                 }
                 Ok(None) => break,
-                Err(e) => warn!("undecodable command: {e:?}"),
+                // the rest waits for the next sample: never spin on a reader that keeps failing
+                Err(e) => {
+                    warn!("undecodable command: {e:?}");
+                    break;
+                }
             }
         }
         if core.check_watchdog(now()) {
