@@ -477,6 +477,10 @@ impl InPlantRecording {
     }
 }
 
+/// How long the plant waits after its subscribers matched before the first sample, and after
+/// the last sample before it leaves (discovery and sending run on DDS's own thread).
+const MATCH_GRACE: Duration = Duration::from_millis(200);
+
 /// The plant's DDS endpoints.
 struct Endpoints {
     state_pub: ros2_client::Publisher<CapsuleState>,
@@ -581,6 +585,10 @@ pub async fn run<S: PlantSim + Send + 'static>(
                 opts.startup_timeout
             );
         }
+        // Our writer has matched them; their readers match our writer when they process our
+        // announcement, which can be a moment later, and a reader that has not yet matched
+        // drops what it gets. Give them that moment, or the first samples miss the recorder.
+        tokio::time::sleep(MATCH_GRACE).await;
         info!("{} subscribers matched: starting", opts.wait_subscribers);
     }
     let (result, mut core, recording) = match opts.pacing {
@@ -613,6 +621,8 @@ pub async fn run<S: PlantSim + Send + 'static>(
             }
         }
     };
+    // DDS sends from its own thread: let the last sample leave before the participant goes
+    tokio::time::sleep(MATCH_GRACE).await;
     core.stats.finish();
     let stats = core.stats.clone();
     match stats.percentiles() {

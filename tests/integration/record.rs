@@ -465,7 +465,9 @@ fn in_plant_recording_holds_the_same_run() {
 }
 
 /// A lock-step launcher run with two mode requests, recorded by the recorder node or (with
-/// `in_plant`) by the plant itself: the same file either way.
+/// `in_plant`) by the plant itself: the same file either way. The switch is scheduled (at 4.5 s
+/// of sim time, requested early): `--check-controller` replays a scheduled switch exactly, an
+/// immediate one only to within a sample of where the recording saw the request.
 fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     let dir = fresh_dir(name);
     let (code, all) = netns(
@@ -473,7 +475,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         &dir,
         &format!(
             r#"
-        ( sleep 3; $B/capsule_ros set-mode backward --at-s 4.5; $B/capsule_ros set-mode custom --gain 99 ) &
+        ( sleep 1; $B/capsule_ros set-mode backward --at-s 4.5; $B/capsule_ros set-mode custom --gain 99 ) &
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 6 {} \
             --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json"
         rc=$?; wait; exit $rc"#,
