@@ -118,6 +118,17 @@ pub fn output_path(
     if path.exists() {
         anyhow::bail!("{} exists: not overwriting a recording", path.display());
     }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        anyhow::bail!(
+            "cannot record to {}: {} is not a directory",
+            path.display(),
+            parent.display()
+        );
+    }
     Ok(path)
 }
 

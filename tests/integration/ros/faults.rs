@@ -80,7 +80,8 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         $B/capsule_plant --scene "$SCENE" --rate-hz=-5; echo "rc3=$?"
         $B/capsule_controller --scene "$SCENE" --mode sideways; echo "rc4=$?"
         ROS_DOMAIN_ID=banana $B/capsule_controller --scene "$SCENE"; echo "rc5=$?"
-        $ROOT/launch_scripts/capsule_launch.sh --scene $TMP/bad.toml --pacing lockstep; echo "rc6=$?""#,
+        $ROOT/launch_scripts/capsule_launch.sh --scene $TMP/bad.toml --pacing lockstep; echo "rc6=$?"
+        $B/capsule_plant --scene "$SCENE" --record-output $TMP/no/such/dir/run.mcap; echo "rc7=$?""#,
     );
     let all = run.all();
     for (rc, needle) in [
@@ -89,6 +90,7 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         ("rc3=2", "--rate-hz"),
         ("rc4=2", "--mode"),
         ("rc5=2", "ROS_DOMAIN_ID"),
+        ("rc7=2", "no/such/dir is not a directory"),
     ] {
         assert!(run.stdout.contains(rc), "{rc} expected\n{all}");
         assert!(
