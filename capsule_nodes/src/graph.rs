@@ -193,7 +193,7 @@ impl RosClock {
     pub fn now(&self) -> Time {
         match &self.sim_nanos {
             Some(n) => Time::from_nanos(n.load(Ordering::Relaxed)),
-            None => Time::from_nanos(crate::ros::wall_nanos()),
+            None => Time::from_nanos(capsule_record::writer::now_ns() as i64),
         }
     }
 }

@@ -30,7 +30,7 @@ use futures::StreamExt;
 use tracing::{info, warn};
 
 use crate::{
-    recorder::{drain_into, service_event_topic, service_event_type, Channel, GraphRecording},
+    recorder::{drain_into, graph_topics, Channel, GraphRecording},
     ros::{names, qos, types, Clock, RosSettings},
     scale::Scale,
 };
@@ -452,7 +452,7 @@ pub struct InPlantRecording {
 impl InPlantRecording {
     /// Records a published state sample and, if published with it, the clock.
     fn published(&mut self, state: &CapsuleState, clock: Option<&Clock>) -> Result<()> {
-        let now = crate::ros::wall_nanos().max(0) as u64;
+        let now = capsule_record::writer::now_ns();
         if let Some(c) = clock {
             self.rec.write(Channel::Clock, c, now, now)?;
         }
@@ -541,12 +541,12 @@ pub async fn run<S: PlantSim + Send + 'static>(
         (Some(rec), Some(r)) => {
             // reliable, deep: status and service events are few and must all be kept
             let deep = qos::data().history(ros2_client::qos::History::KeepLast { depth: 1000 });
-            let status_name = format!("{}/status", r.controller_node);
-            let status_topic =
-                settings.topic(&node, &status_name, types::status(), &qos::data())?;
-            let event_name = service_event_topic(&r.controller_node);
-            let event_topic =
-                settings.topic(&node, &event_name, service_event_type(), &qos::service())?;
+            let specs = graph_topics(&r.controller_node);
+            let [status_topic, event_topic] = [Channel::Status, Channel::ServiceEvent].map(|c| {
+                let (name, ty, _, q) = &specs[c as usize];
+                settings.topic(&node, name, ty.clone(), q)
+            });
+            let (status_topic, event_topic) = (status_topic?, event_topic?);
             info!("recording the graph in-process to {}", r.output.display());
             Some(InPlantRecording {
                 rec,
@@ -695,8 +695,8 @@ fn realtime_loop<S: PlantSim>(
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
     let start = Instant::now();
     // loop times are wall-clock seconds since the start, the clock DDS stamps receptions with
-    let wall0 = crate::ros::wall_nanos();
-    let now = || (crate::ros::wall_nanos() - wall0) as f64 * 1e-9;
+    let wall0 = capsule_record::writer::now_ns() as i64;
+    let now = || (capsule_record::writer::now_ns() as i64 - wall0) as f64 * 1e-9;
     let mut refused_logged = 0u32;
     loop {
         let stamp = core.stamp();

@@ -167,9 +167,9 @@ pub enum Channel {
     ServiceEvent = 4,
 }
 
-/// The graph's topics as the recorder subscribes to them: relative name, DDS type, ROS type,
-/// the QoS the capsule nodes offer.
-fn graph_topics(
+/// The graph's topics as a recording subscribes to them, in [`Channel`] order: relative name,
+/// DDS type, ROS type, the QoS the capsule nodes offer.
+pub fn graph_topics(
     controller_node: &str,
 ) -> [(
     String,

@@ -438,13 +438,6 @@ pub fn exit_code(name: &str, result: Result<()>) -> std::process::ExitCode {
     }
 }
 
-/// Wall-clock time in nanoseconds since the Unix epoch (0 before it).
-pub fn wall_nanos() -> i64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos() as i64)
-}
-
 /// Resolves when the process gets Ctrl-C (SIGINT) or SIGTERM.
 pub async fn shutdown_signal() -> Result<&'static str> {
     use tokio::signal::unix::{signal, SignalKind};
