@@ -17,7 +17,8 @@
 //!   for bit, as fast as the loop allows. If no answer comes within the command timeout, that
 //!   step runs with zero force and the plant says so.
 //!
-//! Time on the wire is simulation time (starting at 0), also published on `/clock`.
+//! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
+//! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
 
 use std::{
     collections::VecDeque,
@@ -30,6 +31,7 @@ use futures::StreamExt;
 use tracing::{info, warn};
 
 use crate::{
+    graph::Graph,
     recorder::{drain_into, graph_topics, Channel, GraphRecording},
     ros::{names, qos, types, Clock, RosSettings},
     scale::Scale,
@@ -486,6 +488,14 @@ struct Endpoints {
     state_pub: ros2_client::Publisher<CapsuleState>,
     clock_pub: ros2_client::Publisher<Clock>,
     force_sub: ros2_client::Subscription<ActuatorForce>,
+    graph: Graph,
+}
+
+impl Endpoints {
+    /// Whether /clock has a subscriber now (rclcpp's `get_subscription_count() > 0` idiom).
+    fn clock_wanted(&self) -> bool {
+        self.graph.subscribers(self.clock_pub.guid()) > 0
+    }
 }
 
 /// Logs a refused command: the first ten, then at powers of two.
@@ -536,6 +546,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
         force_sub: node
             .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
             .context("force subscription")?,
+        graph: graph.clone(),
     };
     let mut recording = match (recording, &opts.record) {
         (Some(rec), Some(r)) => {
@@ -562,7 +573,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
         _ => None,
     };
     info!(
-        "{}: {:?} at {} Hz, state {} <- force {}, clock {}",
+        "{}: {:?} at {} Hz, state {} <- force {}, clock {} (while subscribed)",
         settings.describe(),
         opts.pacing,
         core.rate_hz,
@@ -701,7 +712,7 @@ fn realtime_loop<S: PlantSim>(
     loop {
         let stamp = core.stamp();
         let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
-        if let Some(c) = clock {
+        if let Some(c) = clock.filter(|_| io.clock_wanted()) {
             let _ = io.clock_pub.publish(c);
         }
         if let Err(e) = io.state_pub.publish(state) {
@@ -776,7 +787,7 @@ async fn lockstep_loop<S: PlantSim>(
     loop {
         if need_publish {
             let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
-            if let Some(c) = clock {
+            if let Some(c) = clock.filter(|_| io.clock_wanted()) {
                 let _ = io.clock_pub.async_publish(c).await;
             }
             if let Err(e) = io.state_pub.async_publish(state).await {
