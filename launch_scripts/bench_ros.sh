@@ -6,11 +6,13 @@
 #
 # Use release binaries: cargo build --release -p capsule_nodes; CAPSULE_BIN defaults to
 # target/release. Cases:
-#   rt1k   real time 1 kHz, plant + controller, 60 s: loop latency p50/p99/max (state published
-#          -> its command received by the plant), unanswered samples, CPU per node (steady
-#          state: user + system time from 2 s in to 0.5 s before the end, % of one core)
+#   rt1k   real time 1 kHz, plant + controller, 60 s ($RT1K_S): loop latency p50/p99/max
+#          (state published -> its command received by the plant), unanswered samples,
+#          datagrams the kernel dropped, CPU per node (steady state: user + system time from
+#          2 s in to 0.5 s before the end, % of one core) and the host's steal time
 #   rt10k  the same at 10 kHz for 5 s
 #   lock   lock-step closed loop: steps per second of wall time
+#   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
@@ -22,29 +24,32 @@ case_script='
 set -u
 B=$CAPSULE_BIN
 cpu() { awk "{print \$14 + \$15}" /proc/$1/stat 2>/dev/null || echo -1; }
-$B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
+steal() { awk "/^cpu / {print \$9}" /proc/stat; }  # ticks the hypervisor gave to others
+$B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS 2>/dev/null &
 C=$!
 sleep 0.5
-$B/capsule_plant --scene "$SCENE" $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+$B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
 P=$!
 # CPU over the steady state: from 2 s in (discovery done) to 0.5 s before the end
 sleep 2
-t0=$(date +%s.%N); c0=$(cpu $C); p0=$(cpu $P)
+t0=$(date +%s.%N); c0=$(cpu $C); p0=$(cpu $P); s0=$(steal)
 sleep $(awk "BEGIN{print $SECS - 2.5}")
-p1=$(cpu $P); c1=$(cpu $C); t1=$(date +%s.%N)
+p1=$(cpu $P); c1=$(cpu $C); t1=$(date +%s.%N); s1=$(steal)
 wait $P
 kill -TERM $C; wait $C
 hz=$(getconf CLK_TCK)
 echo "SUMMARY $(cat /tmp/bench_$$.json)"
-[ "$p1" -lt 0 ] || awk -v p0=$p0 -v p1=$p1 -v c0=$c0 -v c1=$c1 -v t0=$t0 -v t1=$t1 -v hz=$hz "BEGIN{printf \"CPU plant %.1f%% controller %.1f%% of one core\\n\", 100*(p1-p0)/hz/(t1-t0), 100*(c1-c0)/hz/(t1-t0)}"
+# datagrams the kernel dropped in this namespace (full receive buffers, errors)
+awk "/^Udp:/ { if (!h) { for (i = 1; i <= NF; i++) f[\$i] = i; h = 1 } else print \"UDP dropped \" \$f[\"RcvbufErrors\"] + \$f[\"InErrors\"] }" /proc/net/snmp
+[ "$p1" -lt 0 ] || awk -v p0=$p0 -v p1=$p1 -v c0=$c0 -v c1=$c1 -v s0=$s0 -v s1=$s1 -v t0=$t0 -v t1=$t1 -v hz=$hz -v n=$(nproc) "BEGIN{printf \"CPU plant %.1f%% controller %.1f%% of one core (host steal %.1f%% of the CPUs)\\n\", 100*(p1-p0)/hz/(t1-t0), 100*(c1-c0)/hz/(t1-t0), 100*(s1-s0)/hz/(t1-t0)/n}"
 rm -f /tmp/bench_$$.json
 '
 report() { # name, output
   local name="$1" out="$2" json
   json=$(echo "$out" | sed -n 's/^SUMMARY //p')
-  python3 - "$name" "$json" "$(echo "$out" | grep '^CPU' || echo 'CPU: run shorter than the measuring window')" <<'PY'
+  python3 - "$name" "$json" "$(echo "$out" | grep '^CPU' || echo 'CPU: run shorter than the measuring window')" "$(echo "$out" | grep '^UDP dropped')" <<'PY'
 import json, sys
-name, raw, cpu = sys.argv[1], sys.argv[2], sys.argv[3]
+name, raw, cpu, udp = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
 try:
     j = json.loads(raw)
 except Exception:
@@ -53,17 +58,21 @@ ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
 print(f"{name}: samples {j['samples']} ({j['before_first_answer']} before the first answer), lost {j['unanswered']}, "
       f"answered late {j['late_answers']}, latency p50 {ms(j['latency_p50_s'])} "
       f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
-      f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}")
+      f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}; {udp} datagrams")
 PY
 }
 
-run_case() { # name seconds plant-args
+run_case() { # name seconds plant-args [node-args]
   local out
-  out=$(SECS="$2" PLANT_ARGS="$3" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$case_script")
+  out=$(SECS="$2" PLANT_ARGS="$3" NODE_ARGS="${4:-}" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$case_script")
   report "$1" "$out"
 }
+cpu=$(awk '/Cpus_allowed_list/ {print $2}' /proc/self/status | tr ',' '\n' | tail -1 | sed 's/.*-//')
 
 echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
-run_case rt1k 60 "--pacing realtime --until-s 60"
+run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
+run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"
 run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
+run_case rt10k-cpu1 5 "--pacing realtime --rate-hz 10000 --until-s 5" "--cpu-affinity $cpu"
 run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"
+run_case lock-cpu1 8 "--pacing lockstep --until-s 10 --wait-subscribers 1" "--cpu-affinity $cpu"

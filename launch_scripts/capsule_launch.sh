@@ -7,10 +7,13 @@
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
+#       [--cpu-affinity LIST]
 #
 # Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
 # --record-in-plant: the plant writes the same file itself instead (no recorder process; at
 # 10 kHz that costs 1-2 % of a core instead of half a core, see docs/recording.md).
+# --cpu-affinity LIST (e.g. 0): every node's threads on these CPUs; plant and controller on one
+# CPU wake each other without inter-processor interrupts (less CPU, lower latency: docs/ros.md).
 #
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
@@ -22,8 +25,8 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0
+usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene="$2"; shift 2 ;;
@@ -38,6 +41,7 @@ while [ $# -gt 0 ]; do
     --no-record) record=0; shift ;;
     --record-in-plant) in_plant=1; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
+    --cpu-affinity) cpus="$2"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "capsule_launch: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
@@ -50,6 +54,7 @@ done
 
 # refuse bad scenes and flags before anything starts (no half-started graph)
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
+if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-affinity "$cpus"); rec_args+=(--cpu-affinity "$cpus"); fi
 "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
 pl=(--scene "$scene" --pacing "$pacing")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")

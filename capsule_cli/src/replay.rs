@@ -83,7 +83,7 @@ pub fn main(args: Args) -> Result<()> {
         return check_controller(&args, &all);
     }
     let selected = select(&args, all)?;
-    ros::block_on(publish(&args, selected))
+    ros::block_on(args.ros.cpu_affinity.as_ref(), publish(&args, selected))
 }
 
 fn select(args: &Args, all: Vec<Message>) -> Result<Vec<Message>> {

@@ -1,5 +1,6 @@
 //! The capsule's ROS 2 layer: the plant and controller nodes (ros2-client on RustDDS).
 //!
+//! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
 //! - [`scale`]: SI <-> non-dimensional conversion, scene values the controller needs
@@ -11,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod affinity;
 pub mod client;
 pub mod controller;
 pub mod graph;

@@ -133,7 +133,10 @@ fn main() -> std::process::ExitCode {
             );
             return Ok(());
         }
-        ros::block_on(controller::run(settings, opts))
+        ros::block_on(
+            settings.cpu_affinity.clone().as_ref(),
+            controller::run(settings, opts),
+        )
     });
     ros::exit_code("capsule_controller", result)
 }

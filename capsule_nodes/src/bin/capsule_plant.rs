@@ -46,7 +46,8 @@ struct Cli {
     #[arg(long, default_value_t = 0)]
     wait_subscribers: usize,
     /// Publish /clock with every N-th sample (1 = every sample; larger saves CPU at high rates
-    /// at the cost of a coarser sim clock for use_sim_time nodes)
+    /// at the cost of a coarser sim clock for use_sim_time nodes). /clock is sent only while
+    /// it has a subscriber; a recording always holds it
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     clock_every: u64,
     /// Record the graph in this process to DIR/capsule_<scene>_<UTC time>.mcap (what the plant
@@ -163,7 +164,10 @@ fn main() -> std::process::ExitCode {
             return Ok(());
         }
         let started = std::time::Instant::now();
-        let (stats, last) = ros::block_on(plant::run(settings, core, opts))?;
+        let (stats, last) = ros::block_on(
+            settings.cpu_affinity.clone().as_ref(),
+            plant::run(settings, core, opts),
+        )?;
         if let Some(path) = &cli.summary_json {
             let json = plant::summary_json(&stats, &last, started.elapsed().as_secs_f64());
             std::fs::write(path, json + "\n").with_context(|| format!("cannot write {path}"))?;

@@ -91,7 +91,10 @@ fn main() -> std::process::ExitCode {
             );
             return Ok(());
         }
-        let report = ros::block_on(recorder::run(settings, opts))?;
+        let report = ros::block_on(
+            settings.cpu_affinity.clone().as_ref(),
+            recorder::run(settings, opts),
+        )?;
         let total: u64 = report.per_topic.values().sum();
         println!(
             "capsule_recorder: wrote {total} messages to {}",

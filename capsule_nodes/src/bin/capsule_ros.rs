@@ -224,5 +224,8 @@ async fn run(cli: Cli) -> Result<()> {
 fn main() -> std::process::ExitCode {
     ros::init_logging();
     let cli = Cli::parse();
-    ros::exit_code("capsule_ros", ros::block_on(run(cli)))
+    ros::exit_code(
+        "capsule_ros",
+        ros::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),
+    )
 }

@@ -81,7 +81,9 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         $B/capsule_controller --scene "$SCENE" --mode sideways; echo "rc4=$?"
         ROS_DOMAIN_ID=banana $B/capsule_controller --scene "$SCENE"; echo "rc5=$?"
         $ROOT/launch_scripts/capsule_launch.sh --scene $TMP/bad.toml --pacing lockstep; echo "rc6=$?"
-        $B/capsule_plant --scene "$SCENE" --record-output $TMP/no/such/dir/run.mcap; echo "rc7=$?""#,
+        $B/capsule_plant --scene "$SCENE" --record-output $TMP/no/such/dir/run.mcap; echo "rc7=$?"
+        $B/capsule_controller --scene "$SCENE" --cpu-affinity 1023; echo "rc8=$?"
+        $B/capsule_plant --scene "$SCENE" --cpu-affinity 2-1; echo "rc9=$?""#,
     );
     let all = run.all();
     for (rc, needle) in [
@@ -91,6 +93,8 @@ fn bad_scenes_and_flags_are_named_and_nothing_starts() {
         ("rc4=2", "--mode"),
         ("rc5=2", "ROS_DOMAIN_ID"),
         ("rc7=2", "no/such/dir is not a directory"),
+        ("rc8=2", "--cpu-affinity 1023: CPU 1023 is not available"),
+        ("rc9=2", "--cpu-affinity"),
     ] {
         assert!(run.stdout.contains(rc), "{rc} expected\n{all}");
         assert!(
@@ -172,6 +176,49 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
     // both nodes got the signal and shut down by themselves
     let stops = run.stderr.matches("SIGTERM: shutting down").count();
     assert_eq!(stops, 2, "{}", run.all());
+}
+
+#[test]
+fn launcher_pins_every_thread_of_every_node_to_the_cpus_asked() {
+    let run = netns(
+        60,
+        r#"
+        CPU=$(grep Cpus_allowed_list /proc/self/status | awk '{print $2}' | tr ',' '\n' | tail -1 | sed 's/.*-//')
+        echo "cpu=$CPU"
+        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 3 \
+            --record-dir "$TMP/runs" --cpu-affinity "$CPU" &
+        L=$!
+        sleep 2
+        for k in $(pgrep -P $L); do
+            for t in /proc/$k/task/*; do
+                echo "thread $(cat /proc/$k/comm)/$(tr ' ' _ < $t/comm) $(awk '/Cpus_allowed_list/ {print $2}' $t/status)"
+            done
+        done
+        wait $L; echo "launcher rc=$?""#,
+    );
+    let all = run.all();
+    assert!(run.stdout.contains("launcher rc=0"), "{all}");
+    let cpu = run
+        .stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("cpu="))
+        .unwrap_or_else(|| panic!("no cpu\n{all}"));
+    let threads: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("thread "))
+        .collect();
+    for node in ["capsule_plant/", "capsule_control", "capsule_recorde"] {
+        let of_node: Vec<_> = threads.iter().filter(|t| t.starts_with(node)).collect();
+        // the node's own threads and DDS's (event loop, discovery)
+        assert!(of_node.len() >= 3, "{node}: threads {of_node:?}\n{all}");
+        for t in of_node {
+            assert!(
+                t.ends_with(&format!(" {cpu}")),
+                "{t} not on CPU {cpu}\n{all}"
+            );
+        }
+    }
 }
 
 #[test]
