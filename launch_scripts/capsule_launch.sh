@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Start the capsule graph for a scene: controller, any extra processes (--with), then the plant.
 # Forwards Ctrl-C / SIGTERM to every process, waits for a clean shutdown, and exits non-zero if
-# any process failed. When the plant ends by itself (--until-s), the extras get --extra-wait-s to
-# finish, then the controller is stopped with SIGTERM.
+# any process failed. A failed process stops the graph, except the recorder: control goes on
+# without it (said loudly; `capsule record recover` completes its file). When the plant ends by
+# itself (--until-s), the extras get --extra-wait-s to finish, then the controller is stopped.
 #
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
@@ -27,7 +28,13 @@ scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
 usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; }
 record=1 record_dir="./runs" rec_args=() in_plant=0 cpus=
+die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
+  # every option but the flags takes a value
+  case "$1" in
+    --no-record|--record-in-plant|-h|--help) ;;
+    *) [ $# -ge 2 ] || die "$1 needs a value" ;;
+  esac
   case "$1" in
     --scene) scene="$2"; shift 2 ;;
     --pacing) pacing="$2"; shift 2 ;;
@@ -43,11 +50,14 @@ while [ $# -gt 0 ]; do
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
-    *) echo "capsule_launch: unknown argument $1 (see --help)" >&2; exit 2 ;;
+    *) die "unknown argument $1" ;;
   esac
 done
-[ -n "$scene" ] || { echo "capsule_launch: --scene is required" >&2; exit 2; }
-[ -r "$scene" ] || { echo "capsule_launch: cannot read scene $scene" >&2; exit 2; }
+[ -n "$scene" ] || die "--scene is required"
+[ -r "$scene" ] && [ -f "$scene" ] || die "cannot read scene file '$scene'"
+case "$pacing" in realtime|lockstep) ;; *) die "--pacing '$pacing': realtime or lockstep" ;; esac
+[ -z "$until_s" ] || [[ "$until_s" =~ ^[0-9]+(\.[0-9]*)?([eE][-+]?[0-9]+)?$ ]] || die "--until-s '$until_s': a positive number of seconds"
+[[ "$extra_wait" =~ ^[0-9]{1,7}$ ]] || die "--extra-wait-s '$extra_wait': a whole number of seconds (0 to 9999999)"
 for b in capsule_plant capsule_controller; do
   [ -x "$bin/$b" ] || { echo "capsule_launch: $bin/$b not built (cargo build --workspace)" >&2; exit 2; }
 done
@@ -59,13 +69,18 @@ if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-a
 pl=(--scene "$scene" --pacing "$pacing")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
+# the file name the check prints is the one the run writes (fixed here, not re-timed at start)
+if [ "$record" = 1 ]; then mkdir -p "$record_dir" || die "cannot create --record-dir '$record_dir'"; fi
 if [ "$record" = 1 ] && [ "$in_plant" = 1 ]; then
-  pl+=(--record-dir "$record_dir")
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
+  out=$("$bin/capsule_plant" "${pl[@]}" --record-dir "$record_dir" ${plant_args[@]+"${plant_args[@]}"} --check) || exit 2
+  pl+=(--record-output "${out##*would record to }")
 elif [ "$record" = 1 ]; then
   [ -x "$bin/capsule_recorder" ] || { echo "capsule_launch: $bin/capsule_recorder not built (cargo build --workspace)" >&2; exit 2; }
   rec=("$bin/capsule_recorder" --scene "$scene" --record-dir "$record_dir" ${rec_args[@]+"${rec_args[@]}"})
-  "${rec[@]}" --check || exit 2
+  out=$("${rec[@]}" --check) || exit 2
+  echo "$out"
+  rec=("$bin/capsule_recorder" --scene "$scene" --output "${out##*would write }" ${rec_args[@]+"${rec_args[@]}"})
   # lock-step waits for the extras as before; real time only for controller + recorder
   if [ "$pacing" = lockstep ]; then pl+=(--wait-subscribers "$(( 2 + ${#withs[@]} ))"); else pl+=(--wait-subscribers 2); fi
 else
@@ -97,7 +112,7 @@ start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
 start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
 
-declare -A status=()
+declare -A status=() said=()
 wait_pid() { # index -> sets status
   local i="$1" rc
   while :; do
@@ -117,8 +132,16 @@ while :; do
       if kill -0 "${pids[$i]}" 2>/dev/null; then alive=1; else wait_pid "$i"; fi
     fi
     if [ -n "${status[$i]+x}" ] && [ "${status[$i]}" != 0 ] && [ "$stopping" = 0 ]; then
-      echo "capsule_launch: ${names[$i]} failed (status ${status[$i]}): stopping the graph" >&2
-      failed=1
+      if [ "${names[$i]}" = recorder ]; then
+        # losing the recording must not lose control of the capsule
+        if [ -z "${said[$i]+x}" ]; then
+          said[$i]=1
+          echo "capsule_launch: RECORDER DIED (status ${status[$i]}): control goes on, NOT RECORDED from now on; complete its file with: capsule record recover FILE (in $record_dir)" >&2
+        fi
+      else
+        echo "capsule_launch: ${names[$i]} failed (status ${status[$i]}): stopping the graph" >&2
+        failed=1
+      fi
     fi
   done
   if [ "$failed" = 1 ] && [ "$stopping" = 0 ]; then stopping=1; stop_all; fi

@@ -14,8 +14,19 @@
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+case "${1:-}" in -h|--help) usage; exit 0 ;; esac
+if [ $# -gt 2 ]; then echo "demo: at most two arguments" >&2; usage >&2; exit 2; fi
 scene="${1:-$root/scenes/control_point.toml}"
 periods="${2:-60}"
+[ -r "$scene" ] && [ -f "$scene" ] || { echo "demo: cannot read scene file '$scene'" >&2; usage >&2; exit 2; }
+# PERIODS_PER_SEGMENT: a whole number from 3 (a third is left to settle) to 100000
+if ! [[ "$periods" =~ ^[0-9]{1,6}$ ]] || [ "$periods" -lt 3 ] || [ "$periods" -gt 100000 ]; then
+  echo "demo: PERIODS_PER_SEGMENT '$periods': must be a whole number from 3 to 100000" >&2
+  usage >&2
+  exit 2
+fi
+periods=$(( 10#$periods ))
 settle=$(( periods / 3 ))
 bin="${CAPSULE_BIN:-$root/target/debug}"
 export CAPSULE_BIN="$bin"

@@ -1,10 +1,19 @@
 //! Measuring the capsule: one run of a scene under the paper's drive and feedback law, its
 //! Poincaré section, period, impacts, progression and efficiency (eq. 4), and parameter sweeps
-//! (the paper's bifurcation diagrams). Pure: no files, no terminal.
+//! (the paper's bifurcation diagrams), and the stability of what it finds: Floquet multipliers
+//! and Lyapunov exponents through the impacts and stick-slip events. Pure: no files, no terminal.
 
 pub mod accuracy;
+pub mod attractor;
+pub mod basin;
+pub mod continuation;
+pub mod floquet;
+pub mod lyapunov;
 pub mod run;
+pub mod schedule;
 pub mod sweep;
+pub mod switch;
 
-pub use run::{run, run_sampled, PaperLaw, RunReport};
+pub use run::{run, run_sampled, run_scheduled, PaperLaw, RunReport};
+pub use schedule::{GainSchedule, Pulse};
 pub use sweep::{sweep, sweep_following, Param, SweepPoint};

@@ -5,6 +5,8 @@ use capsule_plant::scene::Scene;
 use capsule_plant::{ActuatorLaw, EventKind, LawShape, SimError, Simulator, Snapshot, State, Work};
 use serde::Serialize;
 
+use crate::schedule::GainSchedule;
+
 /// The controller's law seen by the simulator: harmonic drive plus `k_p |x2 - x1|`.
 #[derive(Debug, Clone, Copy)]
 pub struct PaperLaw(pub FeedbackLaw);
@@ -78,7 +80,18 @@ pub fn run_sampled(
     samples_per_period: u32,
     sample: &mut dyn FnMut(&Snapshot),
 ) -> Result<RunReport, SimError> {
-    let law = PaperLaw::of(scene);
+    let schedule = GainSchedule::constant(scene.control.kp);
+    run_scheduled(scene, &schedule, samples_per_period, sample)
+}
+
+/// [`run_sampled`] with the gain of each drive period taken from `schedule` instead of the
+/// scene's constant `k_p` (check it first with [`GainSchedule::validate`]).
+pub fn run_scheduled(
+    scene: &Scene,
+    schedule: &GainSchedule,
+    samples_per_period: u32,
+    sample: &mut dyn FnMut(&Snapshot),
+) -> Result<RunReport, SimError> {
     let period = scene.drive.period();
     let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
     let periods = scene.horizon.periods;
@@ -91,6 +104,7 @@ pub fn run_sampled(
         sample(&sim.snapshot());
     }
     for n in 0..periods {
+        let law = schedule.law(scene, n);
         let measuring = n >= transient;
         if n == transient {
             x2_start = sim.state().x2;

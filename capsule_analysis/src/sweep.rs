@@ -41,6 +41,32 @@ impl Param {
         })
     }
 
+    /// The parameter's name (as [`Param::parse`] reads it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Param::Alpha => "alpha",
+            Param::Omega => "omega",
+            Param::Gamma => "gamma",
+            Param::Beta => "beta",
+            Param::Delta => "delta",
+            Param::Xi => "xi",
+            Param::Kp => "kp",
+        }
+    }
+
+    /// The parameter's value in `scene`.
+    pub fn value(self, scene: &Scene) -> f64 {
+        match self {
+            Param::Alpha => scene.drive.alpha,
+            Param::Omega => scene.drive.omega,
+            Param::Gamma => scene.model.capsule.gamma,
+            Param::Beta => scene.model.capsule.beta,
+            Param::Delta => scene.model.capsule.delta,
+            Param::Xi => scene.model.capsule.xi,
+            Param::Kp => scene.control.kp,
+        }
+    }
+
     /// A copy of `scene` with this parameter set to `v`.
     pub fn apply(self, scene: &Scene, v: f64) -> Scene {
         let mut s = scene.clone();
@@ -83,7 +109,7 @@ pub fn sweep_following(
             s.initial = start;
             let result = s
                 .validate()
-                .map_err(|(k, r)| format!("{k}: {r}"))
+                .map_err(|e| e.to_string())
                 .and_then(|()| run(&s).map_err(|e: SimError| e.to_string()));
             if let Ok(r) = &result {
                 start = r.final_state;
@@ -108,7 +134,7 @@ pub fn sweep(
             let s = param.apply(scene, v);
             let result = s
                 .validate()
-                .map_err(|(k, r)| format!("{k}: {r}"))
+                .map_err(|e| e.to_string())
                 .and_then(|()| run(&s).map_err(|e: SimError| e.to_string()));
             progress();
             SweepPoint { value: v, result }

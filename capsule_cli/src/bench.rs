@@ -6,9 +6,11 @@
 //! - `effects`: cost per drive period as effects are added one at a time.
 
 use crate::svg;
+use crate::work;
 use anyhow::{Context, Result};
 use capsule_analysis::accuracy::{best_of, ladder, rate_ladder, Point};
 use capsule_analysis::{sweep, Param};
+use capsule_nodes::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::{Capsule, Friction, Method, Model, SolverConfig};
 use clap::ValueEnum;
@@ -25,6 +27,11 @@ pub enum What {
     Accuracy,
     /// Cost per drive period as scene effects are added one at a time.
     Effects,
+    /// Floquet multipliers and Lyapunov spectrum of the section-5 orbit.
+    Stability,
+    /// A basin of attraction at the Fig 19 scene: time per initial state, what the early stop
+    /// saves, the cost per event.
+    Basins,
 }
 
 /// Benchmark settings.
@@ -33,13 +40,16 @@ pub struct Args {
     /// Which benchmark.
     #[arg(value_enum, default_value_t = What::Speed)]
     what: What,
-    /// Repetitions of each timed run (the best is reported).
-    #[arg(long, default_value_t = 10)]
+    /// Repetitions of each timed run (the best is reported), 1 to 1000.
+    #[arg(long, default_value_t = 10, value_parser = ranges::count_u32(1, 1000))]
     repeat: u32,
-    /// Values in the Fig 2a alpha sweep (speed).
-    #[arg(long, default_value_t = 1901)]
+    /// Values in the Fig 2a alpha sweep (speed), 1 to 1000000.
+    #[arg(long, default_value_t = 1901, value_parser = ranges::count_usize(1, 1_000_000))]
     sweep_values: usize,
-    /// Output prefix for the accuracy tables and plots.
+    /// Grid side of the basin benchmark (basins), 2 to 2000.
+    #[arg(long, default_value_t = 200, value_parser = ranges::count_usize(2, 2000))]
+    basin_grid: usize,
+    /// Output prefix for the accuracy tables and plots (its directory must exist).
     #[arg(long, value_name = "PREFIX", default_value = "docs/accuracy/accuracy")]
     out: PathBuf,
 }
@@ -68,7 +78,7 @@ pub fn section5(kp: f64) -> Scene {
 }
 
 /// The section-3 set with a friction law, at a drive amplitude where the motion is periodic.
-fn section3(friction: Friction, alpha: f64) -> Scene {
+pub fn section3(friction: Friction, alpha: f64) -> Scene {
     let model = Model {
         capsule: Capsule {
             gamma: 5.0,
@@ -93,6 +103,8 @@ pub fn main(args: Args) -> Result<()> {
         What::Speed => speed(&args),
         What::Accuracy => accuracy(&args),
         What::Effects => effects(&args),
+        What::Stability => stability(&args),
+        What::Basins => basins(&args),
     }
 }
 
@@ -142,7 +154,78 @@ fn speed(args: &Args) -> Result<()> {
     Ok(())
 }
 
+fn stability(args: &Args) -> Result<()> {
+    use capsule_analysis::floquet::floquet;
+    use capsule_analysis::lyapunov::lyapunov;
+    let scene = section5(0.1);
+    let r = capsule_analysis::run(&scene)?;
+    let k = r.period.context("the section-5 orbit is not periodic")?;
+    let f = r.final_state;
+    let x = [f.x1 - f.x2, f.y1, f.y2];
+    let mut best = f64::INFINITY;
+    let mut fl = None;
+    for _ in 0..args.repeat.max(1) {
+        let t0 = Instant::now();
+        fl = Some(floquet(&scene, x, k)?);
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    let fl = fl.context("no repetition ran")?;
+    println!(
+        "Floquet multipliers of the section-5 orbit (kp 0.1, period {k}, {} events): best of {}: {:.3} ms, largest modulus {:.6}",
+        fl.events.len(),
+        args.repeat.max(1),
+        best * 1e3,
+        fl.largest_modulus
+    );
+    let mut best = f64::INFINITY;
+    for _ in 0..args.repeat.max(1) {
+        let t0 = Instant::now();
+        lyapunov(&scene)?;
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    println!(
+        "Lyapunov spectrum of the same scene (200 transient + 100 linearized periods): best of {}: {:.3} ms (the run alone: {:.3} ms)",
+        args.repeat.max(1),
+        best * 1e3,
+        best_of(&scene, args.repeat)?.1 * 1e3
+    );
+    // continuation of the Fig 2a main branch against the brute-force sweep of the same range
+    use capsule_analysis::continuation::{continue_branch, Settings};
+    let mut fig2a = Scene {
+        name: "Fig 2a".into(),
+        ..Scene::default()
+    };
+    fig2a.drive.alpha = 2.0;
+    let settings = Settings::new(Param::Alpha, 0.95);
+    let mut best = f64::INFINITY;
+    let mut points = 0;
+    for _ in 0..args.repeat.max(1) {
+        let t0 = Instant::now();
+        let b = continue_branch(&fig2a, &settings)?;
+        best = best.min(t0.elapsed().as_secs_f64());
+        points = b.points.len();
+    }
+    println!(
+        "Fig 2a main branch, alpha 2.0 -> 0.95 by continuation (start run included): best of {}: {:.1} ms, {points} points",
+        args.repeat.max(1),
+        best * 1e3
+    );
+    let values: Vec<f64> = (0..args.sweep_values)
+        .map(|i| 0.95 + 1.05 * i as f64 / (args.sweep_values.max(2) - 1) as f64)
+        .collect();
+    let t0 = Instant::now();
+    sweep(&fig2a, Param::Alpha, &values, &|| {});
+    println!(
+        "the same range by brute-force sweep: {} values, 300 periods each, {} threads: {:.2} s",
+        values.len(),
+        rayon::current_num_threads(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 fn accuracy(args: &Args) -> Result<()> {
+    work::check_parent(&args.out)?;
     let scenes = [
         section5(0.1),
         section3(Friction::Viscous { mu_v: 0.1 }, 1.6),
@@ -179,9 +262,6 @@ fn accuracy(args: &Args) -> Result<()> {
             );
         }
         all.extend(points);
-    }
-    if let Some(dir) = args.out.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let csv = args.out.with_extension("csv");
     let mut w = std::io::BufWriter::new(
@@ -297,19 +377,16 @@ fn accuracy(args: &Args) -> Result<()> {
     Ok(())
 }
 
-/// Render `svg` to a PNG beside it with `rsvg-convert` (Debian: librsvg2-bin) when that is
-/// installed; says what it did. Rasterising in-process would pull a font and imaging stack
-/// into the build for a few pictures.
+/// Render `svg` to a PNG beside it (in-process, [`svg::png`]); says what it did.
 fn png_beside(svg: &std::path::Path) -> String {
     let png = svg.with_extension("png");
-    match std::process::Command::new("rsvg-convert")
-        .args(["-w", "900", "-o"])
-        .arg(&png)
-        .arg(svg)
-        .status()
-    {
-        Ok(s) if s.success() => format!(" and {}", png.display()),
-        _ => " (no PNG: install rsvg-convert, Debian package librsvg2-bin)".to_string(),
+    let made = std::fs::read_to_string(svg)
+        .map_err(|e| e.to_string())
+        .and_then(|doc| svg::png(&doc, 1.0))
+        .and_then(|bytes| std::fs::write(&png, bytes).map_err(|e| e.to_string()));
+    match made {
+        Ok(()) => format!(" and {}", png.display()),
+        Err(e) => format!(" (no PNG: {e})"),
     }
 }
 
@@ -456,4 +533,117 @@ fn effects(args: &Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The Fig 19 (a) basin (Coulomb, alpha 1.5, k_p 0, (x1 - x2, y1 - y2) over [-2, 2]^2) on an
+/// `N x N` grid; then, on a sample of its initial states, the plain 300-period run, the early
+/// stop without recognising known attractors, and the cost per event.
+fn basins(args: &Args) -> Result<()> {
+    use capsule_analysis::attractor::{settle, Catalogue, SettleConfig};
+    use capsule_analysis::basin::{basins, Grid, Plane};
+    use capsule_analysis::{run, GainSchedule};
+    let mut scene = Scene::default();
+    scene.drive.alpha = 1.5;
+    let n = args.basin_grid.max(2);
+    let grid = Grid {
+        plane: Plane::RELATIVE,
+        nx: n,
+        ny: n,
+        x_range: (-2.0, 2.0),
+        y_range: (-2.0, 2.0),
+    };
+    grid.validate()
+        .map_err(|(k, r)| anyhow::anyhow!("--basin-grid: {k}: {r}"))?;
+    let cfg = SettleConfig::for_scene(&scene);
+    let schedule = GainSchedule::constant(0.0);
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let (t0, c0) = (Instant::now(), cpu_s(libc::RUSAGE_SELF));
+    let map = basins(&scene, &schedule, &cfg, &grid, &|| {}, &cancel);
+    let wall = t0.elapsed().as_secs_f64();
+    let cpu = cpu_s(libc::RUSAGE_SELF) - c0;
+    let w = &map.work;
+    let threads = rayon::current_num_threads();
+    println!(
+        "Fig 19a basin, {n} x {n} initial states, {threads} threads: {wall:.2} s wall, {cpu:.2} s CPU ({:.3} ms CPU per state); on a shared machine the CPU time / threads is the wall time it would take alone",
+        1e3 * cpu / w.runs as f64,
+    );
+    println!(
+        "  {:.1} periods per run (of {}); {} settled on their own, {} on a known attractor, {} at the horizon; {} attractors",
+        w.periods as f64 / w.runs as f64,
+        cfg.max_periods,
+        w.settled,
+        w.recognised,
+        w.horizon,
+        map.catalogue.attractors.len()
+    );
+    // one thread from here on, on every 97th state of the grid
+    let sample: Vec<Scene> = (0..n * n)
+        .step_by(97)
+        .map(|c| {
+            let (a, b) = grid.point(c % n, c / n);
+            let mut s = scene.clone();
+            s.initial = grid.plane.state(scene.initial, a, b);
+            s
+        })
+        .collect();
+    let per_state = |f: &dyn Fn(&Scene) -> Result<(u64, u64)>| -> Result<(f64, f64, f64)> {
+        let c0 = cpu_s(libc::RUSAGE_THREAD);
+        let (mut periods, mut events) = (0u64, 0u64);
+        for s in &sample {
+            let (p, e) = f(s)?;
+            periods += p;
+            events += e;
+        }
+        let t = cpu_s(libc::RUSAGE_THREAD) - c0;
+        let m = sample.len() as f64;
+        Ok((
+            1e3 * t / m,
+            periods as f64 / m,
+            1e6 * t / events.max(1) as f64,
+        ))
+    };
+    let plain = per_state(&|s| {
+        let r = run(s)?;
+        Ok((u64::from(s.horizon.periods), r.work.events))
+    })?;
+    let own = SettleConfig {
+        known_tol: 0.0,
+        ..cfg
+    };
+    let alone = per_state(&|s| {
+        let o = settle(s, &schedule, &own, &Catalogue::default())?;
+        Ok((u64::from(o.periods_run), o.work.events))
+    })?;
+    let known = per_state(&|s| {
+        let o = settle(s, &schedule, &cfg, &map.catalogue)?;
+        Ok((u64::from(o.periods_run), o.work.events))
+    })?;
+    println!(
+        "one thread, {} states of the grid, CPU time:\n  {:<44} {:>9} {:>9} {:>12}",
+        sample.len(),
+        "",
+        "ms/state",
+        "periods",
+        "us/event"
+    );
+    for (name, (ms, periods, us)) in [
+        ("plain 300-period run (capsule simulate)", plain),
+        ("early stop, own recurrence only", alone),
+        ("early stop, known attractors recognised", known),
+    ] {
+        println!("  {name:<44} {ms:>9.3} {periods:>9.1} {us:>12.3}");
+    }
+    Ok(())
+}
+
+/// CPU time in seconds of the process (`RUSAGE_SELF`) or the calling thread (`RUSAGE_THREAD`):
+/// on a machine shared with other work, wall time measures the others too.
+fn cpu_s(who: libc::c_int) -> f64 {
+    // SAFETY: getrusage writes into the zeroed struct we pass and nothing else.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(who, &mut u) } != 0 {
+        return f64::NAN;
+    }
+    let t = |v: libc::timeval| v.tv_sec as f64 + v.tv_usec as f64 * 1e-6;
+    t(u.ru_utime) + t(u.ru_stime)
 }

@@ -1,7 +1,11 @@
 //! `capsule`: the offline toolkit. Simulate a scene, sweep a parameter (bifurcation diagrams),
-//! and benchmark the integrators.
+//! continue a periodic orbit, and benchmark the integrators.
 
+mod basins;
 mod bench;
+#[path = "continue.rs"]
+mod continuation;
+mod figures;
 mod offline_record;
 mod record;
 mod replay;
@@ -9,8 +13,36 @@ mod scene_args;
 mod simulate;
 mod svg;
 mod sweep;
+mod switch;
+mod work;
 
 use clap::{Parser, Subcommand};
+
+/// An input refused before any work started (a flag, a scene, a limit): exit status 2, as for
+/// clap's own refusals, and as the node binaries do.
+#[derive(Debug)]
+pub struct Refused(pub String);
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Refused {}
+
+/// Exit status 2 for refused input (a bad scene or flag, a run over its limits), 1 for a
+/// failure while working.
+fn exit_status(e: &anyhow::Error) -> u8 {
+    let refused = e
+        .chain()
+        .any(|c| c.is::<Refused>() || c.is::<capsule_plant::scene::SceneError>());
+    if refused {
+        2
+    } else {
+        1
+    }
+}
 
 /// Offline toolkit for the vibro-impact capsule (Liu et al. 2014). All quantities are
 /// non-dimensional, as in the paper.
@@ -29,11 +61,26 @@ enum Command {
     /// Sweep one parameter over a range in parallel (the paper's bifurcation diagrams).
     #[command(allow_negative_numbers = true)]
     Sweep(sweep::Args),
+    /// Basins of attraction on a plane of initial states (the paper's Figs 11, 18, 19).
+    #[command(allow_negative_numbers = true)]
+    Basins(basins::Args),
+    /// Move between coexisting attractors with a gain pulse (the paper's Fig 20).
+    #[command(allow_negative_numbers = true)]
+    Switch(switch::Args),
+    /// Continue a periodic orbit in one parameter (pseudo-arclength, bifurcations located).
+    #[command(allow_negative_numbers = true)]
+    Continue(continuation::Args),
+    /// Regenerate the paper's figures the model covers (SVG, PNG, a Markdown page).
+    #[command(allow_negative_numbers = true)]
+    Figures(figures::Args),
     /// Time the integrators on the paper's scenes and print the figures.
+    #[command(allow_negative_numbers = true)]
     Bench(bench::Args),
     /// Look into a recorded run (info) or complete a cut one (recover).
+    #[command(allow_negative_numbers = true)]
     Record(record::Args),
     /// Publish a recording back onto ROS 2 at its pace, or check the controller against it.
+    #[command(allow_negative_numbers = true)]
     Replay(replay::Args),
 }
 
@@ -54,7 +101,11 @@ fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
         Command::Simulate(a) => simulate::main(a),
         Command::Sweep(a) => sweep::main(a),
+        Command::Basins(a) => basins::main(a),
+        Command::Continue(a) => continuation::main(a),
         Command::Bench(a) => bench::main(a),
+        Command::Figures(a) => figures::main(a),
+        Command::Switch(a) => switch::main(a),
         Command::Record(a) => record::main(a),
         Command::Replay(a) => replay::main(a),
     };
@@ -63,7 +114,7 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // the chain of causes, without a backtrace: these are the user's errors to fix
             eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(exit_status(&e))
         }
     }
 }

@@ -7,11 +7,18 @@ use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
 use capsule_record::types::{names, Clock, OfferedQos};
 use capsule_record::writer::now_ns;
-use capsule_record::{cdr, RecordWriter, SceneRecord, WriterOptions};
+use capsule_record::{cdr, BagOptions, BagWriter, SceneRecord, WriterOptions};
 use std::path::Path;
 
-/// Write the sampled snapshots of `scene` to `path`; returns the number of messages.
-pub fn write(path: &Path, scene: &Scene, scene_toml: String, rows: &[Snapshot]) -> Result<u64> {
+/// Write the sampled snapshots of `scene` to `path` (compressed and split as `bag` says);
+/// returns the number of messages.
+pub fn write(
+    path: &Path,
+    scene: &Scene,
+    scene_toml: String,
+    rows: &[Snapshot],
+    bag: BagOptions,
+) -> Result<u64> {
     let start = now_ns();
     let options = WriterOptions {
         scene: Some(SceneRecord {
@@ -21,7 +28,7 @@ pub fn write(path: &Path, scene: &Scene, scene_toml: String, rows: &[Snapshot]) 
         created_ns: start,
         ..WriterOptions::default()
     };
-    let mut w = RecordWriter::create(path, options)
+    let mut w = BagWriter::create(path, options, bag)
         .with_context(|| format!("cannot record to {}", path.display()))?;
     let state_ch = w.add_topic("/capsule/state", names::STATE, &OfferedQos::reliable(16))?;
     let clock_ch = w.add_topic("/clock", names::CLOCK, &OfferedQos::reliable(1))?;

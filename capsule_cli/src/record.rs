@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use capsule_record::{read::InfoSource, RecordingInfo};
+use capsule_record::{info::InfoSource, RecordingInfo};
 use clap::{Args as ClapArgs, Subcommand};
 
 /// `capsule record ...`
@@ -18,19 +18,25 @@ pub struct Args {
 enum Command {
     /// Duration, start/end, topics with type, count and rate, mode changes, scene.
     Info {
-        /// The recording (.mcap)
+        /// The recording (.mcap), or a split recording's directory or metadata.yaml
         file: PathBuf,
         /// Print the scene file that was run as well
         #[arg(long)]
         scene: bool,
     },
-    /// Rebuild a complete file (summary, footer, ros2 profile) from a cut one.
+    /// Rebuild a complete file (summary, footer, ros2 profile) from a cut or damaged one:
+    /// every intact chunk is kept, damaged ones are skipped. Writes FILE's stem +
+    /// `.recovered.mcap` unless told otherwise; also rewrites schemas of older capsule files
+    /// the way rosbag2 writes them (so Foxglove opens them).
     Recover {
-        /// The cut recording (.mcap)
+        /// The recording (.mcap)
         file: PathBuf,
-        /// Write here instead of replacing FILE
-        #[arg(short, long)]
+        /// Write here (must not exist)
+        #[arg(short, long, conflicts_with = "in_place")]
         output: Option<PathBuf>,
+        /// Replace FILE with the recovered file (written beside it first, then renamed)
+        #[arg(long)]
+        in_place: bool,
     },
 }
 
@@ -38,7 +44,16 @@ enum Command {
 pub fn main(args: Args) -> Result<()> {
     match args.command {
         Command::Info { file, scene } => {
-            let info = capsule_record::info(&file)?;
+            // a split recording: its directory or its metadata.yaml
+            let split = file.is_dir()
+                || file
+                    .file_name()
+                    .is_some_and(|n| n == capsule_record::bag::METADATA_YAML);
+            let info = if split {
+                capsule_record::bag::bag_info(&file)?
+            } else {
+                capsule_record::info(&file)?
+            };
             print!("{}", format_info(&info));
             if scene {
                 match &info.scene_toml {
@@ -48,26 +63,39 @@ pub fn main(args: Args) -> Result<()> {
             }
             Ok(())
         }
-        Command::Recover { file, output } => recover(&file, output.as_deref()),
+        Command::Recover {
+            file,
+            output,
+            in_place,
+        } => recover(&file, output.as_deref(), in_place),
     }
 }
 
-fn recover(file: &Path, output: Option<&Path>) -> Result<()> {
-    let in_place = output.is_none();
+/// `FILE` with `.mcap` (if any) replaced by `suffix`.
+fn beside(file: &Path, suffix: &str) -> Result<PathBuf> {
+    let stem = file
+        .file_stem()
+        .with_context(|| format!("{}: no file name", file.display()))?;
+    let mut name = stem.to_os_string();
+    name.push(suffix);
+    Ok(file.with_file_name(name))
+}
+
+fn recover(file: &Path, output: Option<&Path>, in_place: bool) -> Result<()> {
     let target = match output {
         Some(o) => o.to_path_buf(),
-        None => {
-            let mut name = file
-                .file_name()
-                .context("FILE has no file name")?
-                .to_os_string();
-            name.push(".recovering");
-            file.with_file_name(name)
-        }
+        None if in_place => beside(file, ".recovering.mcap")?,
+        None => beside(file, ".recovered.mcap")?,
     };
     if in_place {
         // a leftover from an interrupted recovery
         let _ = std::fs::remove_file(&target);
+    } else if target.exists() {
+        anyhow::bail!(
+            "{} exists: not overwriting it (give -o OUT, or --in-place to replace {})",
+            target.display(),
+            file.display()
+        );
     }
     let r = capsule_record::recover(file, &target).inspect_err(|_| {
         if in_place {
@@ -81,26 +109,40 @@ fn recover(file: &Path, output: Option<&Path>) -> Result<()> {
     } else {
         target
     };
-    if r.was_complete {
-        println!(
-            "{}: the file was already complete; rewrote it",
-            file.display()
-        );
-    }
     let span = r
         .bounds
         .map(|(a, b)| format!(" spanning {:.3} s", (b - a) as f64 * 1e-9))
         .unwrap_or_default();
     println!(
-        "recovered {} messages{span} into {}",
+        "recovered {} messages{span} into {} ({} intact chunks kept)",
         r.messages,
-        out.display()
+        out.display(),
+        r.chunks_kept
     );
     for (topic, n) in &r.per_topic {
         println!("  {topic}: {n}");
     }
-    if let Some(cut) = &r.cut {
-        println!("dropped the cut tail (the open chunk): {cut}");
+    for name in &r.schemas_respelled {
+        println!("  schema {name}: dependency blocks renamed as rosbag2 names them (Foxglove reads them now)");
+    }
+    if let Some(n) = r.summary_messages {
+        println!("the input's summary lists {n} messages");
+    }
+    for d in &r.damage {
+        println!("damaged: {d}");
+    }
+    if r.orphans > 0 {
+        println!(
+            "dropped {} messages whose channel definition was in damaged data",
+            r.orphans
+        );
+    }
+    match &r.cut {
+        Some(cut) => println!("the input was cut: reading ended {cut}"),
+        None if r.was_complete && r.damage.is_empty() => {
+            println!("{}: the input was complete and intact", file.display())
+        }
+        None => {}
     }
     Ok(())
 }
@@ -161,6 +203,12 @@ pub fn format_info(i: &RecordingInfo) -> String {
     s += &format!("End:               {}\n", utc(i.bounds.1));
     s += &format!("Messages:          {}\n", i.messages);
     s += &format!("Chunks:            {}\n", i.chunks);
+    if i.files > 1 {
+        s += &format!(
+            "Files:             {} (split, rosbag2 metadata.yaml)\n",
+            i.files
+        );
+    }
     let width = i.topics.iter().map(|t| t.topic.len()).max().unwrap_or(0);
     for (k, t) in i.topics.iter().enumerate() {
         let rate = if dur > 0.0 && t.count > 1 {
@@ -186,7 +234,7 @@ pub fn format_info(i: &RecordingInfo) -> String {
     }
     // one line per call: the request paired with its response by sequence number
     let mut first = true;
-    let call = |m: &capsule_record::read::ModeChange| {
+    let call = |m: &capsule_record::info::ModeChange| {
         (m.event.info.client_gid, m.event.info.sequence_number)
     };
     let answered: Vec<_> = i
@@ -204,11 +252,14 @@ pub fn format_info(i: &RecordingInfo) -> String {
                 .find_map(|o| o.request())
         });
         let asked = |q: &capsule_msgs::SetModeRequest| {
-            format!(
-                "{} (gain {})",
-                capsule_msgs::mode_name(q.mode).unwrap_or("?"),
-                q.gain
-            )
+            let name = capsule_msgs::mode_name(q.mode).unwrap_or("?");
+            // SetMode.srv: gain 0 asks FORWARD, BACKWARD and CHAOS_CONTROL for their default
+            match name {
+                "FORWARD" | "BACKWARD" | "CHAOS_CONTROL" if q.gain == 0.0 => {
+                    format!("{name} (default gain)")
+                }
+                _ => format!("{name} (gain {})", q.gain),
+            }
         };
         let what = match (request, m.response()) {
             (q, Some(r)) => format!(

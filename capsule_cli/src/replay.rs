@@ -14,12 +14,13 @@ use capsule_controller::mode::Mode;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_nodes::{
     controller::{ControllerCore, GainArgs},
+    ranges,
     ros::{self, qos, RosArgs, RosEnv, RosSettings},
-    scale::ControlScene,
 };
+use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,
-    read::Message,
+    messages::Message,
     types::{names, Clock, ServiceEventInfo, SetModeEvent},
 };
 use clap::Args as ClapArgs;
@@ -29,26 +30,27 @@ use clap::Args as ClapArgs;
 pub struct Args {
     /// The recording (.mcap)
     file: PathBuf,
-    /// Playback speed: 2 = twice the recorded pace
-    #[arg(long, default_value_t = 1.0)]
+    /// Playback speed: 2 = twice the recorded pace, [1e-3, 1e3]
+    #[arg(long, default_value_t = 1.0, value_parser = ranges::within(1e-3, 1e3))]
     rate: f64,
     /// Start over at the end, until Ctrl-C
     #[arg(long = "loop")]
     looping: bool,
-    /// Only these topics (repeatable; default: all)
-    #[arg(long, num_args = 1..)]
+    /// Only these topics (repeatable, or comma-separated; default: all)
+    #[arg(long, value_delimiter = ',')]
     topics: Vec<String>,
     /// Skip this many seconds from the first message
     #[arg(long, default_value_t = 0.0)]
     start: f64,
-    /// Play at most this many seconds (from --start)
-    #[arg(long)]
+    /// Play at most this many seconds (from --start), (0, 1e9]
+    #[arg(long, value_parser = ranges::positive(1e9))]
     duration: Option<f64>,
-    /// Before publishing, wait until every publisher has this many subscribers (max 30 s)
-    #[arg(long, default_value_t = 0)]
+    /// Before publishing, wait until every publisher has this many subscribers (max 30 s),
+    /// 0 to 1000
+    #[arg(long, default_value_t = 0, value_parser = ranges::count_usize(0, ranges::MAX_SUBSCRIBERS as usize))]
     wait_subscribers: usize,
-    /// Seconds to let discovery settle before the first message
-    #[arg(long, default_value_t = 0.5)]
+    /// Seconds to let discovery settle before the first message, [0, 1e6]
+    #[arg(long, default_value_t = 0.5, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
     delay_s: f64,
     /// Re-drive the controller library offline and compare its commands (no ROS)
     #[arg(long)]
@@ -65,18 +67,13 @@ pub struct Args {
 
 /// Runs `capsule replay`.
 pub fn main(args: Args) -> Result<()> {
-    if !(args.rate.is_finite() && args.rate > 0.0) {
-        bail!("--rate {}: must be finite and > 0", args.rate);
+    // --rate, --delay-s and --duration are range-checked by their parsers
+    if !(args.start.is_finite() && args.start >= 0.0) {
+        bail!("--start {}: must be finite and >= 0", args.start);
     }
-    for (v, name) in [(args.start, "--start"), (args.delay_s, "--delay-s")] {
-        if !(v.is_finite() && v >= 0.0) {
-            bail!("{name} {v}: must be finite and >= 0");
-        }
-    }
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            bail!("--duration {d}: must be finite and > 0");
-        }
+    if args.check_controller && !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
+        // NaN compares false with everything: a NaN tolerance would pass any file
+        bail!("--tolerance {}: must be finite and >= 0", args.tolerance);
     }
     let all = capsule_record::messages(&args.file)?;
     if args.check_controller {
@@ -94,6 +91,15 @@ fn select(args: &Args, all: Vec<Message>) -> Result<Vec<Message>> {
         if !all.iter().any(|m| &m.topic == t) {
             bail!("--topics {t}: not in {}", args.file.display());
         }
+    }
+    let last = all.last().map_or(first, |m| m.log_time);
+    let span_s = (last - first) as f64 * 1e-9;
+    if args.start > span_s {
+        bail!(
+            "--start {:?}: beyond the end of {} ({span_s:.3} s long)",
+            args.start,
+            args.file.display()
+        );
     }
     let from = first + (args.start * 1e9) as u64;
     let to = args
@@ -271,7 +277,7 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
     let scene = capsule_record::info(&args.file)?
         .scene_toml
         .with_context(|| format!("{file}: no scene attached: cannot configure the controller"))?;
-    let scene = ControlScene::from_toml_str(&scene, &format!("{file}:scene.toml"))?;
+    let scene = Scene::from_toml_str(&scene, &format!("{file}:scene.toml"))?;
     let config = args.gains.config()?;
     // the mode in force at the start: the controller's first status, else the scene's gain
     let first_status = msgs
@@ -285,13 +291,13 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
                 .with_context(|| format!("{file}: first status has unknown mode {}", s.mode))?,
             s.gain,
         ),
-        None if scene.kp != 0.0 => (Mode::Custom, scene.kp),
+        None if scene.control.kp != 0.0 => (Mode::Custom, scene.control.kp),
         None => (Mode::Off, 0.0),
     };
     let mut core = ControllerCore::new(
-        scene.scale,
-        scene.alpha,
-        scene.omega,
+        scene.physical,
+        scene.drive.alpha,
+        scene.drive.omega,
         mode,
         kp,
         config,

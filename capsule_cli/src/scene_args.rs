@@ -1,7 +1,9 @@
 //! The scene flags shared by `simulate`, `sweep` and `bench`: a scene file and/or overrides
 //! named after the paper's symbols.
 
-use anyhow::{bail, Context, Result};
+use crate::Refused;
+use anyhow::{bail, Result};
+use capsule_nodes::{ranges, scene_file::SceneFile};
 use capsule_plant::scene::{Scene, PAPER_K_S, PAPER_MU_V, PAPER_TAU_D, PAPER_V_S};
 use capsule_plant::{Friction, Method, SolverConfig, State};
 use clap::{Args, ValueEnum};
@@ -32,7 +34,9 @@ pub enum MethodArg {
 
 /// A scene and overrides. Without --scene: the paper's section-3 set (gamma 5, omega 0.95,
 /// beta 15, delta 0.02, xi 0.01, alpha 0.8), Coulomb friction, all-zero start, 300 periods with
-/// 200 transient, the most accurate method for the law.
+/// 200 transient, the most accurate method for the law ([`Scene::default`], which also fills in
+/// whatever a scene file leaves out). `--periods` without `--transient` scales the transient
+/// with the periods (the scene's share, 2/3 by default), with or without a scene.
 #[derive(Debug, Clone, Args)]
 pub struct SceneArgs {
     /// Scene file (TOML); flags below override it.
@@ -41,74 +45,66 @@ pub struct SceneArgs {
     /// Friction law.
     #[arg(long, value_enum)]
     pub friction: Option<FrictionArg>,
-    /// Drive amplitude alpha = P_d / P_f.
-    #[arg(long)]
+    /// Drive amplitude alpha = P_d / P_f, [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub alpha: Option<f64>,
-    /// Drive frequency omega = Omega / Omega_0.
-    #[arg(long)]
+    /// Drive frequency omega = Omega / Omega_0, (0, 1e12].
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub omega: Option<f64>,
-    /// Mass ratio gamma = m2 / m1.
-    #[arg(long)]
+    /// Mass ratio gamma = m2 / m1, (0, 1e12].
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub gamma: Option<f64>,
-    /// Stiffness ratio beta = k2 / k1 of the secondary spring.
-    #[arg(long)]
+    /// Stiffness ratio beta = k2 / k1 of the secondary spring, [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub beta: Option<f64>,
-    /// Gap delta before the secondary spring.
-    #[arg(long)]
+    /// Gap delta before the secondary spring, [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub delta: Option<f64>,
-    /// Damping ratio xi.
-    #[arg(long)]
+    /// Damping ratio xi, [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub xi: Option<f64>,
-    /// Position feedback gain k_p (u = k_p |x2 - x1|).
-    #[arg(long)]
+    /// Position feedback gain k_p (u = k_p |x2 - x1|), [-1e12, 1e12].
+    #[arg(long, value_parser = ranges::finite())]
     pub kp: Option<f64>,
-    /// Viscous friction coefficient (viscous, seven-parameter).
-    #[arg(long)]
+    /// Viscous friction coefficient (viscous, seven-parameter), [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub mu_v: Option<f64>,
-    /// Stribeck velocity (stribeck, seven-parameter).
-    #[arg(long)]
+    /// Stribeck velocity (stribeck, seven-parameter), (0, 1e12].
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub v_s: Option<f64>,
-    /// Frictional-memory delay (seven-parameter).
-    #[arg(long)]
+    /// Frictional-memory delay (seven-parameter), [0, 1e12].
+    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub tau_d: Option<f64>,
-    /// Pre-sliding stiffness (seven-parameter).
-    #[arg(long)]
+    /// Pre-sliding stiffness (seven-parameter), (0, 1e12].
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub k_s: Option<f64>,
-    /// Initial state x1,y1,x2,y2.
+    /// Initial state x1,y1,x2,y2 (four finite numbers).
     #[arg(long, value_name = "X1,Y1,X2,Y2", allow_hyphen_values = true)]
     pub x0: Option<String>,
-    /// Drive periods simulated in all.
-    #[arg(long)]
+    /// Drive periods simulated in all, 1 to 4294967295 (see --max-work).
+    #[arg(long, value_parser = ranges::count_u32(1, u32::MAX))]
     pub periods: Option<u32>,
-    /// Leading periods not measured.
-    #[arg(long)]
+    /// Leading periods not measured, 0 to --periods - 1 [default: scaled with --periods].
+    #[arg(long, value_parser = ranges::count_u32(0, u32::MAX))]
     pub transient: Option<u32>,
     /// Integration method [default: exact for coulomb/viscous, else adaptive].
     #[arg(long, value_enum)]
     pub method: Option<MethodArg>,
-    /// Tolerance of the adaptive method [default: 1e-10].
-    #[arg(long)]
+    /// Tolerance of the adaptive method, (0, 1) [default: 1e-10].
+    #[arg(long, value_parser = ranges::open_unit())]
     pub tol: Option<f64>,
-    /// Step of the fixed method [default: 1e-3].
-    #[arg(long)]
+    /// Step of the fixed method, (0, 1e12] [default: 1e-3] (see --max-work).
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub step: Option<f64>,
 }
 
 impl SceneArgs {
-    /// The scene: file (or defaults) with the flags applied, validated.
+    /// The scene: file (or defaults) with the flags applied, validated. A refused scene is a
+    /// [`capsule_plant::scene::SceneError`] naming the file (or "defaults"), the key and why.
     pub fn scene(&self) -> Result<Scene> {
         let (mut scene, source) = match &self.scene {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read scene file {}", path.display()))?;
-                let name = path.display().to_string();
-                (Scene::from_toml_str(&text, &name)?, name)
-            }
-            None => {
-                let mut s = Scene::default();
-                s.drive.alpha = 0.8;
-                (s, "defaults".to_string())
-            }
+            Some(path) => (SceneFile::read(path)?.scene, path.display().to_string()),
+            None => (Scene::default(), "defaults".to_string()),
         };
         if let Some(f) = self.friction {
             let (mu_v, v_s, tau_d, k_s) = (PAPER_MU_V, PAPER_V_S, PAPER_TAU_D, PAPER_K_S);
@@ -142,8 +138,14 @@ impl SceneArgs {
         if let Some(x0) = &self.x0 {
             scene.initial = parse_x0(x0)?;
         }
-        set(&mut scene.horizon.periods, self.periods);
-        set(&mut scene.horizon.transient, self.transient);
+        match (self.periods, self.transient) {
+            // the one rule, as in a scene file: periods alone scale the transient with them
+            (Some(p), None) => scene.horizon = scene.horizon.with_periods(p),
+            (p, t) => {
+                set(&mut scene.horizon.periods, p);
+                set(&mut scene.horizon.transient, t);
+            }
+        }
         if let Some(m) = self.method {
             scene.solver.method = match m {
                 MethodArg::Exact => Method::Exact,
@@ -153,27 +155,17 @@ impl SceneArgs {
         }
         set(&mut scene.solver.tol, self.tol);
         set(&mut scene.solver.step, self.step);
-        if self.periods.is_some() && self.transient.is_none() && self.scene.is_none() {
-            // keep the paper's 2:1 split of transient and measured periods
-            scene.horizon.transient = scene.horizon.periods * 2 / 3;
-        }
-        scene.validate().map_err(|(key, reason)| {
-            anyhow::anyhow!("{source} with command-line overrides: {key}: {reason}")
-        })?;
+        scene
+            .validate()
+            .map_err(|e| e.in_file(&format!("{source} with command-line overrides")))?;
         Ok(scene)
     }
 
-    /// The scene as a TOML text to store with a recording: the file as read, followed by the
-    /// command-line overrides as given (or only those, for the defaults).
-    pub fn scene_text(&self) -> Result<String> {
-        let mut text = match &self.scene {
-            Some(path) => std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read scene file {}", path.display()))?,
-            None => "# the paper's section-3 defaults of `capsule simulate`\n".to_string(),
-        };
-        let overrides: Vec<String> = std::env::args().skip(2).collect();
-        text.push_str(&format!("\n# command line: {}\n", overrides.join(" ")));
-        Ok(text)
+    /// The scene as a TOML text to store with a recording: the resolved scene, every key
+    /// written out (reading it back gives the same scene), and the command line as a comment.
+    pub fn scene_text(&self, scene: &Scene) -> String {
+        let args: Vec<String> = std::env::args().skip(1).collect();
+        format!("# capsule {}\n{}", args.join(" "), scene.to_toml())
     }
 
     fn apply_friction_constants(&self, f: &mut Friction) -> Result<()> {
@@ -184,7 +176,9 @@ impl SceneArgs {
                     *s = v;
                     Ok(())
                 }
-                (Some(_), None) => bail!("--{flag} does not apply to the {name} friction law"),
+                (Some(_), None) => bail!(Refused(format!(
+                    "--{flag} does not apply to the {name} friction law"
+                ))),
                 (None, _) => Ok(()),
             }
         };
@@ -232,13 +226,15 @@ fn set<T: Copy>(slot: &mut T, v: Option<T>) {
 fn parse_x0(text: &str) -> Result<State> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != 4 {
-        bail!("--x0 `{text}`: expected four comma-separated numbers x1,y1,x2,y2");
+        bail!(Refused(format!(
+            "--x0 `{text}`: expected four comma-separated numbers x1,y1,x2,y2"
+        )));
     }
     let mut a = [0.0; 4];
     for (slot, p) in a.iter_mut().zip(&parts) {
         *slot = p
             .parse()
-            .with_context(|| format!("--x0 `{text}`: `{p}` is not a number"))?;
+            .map_err(|_| Refused(format!("--x0 `{text}`: `{p}` is not a number")))?;
     }
     Ok(State::from_array(a))
 }

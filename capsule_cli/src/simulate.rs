@@ -2,8 +2,12 @@
 
 use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
-use anyhow::{Context, Result};
-use capsule_analysis::{run_sampled, RunReport};
+use crate::work::{self, WorkArgs};
+use anyhow::{bail, Context, Result};
+use capsule_analysis::floquet::{floquet, Floquet};
+use capsule_analysis::lyapunov::{lyapunov, Lyapunov};
+use capsule_analysis::{run_scheduled, GainSchedule, Pulse, RunReport};
+use capsule_nodes::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
 use serde::Serialize;
@@ -15,6 +19,8 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     scene: SceneArgs,
+    #[command(flatten)]
+    schedule: ScheduleArgs,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -25,46 +31,197 @@ pub struct Args {
     /// scene's physical scale) and /clock, with the scene attached, as the plant node would.
     #[arg(long, value_name = "FILE")]
     record: Option<PathBuf>,
-    /// Time-history samples per drive period (with --csv or --record).
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Time-history samples per drive period (with --csv or --record), 1 to 1000000.
+    #[arg(long, default_value_t = 100, value_parser = ranges::count_u32(1, 1_000_000))]
     samples_per_period: u32,
+    /// Most time-history samples one run may store (with --csv or --record), 1 to 1e9.
+    #[arg(long, default_value_t = work::DEFAULT_MAX_SAMPLES, value_parser = ranges::count(1, 1_000_000_000))]
+    max_samples: u64,
+    #[command(flatten)]
+    work: WorkArgs,
+    /// Print the resolved scene as a complete scene file (every default filled in) and exit.
+    #[arg(long)]
+    print_scene: bool,
+    /// With --record: compression and splitting
+    #[command(flatten)]
+    storage: capsule_nodes::recorder::StorageArgs,
+}
+
+/// A gain schedule on top of the scene's `--kp`: a pulse of another gain for some drive
+/// periods, then a gain after it.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ScheduleArgs {
+    /// Gain during a pulse starting at --pulse-at (the gain before it is --kp).
+    #[arg(long, requires = "pulse_at")]
+    pub pulse_kp: Option<f64>,
+    /// Length of the pulse in drive periods.
+    #[arg(long, default_value_t = 1, requires = "pulse_kp")]
+    pub pulse_periods: u32,
+    /// First drive period of the pulse (0-based, transient included).
+    #[arg(long, requires = "pulse_kp")]
+    pub pulse_at: Option<u32>,
+    /// Gain after the pulse [default: --kp, the gain before].
+    #[arg(long, requires = "pulse_kp")]
+    pub kp_after: Option<f64>,
+}
+
+impl ScheduleArgs {
+    /// The schedule for `scene`, checked against its horizon.
+    pub fn schedule(&self, scene: &Scene) -> Result<GainSchedule> {
+        let before = scene.control.kp;
+        let schedule = match (self.pulse_kp, self.pulse_at) {
+            (Some(kp), Some(at)) => GainSchedule {
+                before,
+                pulse: Some(Pulse {
+                    kp,
+                    at,
+                    periods: self.pulse_periods,
+                }),
+                after: self.kp_after.unwrap_or(before),
+            },
+            (None, None) => GainSchedule::constant(before),
+            _ => bail!("--pulse-kp and --pulse-at go together"),
+        };
+        schedule
+            .validate(scene.horizon.periods)
+            .map_err(|(k, r)| anyhow::anyhow!("--{k}: {r}"))?;
+        Ok(schedule)
+    }
 }
 
 #[derive(Serialize)]
 struct Output<'a> {
     scene: &'a Scene,
+    schedule: &'a GainSchedule,
     #[serde(flatten)]
     report: &'a RunReport,
+    /// Floquet multipliers of the periodic orbit found (periodic results only).
+    floquet: Option<Floquet>,
+    /// Lyapunov spectrum over the measured periods.
+    lyapunov: Option<Lyapunov>,
+    /// Why `floquet` or `lyapunov` is missing, if it is.
+    stability_note: Option<String>,
     wall_time_s: f64,
+}
+
+/// The stability of the run's attractor: multipliers if periodic, the Lyapunov spectrum, and a
+/// note for what could not be computed (a law with memory, a grazing orbit).
+fn stability(scene: &Scene, r: &RunReport) -> (Option<Floquet>, Option<Lyapunov>, Option<String>) {
+    let mut notes = Vec::new();
+    let fl = r.period.and_then(|k| {
+        let f = r.final_state;
+        floquet(scene, [f.x1 - f.x2, f.y1, f.y2], k)
+            .map_err(|e| notes.push(format!("floquet: {e}")))
+            .ok()
+    });
+    let ly = lyapunov(scene)
+        .map_err(|e| notes.push(format!("lyapunov: {e}")))
+        .ok();
+    let note = (!notes.is_empty()).then(|| notes.join("; "));
+    (fl, ly, note)
 }
 
 pub fn main(args: Args) -> Result<()> {
     let scene = args.scene.scene()?;
+    let schedule = args.schedule.schedule(&scene)?;
+    if args.print_scene {
+        print!("{}", scene.to_toml());
+        return Ok(());
+    }
+    args.work.check(&scene, 1)?;
+    let storage = args.storage.options()?;
     let mut rows: Vec<Snapshot> = Vec::new();
     let sampled = args.csv.is_some() || args.record.is_some();
     let samples = if sampled { args.samples_per_period } else { 0 };
+    if sampled {
+        work::check_samples(&scene, samples, args.max_samples)?;
+    }
+    for path in args.csv.iter().chain(&args.record) {
+        work::check_parent(path)?;
+    }
     let t0 = std::time::Instant::now();
-    let report = run_sampled(&scene, samples, &mut |s| rows.push(*s))
+    let report = run_scheduled(&scene, &schedule, samples, &mut |s| rows.push(*s))
         .with_context(|| format!("simulating {}", scene.name))?;
     let wall = t0.elapsed().as_secs_f64();
     if let Some(path) = &args.csv {
         write_csv(path, &rows).with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = &args.record {
-        let n = record::write(path, &scene, args.scene.scene_text()?, &rows)?;
+        let n = record::write(path, &scene, args.scene.scene_text(&scene), &rows, storage)?;
         if !args.json {
             println!("recording      {} ({n} messages)", path.display());
         }
     }
+    let (floquet, lyapunov, stability_note) = if schedule.pulse.is_none()
+        && schedule.after == scene.control.kp
+    {
+        stability(&scene, &report)
+    } else {
+        // the run ends under the gain after the schedule: the orbit's multipliers are those of
+        // that gain; the exponents of a run whose law changes midway are not defined
+        let mut after = scene.clone();
+        after.control.kp = schedule.after;
+        let (fl, _, note) = stability(&after, &report);
+        let skip = "lyapunov: not computed under a gain schedule (the law changes during the run)";
+        (
+            fl,
+            None,
+            Some(note.map_or(skip.to_string(), |n| format!("{n}; {skip}"))),
+        )
+    };
     if args.json {
         let out = Output {
             scene: &scene,
+            schedule: &schedule,
             report: &report,
+            floquet,
+            lyapunov,
+            stability_note,
             wall_time_s: wall,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
+        if let Some(f) = &floquet {
+            let mus: Vec<String> = f
+                .multipliers
+                .iter()
+                .map(|m| {
+                    if m[1] == 0.0 {
+                        format!("{:.6}", m[0])
+                    } else {
+                        format!("{:.6}{:+.6}i", m[0], m[1])
+                    }
+                })
+                .collect();
+            println!(
+                "floquet        {} (largest modulus {:.6}: {})",
+                mus.join(", "),
+                f.largest_modulus,
+                if f.largest_modulus < 1.0 {
+                    "stable"
+                } else {
+                    "unstable"
+                }
+            );
+        }
+        if let Some(l) = &lyapunov {
+            let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
+            println!(
+                "lyapunov       {} per unit tau (largest over half the run {:.6})",
+                ls.join(", "),
+                l.largest_half_run
+            );
+        }
+        if let Some(n) = &stability_note {
+            println!("stability      {n}");
+        }
+        if let Some(p) = schedule.pulse {
+            println!(
+                "gain schedule  kp {} until period {}, {} for {} period(s), then {}",
+                schedule.before, p.at, p.kp, p.periods, schedule.after
+            );
+        }
         if let Some(path) = &args.csv {
             println!("time history   {} ({} rows)", path.display(), rows.len());
         }

@@ -4,11 +4,20 @@
 
 use crate::scene_args::SceneArgs;
 use crate::svg;
+use crate::work::{self, WorkArgs};
+use crate::Refused;
 use anyhow::{bail, Context, Result};
+use capsule_analysis::lyapunov::{lyapunov_sweep, Lyapunov};
 use capsule_analysis::{sweep, sweep_following, Param, SweepPoint};
+use capsule_nodes::ranges;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// Most values one sweep takes (each is a run; see also --max-work).
+pub const MAX_VALUES: usize = 10_000_000;
+/// Most worker threads.
+pub const MAX_THREADS: usize = 1024;
 
 /// Sweep one parameter.
 #[derive(Debug, clap::Args)]
@@ -18,41 +27,60 @@ pub struct Args {
     /// Parameter to sweep: alpha, omega, gamma, beta, delta, xi or kp.
     #[arg(long)]
     param: String,
-    /// First value.
-    #[arg(long)]
+    /// First value, [-1e12, 1e12].
+    #[arg(long, value_parser = ranges::finite())]
     from: f64,
-    /// Last value.
-    #[arg(long)]
+    /// Last value, [-1e12, 1e12].
+    #[arg(long, value_parser = ranges::finite())]
     to: f64,
-    /// Number of values, both ends included.
-    #[arg(long, default_value_t = 191)]
+    /// Number of values, both ends included, 1 to 10000000 (see --max-work).
+    #[arg(long, default_value_t = 191, value_parser = ranges::count_usize(1, MAX_VALUES))]
     steps: usize,
-    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg.
+    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg; a directory (an existing
+    /// one, or a path ending in `/`) writes DIR/PARAM.csv, ... . Its directory must exist.
     #[arg(long, value_name = "PREFIX", default_value = "sweep")]
     out: PathBuf,
     /// Follow one attractor: each value starts from the previous value's final state (runs
     /// one after the other) instead of every value from the scene's initial state (in parallel).
     #[arg(long)]
     follow: bool,
-    /// Worker threads [default: all cores].
+    /// Also compute the Lyapunov spectrum per value (a second, linearized run of each value
+    /// from the scene's initial state): columns lyapunov_1..3 in the CSV, `lyapunov` in the
+    /// JSON, a third panel in the SVG.
     #[arg(long)]
+    lyapunov: bool,
+    /// Worker threads, 1 to 1024 [default: all cores].
+    #[arg(long, value_parser = ranges::count_usize(1, MAX_THREADS))]
     threads: Option<usize>,
+    /// Exit with status 0 even when some values failed (they are listed, and left out of the
+    /// CSV and the diagram).
+    #[arg(long)]
+    allow_failures: bool,
+    #[command(flatten)]
+    work: WorkArgs,
+}
+
+/// The output prefix: `--out` as given, or DIR/PARAM when it names a directory.
+fn prefix(out: &Path, param: &str) -> PathBuf {
+    let as_dir = out.is_dir() || out.as_os_str().to_string_lossy().ends_with('/');
+    if as_dir {
+        out.join(param)
+    } else {
+        out.to_path_buf()
+    }
 }
 
 pub fn main(args: Args) -> Result<()> {
     let Some(param) = Param::parse(&args.param) else {
-        bail!(
+        bail!(Refused(format!(
             "--param `{}`: not a sweepable parameter (alpha, omega, gamma, beta, delta, xi, kp)",
             args.param
-        );
+        )));
     };
-    if !(args.from.is_finite() && args.to.is_finite()) {
-        bail!("--from/--to must be finite numbers");
-    }
-    if args.steps < 1 {
-        bail!("--steps must be at least 1");
-    }
     let scene = args.scene.scene()?;
+    args.work.check(&scene, args.steps)?;
+    let prefix = prefix(&args.out, &args.param);
+    work::check_parent(&prefix)?;
     let values: Vec<f64> = (0..args.steps)
         .map(|i| {
             if args.steps == 1 {
@@ -74,60 +102,145 @@ pub fn main(args: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let t0 = std::time::Instant::now();
-    let points = if args.follow {
-        sweep_following(&scene, param, &values, &|| bar.inc(1))
-    } else {
-        sweep(&scene, param, &values, &|| bar.inc(1))
-    };
+    // in chunks, so that Ctrl-C stops between them with what finished written
+    work::catch_ctrl_c();
+    let chunk = (rayon::current_num_threads() * 8).max(16);
+    let mut points: Vec<SweepPoint> = Vec::with_capacity(values.len());
+    let mut start = scene.clone();
+    for part in values.chunks(chunk) {
+        if work::interrupted() {
+            break;
+        }
+        let done = if args.follow {
+            let done = sweep_following(&start, param, part, &|| bar.inc(1));
+            if let Some(r) = done.iter().rev().find_map(|p| p.result.as_ref().ok()) {
+                start.initial = r.final_state;
+            }
+            done
+        } else {
+            sweep(&scene, param, part, &|| bar.inc(1))
+        };
+        points.extend(done);
+    }
+    let spectra: Option<Vec<Result<Lyapunov, String>>> = args.lyapunov.then(|| {
+        bar.set_position(0);
+        bar.set_message("lyapunov");
+        // the values that finished (all unless interrupted)
+        lyapunov_sweep(&scene, param, &values[..points.len()], &|| bar.inc(1))
+    });
     bar.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
-    let csv = args.out.with_extension("csv");
-    let json = args.out.with_extension("json");
-    let svg_path = args.out.with_extension("svg");
-    write_csv(&csv, &args.param, &points).with_context(|| format!("writing {}", csv.display()))?;
-    std::fs::write(&json, serde_json::to_string(&points)?)
-        .with_context(|| format!("writing {}", json.display()))?;
+    let csv = prefix.with_extension("csv");
+    let json = prefix.with_extension("json");
+    let svg_path = prefix.with_extension("svg");
+    write_csv(&csv, &args.param, &points, spectra.as_deref())
+        .with_context(|| format!("writing {}", csv.display()))?;
+    let json_text = match &spectra {
+        None => serde_json::to_string(&points)?,
+        Some(ls) => {
+            #[derive(serde::Serialize)]
+            struct WithLyapunov<'a> {
+                #[serde(flatten)]
+                point: &'a SweepPoint,
+                lyapunov: &'a Result<Lyapunov, String>,
+            }
+            let rows: Vec<WithLyapunov> = points
+                .iter()
+                .zip(ls)
+                .map(|(point, lyapunov)| WithLyapunov { point, lyapunov })
+                .collect();
+            serde_json::to_string(&rows)?
+        }
+    };
+    std::fs::write(&json, json_text).with_context(|| format!("writing {}", json.display()))?;
+    let largest: Option<Vec<(f64, f64)>> = spectra.as_ref().map(|ls| {
+        values
+            .iter()
+            .zip(ls)
+            .filter_map(|(v, l)| l.as_ref().ok().map(|l| (*v, l.exponents[0])))
+            .collect()
+    });
     let title = format!(
         "{} friction: y1 at drive phase 0 and progression vs {}",
         scene.model.friction.name(),
         args.param
     );
-    std::fs::write(&svg_path, svg::bifurcation(&title, &args.param, &points))
-        .with_context(|| format!("writing {}", svg_path.display()))?;
-    let failed = points.iter().filter(|p| p.result.is_err()).count();
+    std::fs::write(
+        &svg_path,
+        svg::bifurcation(&title, &args.param, &points, largest.as_deref()),
+    )
+    .with_context(|| format!("writing {}", svg_path.display()))?;
+    let failed: Vec<(f64, &String)> = points
+        .iter()
+        .filter_map(|p| p.result.as_ref().err().map(|e| (p.value, e)))
+        .collect();
     println!(
         "{} values of {} in {:.2} s ({} failed); wrote {}, {}, {}",
         points.len(),
         args.param,
         wall,
-        failed,
+        failed.len(),
         csv.display(),
         json.display(),
         svg_path.display()
     );
-    for p in points
-        .iter()
-        .filter_map(|p| p.result.as_ref().err().map(|e| (p.value, e)))
-        .take(5)
-    {
-        println!("  {} = {}: {}", args.param, p.0, p.1);
+    for (v, e) in failed.iter().take(5) {
+        println!("  {} = {v}: {e}", args.param);
+    }
+    if failed.len() > 5 {
+        println!(
+            "  ... and {} more (all in {})",
+            failed.len() - 5,
+            json.display()
+        );
+    }
+    if points.len() < values.len() {
+        bail!(
+            "interrupted: {} of {} values done and written",
+            points.len(),
+            values.len()
+        );
+    }
+    if !failed.is_empty() && !args.allow_failures {
+        bail!(
+            "{} of {} values failed (listed above; --allow-failures to exit 0 anyway)",
+            failed.len(),
+            points.len()
+        );
     }
     Ok(())
 }
 
-fn write_csv(path: &Path, name: &str, points: &[SweepPoint]) -> Result<()> {
+fn write_csv(
+    path: &Path,
+    name: &str,
+    points: &[SweepPoint],
+    spectra: Option<&[Result<Lyapunov, String>]>,
+) -> Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let extra = if spectra.is_some() {
+        ",lyapunov_1,lyapunov_2,lyapunov_3"
+    } else {
+        ""
+    };
     writeln!(
         w,
-        "{name},n,x1_minus_x2,y1_minus_y2,y1,period,impacts_per_period,backward_slips_per_period,avg_progression,efficiency"
+        "{name},n,x1_minus_x2,y1_minus_y2,y1,period,impacts_per_period,backward_slips_per_period,avg_progression,efficiency{extra}"
     )?;
-    for p in points {
+    for (i, p) in points.iter().enumerate() {
         let Ok(r) = &p.result else { continue };
+        // empty when not asked for or not computable; -inf (a direction removed by sticking)
+        // is written as such
+        let ly = match spectra.map(|s| &s[i]) {
+            None => String::new(),
+            Some(Ok(l)) => l.exponents.iter().map(|x| format!(",{x}")).collect(),
+            Some(Err(_)) => ",,,".to_string(),
+        };
         let period = r.period.map_or(String::new(), |k| k.to_string());
         for (n, q) in r.poincare.iter().enumerate() {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{}{ly}",
                 p.value,
                 n,
                 q[0],

@@ -33,24 +33,87 @@ pub trait RosInterface {
         format!("{}::{}::dds_::{}_", Self::PACKAGE, Self::KIND, Self::NAME)
     }
 
-    /// The `ros2msg` schema: the definition, then every nested type after a `=` separator line.
+    /// The `ros2msg` schema: the definition, then every nested type after a `=` separator line,
+    /// as rosbag2 writes it (see [`ros2msg_text`]).
     fn ros2msg_schema() -> String {
-        let mut s = Self::definition().to_string();
-        let mut seen: Vec<String> = Vec::new();
-        append_dependencies(Self::definition(), &mut s, &mut seen);
-        s
+        ros2msg_text(Self::definition(), Self::PACKAGE, &|t| {
+            nested_definition(t).map(|d| d.1)
+        })
     }
 }
 
-fn append_dependencies(text: &str, out: &mut String, seen: &mut Vec<String>) {
-    for field in parse_definition(text).fields {
-        let base = field.base_type().to_string();
-        if let Some((full, def)) = nested_definition(&base) {
-            if !seen.contains(&full.to_string()) {
-                seen.push(full.to_string());
-                out.push_str(&format!("\n{}\nMSG: {}\n{}", "=".repeat(80), full, def));
-                append_dependencies(def, out, seen);
+/// The `ros2msg` schema text of a type whose interface text is `root` (in package `package`),
+/// built the way rosbag2's local message definition source builds it: after the root text,
+/// each nested type once, depth first, dependencies of a text in sorted order, each after a
+/// line of 80 `=` and a line `MSG: ` + the type **as the field spells it** (`std_msgs/Header`
+/// for `std_msgs/Header header`; a type without a package gets the enclosing one). Foxglove's
+/// readers resolve a field's type only against a `MSG:` line of exactly that spelling.
+/// `lookup` gives the text of a spelled type; types it does not know are left out.
+pub fn ros2msg_text(
+    root: &str,
+    package: &str,
+    lookup: &dyn Fn(&str) -> Option<&'static str>,
+) -> String {
+    let mut out = root.to_string();
+    let mut seen = std::collections::BTreeSet::new();
+    append_dependencies(root, package, lookup, &mut out, &mut seen);
+    out
+}
+
+/// The nested (non-primitive) types a text's fields name, spelled as rosbag2 spells them in
+/// `MSG:` lines, in sorted order.
+pub fn field_dependencies(text: &str, package: &str) -> std::collections::BTreeSet<String> {
+    parse_definition(text)
+        .fields
+        .iter()
+        .map(|f| f.base_type())
+        .filter(|t| !is_primitive(t))
+        .map(|t| {
+            if t.contains('/') {
+                t.to_string()
+            } else {
+                format!("{package}/{t}")
             }
+        })
+        .collect()
+}
+
+/// A ROS 2 primitive type (`string<=10` counts as `string`).
+pub fn is_primitive(type_name: &str) -> bool {
+    let base = type_name.split("<=").next().unwrap_or(type_name);
+    matches!(
+        base,
+        "bool"
+            | "byte"
+            | "char"
+            | "float32"
+            | "float64"
+            | "int8"
+            | "uint8"
+            | "int16"
+            | "uint16"
+            | "int32"
+            | "uint32"
+            | "int64"
+            | "uint64"
+            | "string"
+            | "wstring"
+    )
+}
+
+fn append_dependencies(
+    text: &str,
+    package: &str,
+    lookup: &dyn Fn(&str) -> Option<&'static str>,
+    out: &mut String,
+    seen: &mut std::collections::BTreeSet<String>,
+) {
+    for dep in field_dependencies(text, package) {
+        let Some(def) = lookup(&dep) else { continue };
+        if seen.insert(dep.clone()) {
+            out.push_str(&format!("\n{}\nMSG: {dep}\n{def}", "=".repeat(80)));
+            let dep_package = dep.split('/').next().unwrap_or(package).to_string();
+            append_dependencies(def, &dep_package, lookup, out, seen);
         }
     }
 }

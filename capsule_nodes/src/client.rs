@@ -4,10 +4,22 @@
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
-use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse};
+use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use ros2_client::{service::Client, Node};
 
 use crate::ros::{names, qos, types, RosSettings, Wire};
+
+/// The `effective_from` of a request to switch at sim time `at_s` [s] (0 = now): refused
+/// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used
+/// to saturate into a time that never comes, accepted as "never".
+pub fn effective_from(at_s: f64) -> Result<Time> {
+    if !(at_s.is_finite() && (0.0..f64::from(i32::MAX)).contains(&at_s)) {
+        bail!(
+            "--at-s {at_s:?}: must be finite, >= 0 and below 2^31 s (the range of builtin_interfaces/Time)"
+        );
+    }
+    Ok(Time::from_secs_f64(at_s))
+}
 
 /// A `set_mode` client.
 pub struct ModeClient {
@@ -149,7 +161,20 @@ pub fn state_subscription(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use capsule_msgs::{Header, Time};
+    use capsule_msgs::Header;
+
+    #[test]
+    fn effective_from_refuses_what_time_cannot_hold() {
+        assert_eq!(effective_from(2.5).ok(), Some(Time::from_secs_f64(2.5)));
+        assert_eq!(effective_from(0.0).ok(), Some(Time::ZERO));
+        for bad in [1e308, -1.0, f64::NAN, f64::INFINITY, 2147483648.0] {
+            let e = effective_from(bad).err().map(|e| e.to_string());
+            assert!(
+                e.as_deref().is_some_and(|e| e.contains("--at-s")),
+                "{bad}: {e:?}"
+            );
+        }
+    }
 
     #[test]
     fn segment_meter_takes_positions_at_window_edges() {

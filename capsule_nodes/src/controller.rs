@@ -24,8 +24,12 @@ use futures::StreamExt;
 use tracing::{info, warn};
 
 use crate::{
+    command_feedback::CommandFeedback,
+    conflicts::TopicRule,
+    plant_identity::{PlantIdentity, Source},
     ros::{names, qos, types, RosSettings, Wire},
     scale::Scale,
+    throttle::Throttle,
 };
 
 /// Everything the controller decides, fed with samples, requests and clock readings.
@@ -43,6 +47,7 @@ pub struct ControllerCore {
     commanding: bool,
     commands_sent: u64,
     ignored_samples: u64,
+    feedback: CommandFeedback,
 }
 
 impl ControllerCore {
@@ -70,7 +75,23 @@ impl ControllerCore {
             commanding: false,
             commands_sent: 0,
             ignored_samples: 0,
+            feedback: CommandFeedback::default(),
         }
+    }
+
+    /// Starts afresh with a new plant (restarted or replaced): its samples start again from
+    /// its own seq and time, so nothing of the last plant's ordering or progress applies.
+    /// Modes scheduled for a sim time stay scheduled.
+    pub fn new_plant(&mut self) {
+        self.last = None;
+        self.last_command = None;
+        self.meter.reset();
+        self.feedback.reset();
+    }
+
+    /// True while the plant's state says it refuses our commands (see [`CommandFeedback`]).
+    pub fn plant_refuses(&self) -> bool {
+        self.feedback.refused()
     }
 
     /// Current mode.
@@ -81,6 +102,31 @@ impl ControllerCore {
     /// Current law (drive and gain).
     pub fn law(&self) -> FeedbackLaw {
         self.law
+    }
+
+    /// The mode configuration (defaults and limit).
+    pub fn config(&self) -> ModeConfig {
+        self.config
+    }
+
+    /// The physical scale.
+    pub fn scale(&self) -> Scale {
+        self.scale
+    }
+
+    /// Takes new settings (from ROS parameters that passed `ModeConfig::select`): a changed
+    /// mode or gain acts now, as an immediate `set_mode`; a changed drive restarts the meter.
+    pub fn reconfigure(&mut self, mode: Mode, kp: f64, alpha: f64, omega: f64, config: ModeConfig) {
+        self.config = config;
+        if (alpha, omega) != (self.law.alpha, self.law.omega) {
+            self.law.alpha = alpha;
+            self.law.omega = omega;
+            self.meter = ProgressMeter::new(self.law.period());
+        }
+        if (mode, kp) != (self.mode, self.law.kp) {
+            self.pending.clear();
+            self.switch(mode, kp);
+        }
     }
 
     /// Samples ignored so far (non-finite, out of order).
@@ -163,6 +209,7 @@ impl ControllerCore {
         self.staleness.seen(now);
         self.commanding = true;
         self.last = Some((s.seq, stamp));
+        self.feedback.sample(s.rejected_commands, s.command_stale);
         while let Some(i) = self.pending.iter().position(|(t, _, _)| *t <= stamp) {
             let (_, mode, kp) = self.pending.remove(i);
             self.switch(mode, kp);
@@ -198,7 +245,8 @@ impl ControllerCore {
         false
     }
 
-    /// True while fresh state arrives and commands go out.
+    /// True while fresh state arrives and commands go out (whether the plant takes them or
+    /// not: see [`ControllerCore::plant_refuses`]).
     pub fn commanding(&self) -> bool {
         self.commanding
     }
@@ -221,7 +269,8 @@ impl ControllerCore {
             drive_frequency: self.law.omega,
             drive_amplitude_si: self.law.alpha * self.scale.force_n(),
             drive_frequency_hz: 1.0 / period_s,
-            commanding: self.commanding,
+            // commanding = in control: fresh state, and the plant takes our commands
+            commanding: self.commanding && !self.feedback.refused(),
             commands_sent: self.commands_sent,
             periods,
             progression_per_period: prog,
@@ -239,6 +288,8 @@ pub struct ControllerOptions {
     pub core: ControllerCore,
     /// Stale-state check and status period.
     pub status_period: Duration,
+    /// The ROS parameters served (see [`crate::controller_params`]).
+    pub params: crate::params::ParamTable,
 }
 
 /// The controller's gain settings on the command line (the node's and `capsule replay
@@ -273,7 +324,7 @@ impl GainArgs {
 pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
-    let (mut node, _graph) = settings.loop_node(&context)?;
+    let (mut node, graph) = settings.loop_node(&context)?;
     let clock = crate::graph::RosClock::new(&settings, &mut node)?;
     let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
@@ -297,6 +348,25 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let event_pub = node
         .create_publisher::<capsule_record::types::SetModeEvent>(&event_topic, None)
         .context("service-event publisher")?;
+    // a second plant is told from the samples themselves (plant_identity): a SIGKILLed plant
+    // stays in discovery until its lease ends, and its restarted successor would look like one
+    let _conflicts = crate::conflicts::watch(
+        graph.clone(),
+        vec![
+            TopicRule::new(
+                &state_topic,
+                settings.resolve_name(names::STATE),
+                usize::MAX,
+                "",
+            ),
+            TopicRule::new(
+                &force_topic,
+                settings.resolve_name(names::FORCE),
+                0,
+                "ANOTHER CONTROLLER commands the plant too: commands interleave",
+            ),
+        ],
+    );
     let server = node
         .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
             settings.mapping.into(),
@@ -306,6 +376,19 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
             qos::service(),
         )
         .context("set_mode service")?;
+    // ROS parameters (rcl_interfaces services): served by their own task, applied here
+    let (handle, mut applied) = crate::param_services::serve(
+        &context,
+        &mut node,
+        &settings,
+        opts.params,
+        crate::controller_params::rules,
+        {
+            let clock = clock.clone();
+            move || clock.now()
+        },
+    )?;
+    let mut params = crate::controller_params::LiveSync::new(handle, &core);
     info!(
         "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
         settings.describe(),
@@ -326,6 +409,8 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let shutdown = crate::ros::shutdown_signal();
     tokio::pin!(shutdown);
+    let mut plants = PlantIdentity::new(PlantIdentity::<ros2_client::Gid>::DEFAULT_HANDOVER_S);
+    let mut second_plant_log = Throttle::default();
 
     loop {
         tokio::select! {
@@ -334,11 +419,38 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                 break;
             }
             msg = states.select_next_some() => match msg {
-                Ok((state, _info)) => {
+                Ok((state, info)) => {
+                    match plants.observe(info.publisher_gid(), steady()) {
+                        Source::Current | Source::Adopted(None) => {}
+                        Source::Adopted(Some(silent)) => {
+                            core.new_plant();
+                            info!("a new plant publishes (seq {}) after {silent:.3} s without the last one: commanding it from now on", state.seq);
+                        }
+                        Source::Second => {
+                            if second_plant_log.tick() {
+                                warn!(
+                                    "A SECOND PLANT publishes {} (seq {}) while the first does: both apply every command; its samples are ignored ({} so far)",
+                                    settings.resolve_name(names::STATE),
+                                    state.seq,
+                                    plants.ignored()
+                                );
+                            }
+                            continue;
+                        }
+                    }
                     let was = core.commanding();
+                    let refused = core.plant_refuses();
                     if let Some(cmd) = core.on_state(&state, steady()) {
                         if !was {
                             info!("state fresh at seq {}: commanding", state.seq);
+                        }
+                        match (refused, core.plant_refuses()) {
+                            (false, true) => warn!(
+                                "the plant does not take our commands ({} refused so far, command_stale {}): not in control",
+                                state.rejected_commands, state.command_stale
+                            ),
+                            (true, false) => info!("the plant takes our commands again (seq {})", state.seq),
+                            _ => {}
                         }
                         if let Err(e) = force_pub.async_publish(cmd).await {
                             warn!("force command not sent: {e:?}");
@@ -381,11 +493,17 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                                     if let Err(e) = server.async_send_response(id, Wire(resp)).await {
                         warn!("set_mode response not sent: {e:?}");
                     }
+                    params.push(&core);
                     let _ = status_pub.async_publish(core.status(clock.now())).await;
                 }
                 Err(e) => warn!("bad set_mode request: {e:?}"),
             },
+            Some(table) = applied.recv() => {
+                params.applied(&table, &mut core);
+                let _ = status_pub.async_publish(core.status(clock.now())).await;
+            }
             _ = tick.tick() => {
+                params.push(&core);
                 if core.check_stale(steady()) {
                     warn!("state stale (no sample for the timeout; plant gone?): stopped commanding");
                 }
@@ -506,6 +624,48 @@ mod tests {
         assert!(!c.check_stale(0.8), "reports going stale once");
         assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 0.9).is_some());
         assert!(c.commanding());
+    }
+
+    #[test]
+    fn a_new_plant_is_commanded_from_its_first_sample() {
+        let mut c = core(Mode::Forward, 0.2);
+        for k in 0..4000 {
+            assert!(c
+                .on_state(&state(k, k as f64 * 1e-3, 0.1, 0.0), 0.0)
+                .is_some());
+        }
+        // the restarted plant starts again at seq 0, t = 0: older than the last one's samples
+        assert!(c.on_state(&state(0, 0.0, 0.0, 0.0), 1.0).is_none());
+        c.new_plant();
+        let cmd = c.on_state(&state(1, 1e-3, 0.0, 0.0), 1.0);
+        assert_eq!(cmd.map(|c| c.state_seq), Some(1));
+        assert_eq!(c.status(Time::ZERO).periods, 0, "progress measured afresh");
+    }
+
+    #[test]
+    fn a_plant_refusing_every_command_is_not_reported_as_commanded() {
+        let mut c = core(Mode::Forward, 0.2);
+        let w = u64::from(CommandFeedback::WINDOW);
+        for k in 0..w {
+            assert!(c
+                .on_state(&state(k, k as f64 * 1e-3, 0.1, 0.0), 0.0)
+                .is_some());
+        }
+        assert!(c.status(Time::ZERO).commanding);
+        for k in w..3 * w {
+            let mut s = state(k, k as f64 * 1e-3, 0.1, 0.0);
+            s.rejected_commands = (k - w) as u32;
+            s.command_stale = true;
+            assert!(c.on_state(&s, 0.0).is_some(), "commands still go out");
+        }
+        assert!(c.plant_refuses());
+        assert!(c.commanding() && !c.status(Time::ZERO).commanding);
+        for k in 3 * w..4 * w {
+            let mut s = state(k, k as f64 * 1e-3, 0.1, 0.0);
+            s.rejected_commands = (2 * w) as u32;
+            c.on_state(&s, 0.0);
+        }
+        assert!(c.status(Time::ZERO).commanding, "taken again");
     }
 
     #[test]

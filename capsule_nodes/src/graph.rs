@@ -8,8 +8,8 @@
 //!   participant), to wait for subscribers or publishers before starting;
 //! - [`RosClock`]: ROS time, from our own `/clock` subscription only under `use_sim_time`.
 //!
-//! What goes with the Spinner: the nodes do not serve the `rcl_interfaces` parameter services
-//! (they are configured by flags and the scene, not by ROS parameters). The command-line tools
+//! The Spinner's parameter services (hard-wired to the Enhanced mapping) go with it; the loop
+//! nodes serve their own in either mapping ([`crate::param_services`]). The command-line tools
 //! (`capsule_ros`, `capsule replay`) keep the Spinner.
 
 use std::{
@@ -25,7 +25,7 @@ use anyhow::{Context as _, Result};
 use capsule_msgs::Time;
 use futures::StreamExt;
 use ros2_client::Node;
-use rustdds::{DomainParticipant, DomainParticipantStatusEvent, StatusEvented, GUID};
+use rustdds::{DomainParticipant, DomainParticipantStatusEvent, RTPSEntity, StatusEvented, GUID};
 use tokio::sync::watch;
 
 use crate::ros::{names, qos, types, Clock, RosSettings};
@@ -36,6 +36,23 @@ struct Matches {
     readers_of: HashMap<GUID, HashSet<GUID>>,
     /// local reader -> matched remote writers
     writers_of: HashMap<GUID, HashSet<GUID>>,
+    /// this participant's GUID (its own endpoints, same prefix, are not remote)
+    own: Option<GUID>,
+    /// every remote endpoint discovered, matched or not
+    remote: HashMap<GUID, Endpoint>,
+}
+
+/// A remote reader or writer as discovery announced it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Endpoint {
+    /// Its GUID.
+    pub guid: GUID,
+    /// True for a writer, false for a reader.
+    pub writer: bool,
+    /// DDS topic name (`rt/...`).
+    pub topic: String,
+    /// DDS type name.
+    pub type_name: String,
 }
 
 impl Matches {
@@ -59,15 +76,40 @@ impl Matches {
                 .entry(*local_reader)
                 .or_default()
                 .insert(*remote_writer),
-            E::ReaderLost { guid, .. } => remove(&mut self.readers_of, |g| g == guid),
-            E::WriterLost { guid, .. } => remove(&mut self.writers_of, |g| g == guid),
+            E::ReaderDetected { reader: d } => self.detected(d, false),
+            E::WriterDetected { writer: d } => self.detected(d, true),
+            E::ReaderLost { guid, .. } => {
+                let r = self.remote.remove(guid).is_some();
+                remove(&mut self.readers_of, |g| g == guid) || r
+            }
+            E::WriterLost { guid, .. } => {
+                let r = self.remote.remove(guid).is_some();
+                remove(&mut self.writers_of, |g| g == guid) || r
+            }
             E::ParticipantLost { id, .. } => {
+                let before = self.remote.len();
+                self.remote.retain(|g, _| g.prefix != *id);
                 let r = remove(&mut self.readers_of, |g| g.prefix == *id);
                 let w = remove(&mut self.writers_of, |g| g.prefix == *id);
-                r || w
+                r || w || self.remote.len() != before
             }
             _ => false,
         }
+    }
+}
+
+impl Matches {
+    fn detected(&mut self, d: &rustdds::EndpointDescription, writer: bool) -> bool {
+        if self.own.is_some_and(|o| o.prefix == d.guid.prefix) {
+            return false;
+        }
+        let e = Endpoint {
+            guid: d.guid,
+            writer,
+            topic: d.topic_name.clone(),
+            type_name: d.type_name.clone(),
+        };
+        self.remote.insert(d.guid, e.clone()) != Some(e)
     }
 }
 
@@ -92,7 +134,10 @@ pub struct Graph {
 impl Graph {
     /// Starts following `participant`'s discovery events (call before creating endpoints).
     pub fn follow(participant: DomainParticipant) -> Graph {
-        let matches = Arc::new(Mutex::new(Matches::default()));
+        let matches = Arc::new(Mutex::new(Matches {
+            own: Some(participant.guid()),
+            ..Matches::default()
+        }));
         let (tx, changed) = watch::channel(0u64);
         let m = Arc::clone(&matches);
         tokio::spawn(async move {
@@ -124,6 +169,25 @@ impl Graph {
     /// Remote writers matched by our reader `reader`.
     pub fn publishers(&self, reader: GUID) -> usize {
         self.lock().writers_of.get(&reader).map_or(0, HashSet::len)
+    }
+
+    /// Remote readers and writers on the DDS topic `topic` (`rt/...`), matched or not, of any
+    /// type: what [`crate::conflicts`] checks.
+    pub fn remote_endpoints(&self, topic: &str) -> Vec<Endpoint> {
+        let mut v: Vec<Endpoint> = self
+            .lock()
+            .remote
+            .values()
+            .filter(|e| e.topic == topic)
+            .cloned()
+            .collect();
+        v.sort_by_key(|e| e.guid);
+        v
+    }
+
+    /// A receiver that changes whenever the graph does.
+    pub fn changes(&self) -> watch::Receiver<u64> {
+        self.changed.clone()
     }
 
     /// Waits until `count()` reaches `n`; false after `timeout`.

@@ -23,7 +23,7 @@ use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::{
     cdr,
     types::{names as rtypes, Clock, OfferedQos, SetModeEvent},
-    ChannelId, RecordWriter, SceneRecord, WriterOptions,
+    BagOptions, BagWriter, ChannelId, ChunkCompression, SceneRecord, WriterOptions,
 };
 use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
@@ -41,9 +41,47 @@ pub fn service_event_type() -> MessageTypeName {
     MessageTypeName::new("capsule_msgs", "SetModeEvent")
 }
 
+/// How a recording is stored, as rosbag2 users configure it: the flags `capsule_recorder`,
+/// `capsule_plant` (in-process recording) and `capsule simulate --record` share.
+#[derive(Debug, Clone, clap::Args)]
+pub struct StorageArgs {
+    /// Chunk compression: none, zstd, zstd_fast, zstd_small or lz4 (rosbag2's MCAP presets)
+    #[arg(long, default_value = "none", value_parser = parse_compression)]
+    pub compression: ChunkCompression,
+    /// Split the recording into NAME/NAME_0.mcap, NAME_1.mcap, ... with a rosbag2
+    /// metadata.yaml, starting the next file at about this many bytes
+    #[arg(long, value_name = "BYTES", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_bag_size: Option<u64>,
+    /// Split the same way once a file spans this many seconds of recorded time
+    #[arg(long, value_name = "S")]
+    pub max_bag_duration: Option<f64>,
+}
+
+fn parse_compression(s: &str) -> Result<ChunkCompression, String> {
+    s.parse()
+}
+
+impl StorageArgs {
+    /// The storage options, or why the flags are refused.
+    pub fn options(&self) -> Result<BagOptions> {
+        let max_duration_ns = match self.max_bag_duration {
+            None => None,
+            Some(s) if s.is_finite() && s > 0.0 && s <= 1e9 => Some((s * 1e9) as u64),
+            Some(s) => anyhow::bail!("--max-bag-duration {s}: must be > 0 and at most 1e9 s"),
+        };
+        Ok(BagOptions {
+            compression: self.compression,
+            max_bytes: self.max_bag_size,
+            max_duration_ns,
+        })
+    }
+}
+
 /// What to record and where.
 #[derive(Debug, Clone)]
 pub struct RecorderOptions {
+    /// Compression and splitting.
+    pub bag: BagOptions,
     /// The file to write (must not exist).
     pub output: PathBuf,
     /// The scene of the run, stored in the file.
@@ -132,17 +170,6 @@ pub fn output_path(
     Ok(path)
 }
 
-/// Reads a scene file for the recording: its name is the file stem.
-pub fn scene_record(path: &Path) -> Result<SceneRecord> {
-    let toml = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read scene {}", path.display()))?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scene".into());
-    Ok(SceneRecord { name, toml })
-}
-
 /// What a recording run wrote.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RecorderReport {
@@ -214,27 +241,30 @@ pub fn graph_topics(
 /// An MCAP file of the capsule graph being written: one channel per topic (see [`Channel`]),
 /// chunks closed at least every `flush_period` of wall time.
 pub struct GraphRecording {
-    writer: RecordWriter,
+    writer: BagWriter,
     channels: Vec<(ChannelId, String, u32)>,
     flush_period: Duration,
     last_flush: std::time::Instant,
 }
 
 impl GraphRecording {
-    /// Creates `path` (refused if it exists or cannot be written) with the graph's channels.
+    /// Creates `path` (refused if it exists or cannot be written; a directory of numbered
+    /// files when `bag` splits) with the graph's channels.
     pub fn create(
         path: &Path,
         scene: Option<SceneRecord>,
         settings: &RosSettings,
         controller_node: &str,
         flush_period: Duration,
+        bag: BagOptions,
     ) -> Result<GraphRecording> {
-        let mut writer = RecordWriter::create(
+        let mut writer = BagWriter::create(
             path,
             WriterOptions {
                 scene,
                 ..WriterOptions::default()
             },
+            bag,
         )?;
         let mut channels = Vec::new();
         for (name, _, ros_type, _) in graph_topics(controller_node) {
@@ -354,6 +384,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         &settings,
         &opts.controller_node,
         opts.flush_period,
+        opts.bag,
     )?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;

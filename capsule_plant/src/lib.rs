@@ -4,6 +4,7 @@
 //! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
 //! and scene files ([`scene`]).
 
+pub mod equations;
 pub mod law;
 pub mod model;
 mod roots;
@@ -13,5 +14,6 @@ pub mod solver;
 pub use law::{ActuatorLaw, ConstantForce, LawShape};
 pub use model::{Capsule, Friction, Model, State};
 pub use solver::{
-    Event, EventKind, Method, Mode, Phase, SimError, Simulator, Snapshot, SolverConfig, Work,
+    Event, EventKind, Method, Mode, Phase, SimError, Simulator, Snapshot, SolverConfig, Transition,
+    Work,
 };

@@ -86,18 +86,16 @@ impl Friction {
     }
 
     /// Sliding friction force for a capsule slipping in direction `dir` (+1/-1) at velocity
-    /// `y2`, with `y2_delayed = y2(tau - tau_d)` (used only by the seven-parameter law; pass `y2`
-    /// itself when `tau_d = 0`).
+    /// `y2`, with `y2_delayed = y2(tau - tau_d)` (read only by the seven-parameter law with
+    /// frictional memory). The formulas live once, in the solver's friction types.
     pub fn sliding(&self, dir: f64, y2: f64, y2_delayed: f64) -> f64 {
-        match *self {
-            Friction::Coulomb => dir,
-            Friction::Viscous { mu_v } => dir + mu_v * y2,
-            Friction::Stribeck { v_s } => dir * (1.0 + (-y2.abs() / v_s).exp()),
-            Friction::SevenParameter { mu_v, v_s, .. } => {
-                let r = y2_delayed / v_s;
-                dir + mu_v * y2 + dir / (1.0 + r * r)
-            }
-        }
+        crate::solver::friction::with_friction!(*self, f => f.sliding(dir, y2, y2_delayed))
+    }
+
+    /// `d f_s / d y2` of the sliding force at velocity `y2` in direction `dir`, the delayed
+    /// velocity held fixed (what the Jacobian of the right-hand side needs).
+    pub fn sliding_slope(&self, dir: f64, y2: f64) -> f64 {
+        crate::solver::friction::with_friction!(*self, f => f.slope(dir, y2))
     }
 
     /// Whether the law is linear in the state between events (exact piecewise solution exists).

@@ -1,40 +1,44 @@
 //! Scene files: a capsule, its friction, the drive and control, the start, the horizon, the solver.
 //!
-//! A scene is TOML. Required tables: `[capsule]`, `[friction]`, `[drive]`; the rest have the
-//! defaults shown. Unknown keys, missing or non-finite values and out-of-range values are refused
-//! with the file, the key and the reason. Parsing takes text, not a path: reading the file is the
-//! caller's business.
+//! A scene is TOML, and every table and key is optional: what a scene leaves out takes the value
+//! of [`Scene::default`] (below; `capsule simulate --print-scene` prints a scene with everything
+//! filled in). Unknown keys, values of the wrong type, missing or non-finite numbers and
+//! out-of-range values are refused with the file, the key and the reason ([`SceneError`]).
+//! Parsing takes text, not a path: reading the file is the caller's business.
 //!
 //! ```toml
-//! name = "Section 5.1 control point"
+//! name = "Section 5.1 control point"   # default: the file name
 //! [capsule]
-//! gamma = 0.235   # m2 / m1          > 0
-//! beta = 3.05     # k2 / k1          >= 0 (0: no secondary spring)
-//! delta = 0.02    # gap              >= 0
-//! xi = 0.05       # damping ratio    >= 0
+//! gamma = 0.235   # m2 / m1          > 0      default 5
+//! beta = 3.05     # k2 / k1          >= 0     default 15 (0: no secondary spring)
+//! delta = 0.02    # gap              >= 0     default 0.02
+//! xi = 0.05       # damping ratio    >= 0     default 0.01
 //! [friction]
-//! law = "coulomb" # or "viscous" (mu_v), "stribeck" (v_s), "seven-parameter" (mu_v, v_s, tau_d, k_s)
+//! law = "coulomb" # default; or "viscous" (mu_v), "stribeck" (v_s),
+//!                 # "seven-parameter" (mu_v, v_s, tau_d, k_s); a constant the law uses and
+//!                 # the scene leaves out takes the paper's value (PAPER_MU_V, ...)
 //! [drive]
-//! alpha = 1.6     # amplitude        >= 0
-//! omega = 1.1     # frequency        > 0
+//! alpha = 1.6     # amplitude        >= 0     default 0.8
+//! omega = 1.1     # frequency        > 0      default 0.95
 //! [control]
-//! kp = 0.0        # position feedback gain
+//! kp = 0.0        # position feedback gain    default 0
 //! [initial]
-//! state = [0.0, 0.0, 0.0, 0.0]   # x1, y1, x2, y2
+//! state = [0.0, 0.0, 0.0, 0.0]   # x1, y1, x2, y2 (exactly four)   default all zero
 //! [horizon]
-//! periods = 300
-//! transient = 200
+//! periods = 300   # whole number >= 1         default 300
+//! transient = 200 # whole number < periods    default 200, or 2/3 of `periods` when only
+//!                 #                           `periods` is given
 //! [solver]
 //! method = "exact" # default: the most accurate for the law (exact, else adaptive)
-//! tol = 1e-10      # adaptive
-//! step = 1e-3      # fixed
-//! [physical]       # the SI scale used by the ROS nodes
+//! tol = 1e-10      # adaptive, in (0, 1)
+//! step = 1e-3      # fixed, > 0
+//! [physical]       # the SI scale used by the ROS nodes (each > 0)
 //! m1_kg = 0.05
 //! k1_n_per_m = 200.0
 //! pf_n = 0.1
-//! [node]
-//! rate_hz = 1000.0
-//! command_timeout_s = 0.1
+//! [node]           # the plant node
+//! rate_hz = 1000.0         # [1e-3, 1e6]
+//! command_timeout_s = 0.1  # [1e-6, 1e6]
 //! ```
 
 use crate::model::{Capsule, Friction, Model, State};
@@ -48,15 +52,140 @@ use thiserror::Error;
 pub struct SceneError {
     /// The file (or other source name) the scene came from.
     pub file: String,
-    /// The key, as a dotted path (`capsule.gamma`), or `(syntax)` for a parse error.
+    /// The key, as a dotted path (`capsule.gamma`), or `(syntax)` when the text is not TOML.
     pub key: String,
     /// Why.
-    pub reason: String,
+    pub reason: Fault,
+}
+
+/// A value of a scene refused by [`Scene::validate`]: which key, why.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{key}: {reason}")]
+pub struct Invalid {
+    /// The key, as a dotted path (`capsule.gamma`).
+    pub key: String,
+    /// Why.
+    pub reason: Fault,
+}
+
+impl Invalid {
+    fn new(key: impl Into<String>, reason: Fault) -> Self {
+        Invalid {
+            key: key.into(),
+            reason,
+        }
+    }
+
+    /// The same refusal, naming the file it came from.
+    pub fn in_file(self, file: &str) -> SceneError {
+        SceneError {
+            file: file.to_string(),
+            key: self.key,
+            reason: self.reason,
+        }
+    }
+}
+
+/// Why a scene (or one of its values) is refused.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Fault {
+    /// The file could not be read (the reader's message).
+    #[error("cannot read: {0}")]
+    Unreadable(String),
+    /// The bytes are not UTF-8 text.
+    #[error("not a text file (a scene is UTF-8 TOML)")]
+    NotText,
+    /// The text is not TOML (also: a key given twice).
+    #[error("not valid TOML: {message}{}", at_line(*.line))]
+    Syntax {
+        /// The TOML parser's message.
+        message: String,
+        /// Where, when known.
+        line: Option<usize>,
+    },
+    /// Valid TOML, but a key this format does not have or a value of the wrong type.
+    #[error("{message}{}", at_line(*.line))]
+    Shape {
+        /// The reader's message (`unknown field`, `invalid type`).
+        message: String,
+        /// Where, when known.
+        line: Option<usize>,
+    },
+    /// NaN or infinite.
+    #[error("must be a finite number (got {})", num(*.0))]
+    NotFinite(f64),
+    /// Zero or negative where only positive values mean something.
+    #[error("must be > 0 (got {})", num(*.0))]
+    NotPositive(f64),
+    /// Negative.
+    #[error("must be >= 0 (got {})", num(*.0))]
+    Negative(f64),
+    /// A value outside a closed range.
+    #[error("must be in [{min:e}, {max:e}] (got {})", num(*.got))]
+    OutOfRange {
+        /// The value given.
+        got: f64,
+        /// Smallest allowed.
+        min: f64,
+        /// Largest allowed.
+        max: f64,
+    },
+    /// A tolerance outside (0, 1).
+    #[error("must be in (0, 1) (got {})", num(*.0))]
+    NotInOpenUnit(f64),
+    /// A count that is fractional, too small or too large.
+    #[error("must be a whole number from {min} to {max} (got {got})")]
+    NotACount {
+        /// The value given.
+        got: String,
+        /// Smallest allowed.
+        min: u32,
+        /// Largest allowed.
+        max: u32,
+    },
+    /// The transient is not shorter than the run.
+    #[error(
+        "must be less than horizon.periods = {periods} (got {transient}): lower the transient, \
+         raise the periods, or leave the transient out to scale it with the periods"
+    )]
+    TransientNotBelowPeriods {
+        /// Leading periods not measured.
+        transient: u32,
+        /// Periods in all.
+        periods: u32,
+    },
+    /// An initial state without exactly four numbers.
+    #[error("must hold exactly 4 numbers x1, y1, x2, y2 (got {0})")]
+    StateLength(usize),
+    /// A friction law this model does not have.
+    #[error("unknown law `{0}` (coulomb, viscous, stribeck or seven-parameter)")]
+    UnknownLaw(String),
+    /// An integration method this solver does not have.
+    #[error("unknown method `{0}` (exact, adaptive or fixed)")]
+    UnknownMethod(String),
+    /// A friction constant the chosen law does not use.
+    #[error("not used by law `{0}`: remove it")]
+    NotUsedByLaw(&'static str),
+    /// The exact method with a law that is not piecewise linear.
+    #[error("exact needs a piecewise-linear friction law (coulomb, viscous), not {0}")]
+    ExactNeedsPiecewiseLinear(&'static str),
+}
+
+/// A number as a user reads it: plain, or in exponent form when very small or large.
+fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+fn at_line(line: Option<usize>) -> String {
+    line.map(|l| format!(" (line {l})")).unwrap_or_default()
 }
 
 /// The drive on the inner mass: `alpha cos(omega tau)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Drive {
     /// Amplitude `alpha = P_d / P_f`.
     pub alpha: f64,
@@ -72,17 +201,14 @@ impl Drive {
 }
 
 /// Position feedback settings.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Control {
     /// Gain `k_p` of `u = k_p |x2 - x1|`; 0 means no feedback.
-    #[serde(default)]
     pub kp: f64,
 }
 
 /// Simulated span: `periods` drive periods, of which the first `transient` are not measured.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Horizon {
     /// Drive periods simulated in all.
     pub periods: u32,
@@ -99,10 +225,22 @@ impl Default for Horizon {
     }
 }
 
+impl Horizon {
+    /// The one rule for a number of periods given without a transient (in a scene file or on
+    /// the command line): the transient keeps this horizon's share of the periods, rounded
+    /// down (2/3 for the default 300 with 200).
+    pub fn with_periods(self, periods: u32) -> Horizon {
+        let transient = u64::from(periods) * u64::from(self.transient) / u64::from(self.periods);
+        Horizon {
+            periods,
+            transient: u32::try_from(transient).unwrap_or(u32::MAX),
+        }
+    }
+}
+
 /// The physical scale that turns the non-dimensional model into SI units (paper sec. 2.1):
 /// `Omega_0 = sqrt(k1 / m1)`, length `P_f / k1`, time `1 / Omega_0`, force `P_f`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PhysicalScale {
     /// Inner mass `m1` in kg.
     pub m1_kg: f64,
@@ -143,11 +281,21 @@ impl PhysicalScale {
     pub fn force_n(&self) -> f64 {
         self.pf_n
     }
+    /// Checks every value (each finite and > 0); the key is `physical.<name>`.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        for (key, v) in [
+            ("physical.m1_kg", self.m1_kg),
+            ("physical.k1_n_per_m", self.k1_n_per_m),
+            ("physical.pf_n", self.pf_n),
+        ] {
+            Rule::Positive.check(key, v)?;
+        }
+        Ok(())
+    }
 }
 
 /// Settings of the ROS plant node.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct NodeSettings {
     /// State publication (and control) rate in Hz.
     pub rate_hz: f64,
@@ -164,49 +312,194 @@ impl Default for NodeSettings {
     }
 }
 
-#[derive(Debug, Deserialize)]
+/// The plant node's sample rate range [Hz]: from one sample per 1000 s to 1 MHz (a period that
+/// every clock and `Duration` holds).
+pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
+/// The plant node's command timeout range [s].
+pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
+
+/// What the controller node takes from a scene: the physical scale, the drive and the gain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControllerView {
+    /// SI scale.
+    pub physical: PhysicalScale,
+    /// The drive.
+    pub drive: Drive,
+    /// The feedback gain.
+    pub control: Control,
+}
+
+// The file as written: every table and key optional (defaults from `Scene::default`), the same
+// shape serialized by `Scene::to_toml`.
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CapsuleSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gamma: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    beta: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    delta: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    xi: Option<f64>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FrictionSpec {
-    law: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    law: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     mu_v: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     v_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     tau_d: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     k_s: Option<f64>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct InitialSpec {
-    state: [f64; 4],
+struct DriveSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    alpha: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    omega: Option<f64>,
 }
 
-#[derive(Debug, Default, Deserialize)]
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ControlSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kp: Option<f64>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InitialSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    state: Option<Vec<f64>>,
+}
+
+/// A count as written: a whole number; a fraction or another type is refused with the key.
+#[derive(Debug, Clone, Copy, Serialize)]
+#[serde(untagged)]
+enum Count {
+    Whole(i64),
+    Fraction(f64),
+}
+
+impl<'de> Deserialize<'de> for Count {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Count;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a whole number")
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Count, E> {
+                Ok(Count::Whole(v))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Count, E> {
+                Ok(i64::try_from(v).map_or(Count::Fraction(v as f64), Count::Whole))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Count, E> {
+                Ok(Count::Fraction(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl Count {
+    fn check(self, key: &str, min: u32) -> Result<u32, Invalid> {
+        let bad = |got: String| {
+            Invalid::new(
+                key,
+                Fault::NotACount {
+                    got,
+                    min,
+                    max: u32::MAX,
+                },
+            )
+        };
+        match self {
+            Count::Whole(n) => u32::try_from(n)
+                .ok()
+                .filter(|n| *n >= min)
+                .ok_or_else(|| bad(n.to_string())),
+            Count::Fraction(f) => Err(bad(f.to_string())),
+        }
+    }
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HorizonSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    periods: Option<Count>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    transient: Option<Count>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SolverSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
     method: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     tol: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     step: Option<f64>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct SceneFile {
+struct PhysicalSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    m1_kg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    k1_n_per_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pf_n: Option<f64>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NodeSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_hz: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    command_timeout_s: Option<f64>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    #[serde(skip_serializing_if = "Option::is_none")]
     name: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     description: Option<String>,
-    capsule: Capsule,
+    #[serde(default)]
+    capsule: CapsuleSpec,
+    #[serde(default)]
     friction: FrictionSpec,
-    drive: Drive,
     #[serde(default)]
-    control: Control,
-    initial: Option<InitialSpec>,
+    drive: DriveSpec,
     #[serde(default)]
-    horizon: Horizon,
+    control: ControlSpec,
+    #[serde(default)]
+    initial: InitialSpec,
+    #[serde(default)]
+    horizon: HorizonSpec,
     #[serde(default)]
     solver: SolverSpec,
     #[serde(default)]
-    physical: PhysicalScale,
+    physical: PhysicalSpec,
     #[serde(default)]
-    node: NodeSettings,
+    node: NodeSpec,
 }
 
 /// A validated scene.
@@ -234,7 +527,9 @@ pub struct Scene {
     pub node: NodeSettings,
 }
 
-/// The paper's section-3 parameter set with Coulomb friction, all-zero start, 300 periods.
+/// The paper's section-3 parameter set (gamma 5, beta 15, delta 0.02, xi 0.01, alpha 0.8,
+/// omega 0.95) with Coulomb friction, all-zero start, 300 periods of which 200 are transient,
+/// the most accurate method for the law: what every scene leaves out.
 impl Default for Scene {
     fn default() -> Self {
         let model = Model {
@@ -251,7 +546,7 @@ impl Default for Scene {
             description: String::new(),
             model,
             drive: Drive {
-                alpha: 1.0,
+                alpha: 0.8,
                 omega: 0.95,
             },
             control: Control::default(),
@@ -274,59 +569,86 @@ pub const PAPER_TAU_D: f64 = 0.05;
 pub const PAPER_K_S: f64 = 4e4;
 
 impl Scene {
+    /// Parse and validate a scene from the bytes of a file; `file` names the source in errors.
+    pub fn from_toml_bytes(bytes: &[u8], file: &str) -> Result<Self, SceneError> {
+        let text = std::str::from_utf8(bytes).map_err(|_| SceneError {
+            file: file.to_string(),
+            key: "(file)".to_string(),
+            reason: Fault::NotText,
+        })?;
+        Scene::from_toml_str(text, file)
+    }
+
     /// Parse and validate a scene; `file` names the source in errors.
     pub fn from_toml_str(text: &str, file: &str) -> Result<Self, SceneError> {
-        let raw: SceneFile = toml::from_str(text).map_err(|e| SceneError {
-            file: file.to_string(),
-            key: "(syntax)".to_string(),
-            reason: e.message().to_string() + &line_of(text, e.span()),
-        })?;
-        let err = |key: &str, reason: String| SceneError {
-            file: file.to_string(),
-            key: key.to_string(),
-            reason,
-        };
-        let friction = friction_from(&raw.friction).map_err(|(k, r)| err(&k, r))?;
-        let model = Model {
-            capsule: raw.capsule,
-            friction,
-        };
-        let mut solver = SolverConfig::most_accurate_for(&model);
-        if let Some(m) = &raw.solver.method {
-            solver.method = match m.as_str() {
-                "exact" => Method::Exact,
-                "adaptive" => Method::Adaptive,
-                "fixed" => Method::Fixed,
-                other => {
-                    return Err(err(
-                        "solver.method",
-                        format!("unknown method `{other}` (exact, adaptive or fixed)"),
-                    ))
-                }
-            };
-        }
-        if let Some(t) = raw.solver.tol {
-            solver.tol = t;
-        }
-        if let Some(s) = raw.solver.step {
-            solver.step = s;
-        }
-        let scene = Scene {
-            name: raw.name.unwrap_or_else(|| file.to_string()),
-            description: raw.description.unwrap_or_default(),
-            model,
-            drive: raw.drive,
-            control: raw.control,
-            initial: raw
-                .initial
-                .map_or(State::default(), |i| State::from_array(i.state)),
-            horizon: raw.horizon,
-            solver,
-            physical: raw.physical,
-            node: raw.node,
-        };
-        scene.validate().map_err(|(k, r)| err(&k, r))?;
+        let raw = parse(text).map_err(|e| e.in_file(file))?;
+        let scene = resolve(raw, file).map_err(|e| e.in_file(file))?;
+        scene.validate().map_err(|e| e.in_file(file))?;
         Ok(scene)
+    }
+
+    /// The scene as a complete scene file (every key written out); reading it back gives the
+    /// same scene.
+    pub fn to_toml(&self) -> String {
+        let m = &self.model;
+        let (mu_v, v_s, tau_d, k_s) = match m.friction {
+            Friction::Coulomb => (None, None, None, None),
+            Friction::Viscous { mu_v } => (Some(mu_v), None, None, None),
+            Friction::Stribeck { v_s } => (None, Some(v_s), None, None),
+            Friction::SevenParameter {
+                mu_v,
+                v_s,
+                tau_d,
+                k_s,
+            } => (Some(mu_v), Some(v_s), Some(tau_d), Some(k_s)),
+        };
+        let file = RawScene {
+            name: Some(self.name.clone()),
+            description: Some(self.description.clone()),
+            capsule: CapsuleSpec {
+                gamma: Some(m.capsule.gamma),
+                beta: Some(m.capsule.beta),
+                delta: Some(m.capsule.delta),
+                xi: Some(m.capsule.xi),
+            },
+            friction: FrictionSpec {
+                law: Some(m.friction.name().to_string()),
+                mu_v,
+                v_s,
+                tau_d,
+                k_s,
+            },
+            drive: DriveSpec {
+                alpha: Some(self.drive.alpha),
+                omega: Some(self.drive.omega),
+            },
+            control: ControlSpec {
+                kp: Some(self.control.kp),
+            },
+            initial: InitialSpec {
+                state: Some(self.initial.to_array().to_vec()),
+            },
+            horizon: HorizonSpec {
+                periods: Some(Count::Whole(self.horizon.periods.into())),
+                transient: Some(Count::Whole(self.horizon.transient.into())),
+            },
+            solver: SolverSpec {
+                method: Some(self.solver.method.name().to_string()),
+                tol: Some(self.solver.tol),
+                step: Some(self.solver.step),
+            },
+            physical: PhysicalSpec {
+                m1_kg: Some(self.physical.m1_kg),
+                k1_n_per_m: Some(self.physical.k1_n_per_m),
+                pf_n: Some(self.physical.pf_n),
+            },
+            node: NodeSpec {
+                rate_hz: Some(self.node.rate_hz),
+                command_timeout_s: Some(self.node.command_timeout_s),
+            },
+        };
+        // every field is a plain number, string or array: serializing cannot fail
+        toml::to_string(&file).unwrap_or_default()
     }
 
     /// The capsule and friction law.
@@ -344,8 +666,23 @@ impl Scene {
         self.solver
     }
 
-    /// Check every value; `Err((key, reason))` for the first bad one.
-    pub fn validate(&self) -> Result<(), (String, String)> {
+    /// The plant node's sample rate range [Hz]: from one sample per 1000 s to 1 MHz (a period that
+    /// every clock and `Duration` holds).
+    pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
+    /// The plant node's command timeout range [s].
+    pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
+
+    /// What the controller node takes from the scene.
+    pub fn controller_view(&self) -> ControllerView {
+        ControllerView {
+            physical: self.physical,
+            drive: self.drive,
+            control: self.control,
+        }
+    }
+
+    /// Check every value; the first bad one is refused with its key and the reason.
+    pub fn validate(&self) -> Result<(), Invalid> {
         let c = &self.model.capsule;
         let mut checks: Vec<(&str, f64, Rule)> = vec![
             ("capsule.gamma", c.gamma, Rule::Positive),
@@ -359,18 +696,15 @@ impl Scene {
             ("initial.state[1] (y1)", self.initial.y1, Rule::Finite),
             ("initial.state[2] (x2)", self.initial.x2, Rule::Finite),
             ("initial.state[3] (y2)", self.initial.y2, Rule::Finite),
-            ("physical.m1_kg", self.physical.m1_kg, Rule::Positive),
             (
-                "physical.k1_n_per_m",
-                self.physical.k1_n_per_m,
-                Rule::Positive,
+                "node.rate_hz",
+                self.node.rate_hz,
+                Rule::Within(NODE_RATE_HZ),
             ),
-            ("physical.pf_n", self.physical.pf_n, Rule::Positive),
-            ("node.rate_hz", self.node.rate_hz, Rule::Positive),
             (
                 "node.command_timeout_s",
                 self.node.command_timeout_s,
-                Rule::Positive,
+                Rule::Within(NODE_TIMEOUT_S),
             ),
         ];
         match self.model.friction {
@@ -395,32 +729,172 @@ impl Scene {
             Method::Exact => {}
         }
         for (key, v, rule) in checks {
-            rule.check(v)
-                .map_err(|r| (key.to_string(), format!("{r} (got {v})")))?;
+            rule.check(key, v)?;
         }
-        if self.horizon.periods == 0 {
-            return Err(("horizon.periods".into(), "must be at least 1".into()));
+        self.physical.validate()?;
+        let h = self.horizon;
+        if h.periods == 0 {
+            return Err(Invalid::new(
+                "horizon.periods",
+                Fault::NotACount {
+                    got: "0".into(),
+                    min: 1,
+                    max: u32::MAX,
+                },
+            ));
         }
-        if self.horizon.transient >= self.horizon.periods {
-            return Err((
-                "horizon.transient".into(),
-                format!(
-                    "must be less than horizon.periods = {} (got {})",
-                    self.horizon.periods, self.horizon.transient
-                ),
+        if h.transient >= h.periods {
+            return Err(Invalid::new(
+                "horizon.transient",
+                Fault::TransientNotBelowPeriods {
+                    transient: h.transient,
+                    periods: h.periods,
+                },
             ));
         }
         if self.solver.method == Method::Exact && !self.model.friction.is_piecewise_linear() {
-            return Err((
-                "solver.method".into(),
-                format!(
-                    "exact needs a piecewise-linear friction law (coulomb, viscous), not {}",
-                    self.model.friction.name()
-                ),
+            return Err(Invalid::new(
+                "solver.method",
+                Fault::ExactNeedsPiecewiseLinear(self.model.friction.name()),
             ));
         }
         Ok(())
     }
+}
+
+/// TOML text to the file's shape: syntax errors with their line, shape errors with their key.
+fn parse(text: &str) -> Result<RawScene, Invalid> {
+    let line = |span: Option<std::ops::Range<usize>>| {
+        span.map(|r| text[..r.start.min(text.len())].matches('\n').count() + 1)
+    };
+    // Syntax first (a key given twice is a syntax error of TOML), then the shape with the path
+    // of the offending key.
+    text.parse::<toml::Table>().map_err(|e| {
+        Invalid::new(
+            "(syntax)",
+            Fault::Syntax {
+                message: e.message().trim().to_string(),
+                line: line(e.span()),
+            },
+        )
+    })?;
+    serde_path_to_error::deserialize(toml::Deserializer::new(text)).map_err(
+        |e: serde_path_to_error::Error<toml::de::Error>| {
+            let path = e.path().to_string();
+            let inner = e.inner();
+            // serde names the reader's own types: a user wrote a table
+            let mut message = inner.message().trim().to_string();
+            for spec in [
+                "CapsuleSpec",
+                "FrictionSpec",
+                "DriveSpec",
+                "ControlSpec",
+                "InitialSpec",
+                "HorizonSpec",
+                "SolverSpec",
+                "PhysicalSpec",
+                "NodeSpec",
+                "RawScene",
+            ] {
+                message = message.replace(&format!("struct {spec}"), "a table");
+            }
+            Invalid::new(
+                if path == "." {
+                    "(top level)".to_string()
+                } else {
+                    path
+                },
+                Fault::Shape {
+                    message,
+                    line: line(inner.span()),
+                },
+            )
+        },
+    )
+}
+
+/// The file's values over the defaults.
+fn resolve(raw: RawScene, file: &str) -> Result<Scene, Invalid> {
+    let d = Scene::default();
+    let c = &raw.capsule;
+    let capsule = Capsule {
+        gamma: c.gamma.unwrap_or(d.model.capsule.gamma),
+        beta: c.beta.unwrap_or(d.model.capsule.beta),
+        delta: c.delta.unwrap_or(d.model.capsule.delta),
+        xi: c.xi.unwrap_or(d.model.capsule.xi),
+    };
+    let model = Model {
+        capsule,
+        friction: friction_from(&raw.friction)?,
+    };
+    let mut solver = SolverConfig::most_accurate_for(&model);
+    if let Some(m) = &raw.solver.method {
+        solver.method = match m.as_str() {
+            "exact" => Method::Exact,
+            "adaptive" => Method::Adaptive,
+            "fixed" => Method::Fixed,
+            other => {
+                return Err(Invalid::new(
+                    "solver.method",
+                    Fault::UnknownMethod(other.to_string()),
+                ))
+            }
+        };
+    }
+    solver.tol = raw.solver.tol.unwrap_or(solver.tol);
+    solver.step = raw.solver.step.unwrap_or(solver.step);
+    let initial = match &raw.initial.state {
+        None => d.initial,
+        Some(v) => State::from_array(
+            <[f64; 4]>::try_from(v.as_slice())
+                .map_err(|_| Invalid::new("initial.state", Fault::StateLength(v.len())))?,
+        ),
+    };
+    let periods = raw
+        .horizon
+        .periods
+        .map(|p| p.check("horizon.periods", 1))
+        .transpose()?;
+    let transient = raw
+        .horizon
+        .transient
+        .map(|t| t.check("horizon.transient", 0))
+        .transpose()?;
+    let horizon = match (periods, transient) {
+        (Some(periods), Some(transient)) => Horizon { periods, transient },
+        (Some(periods), None) => d.horizon.with_periods(periods),
+        (None, Some(transient)) => Horizon {
+            transient,
+            ..d.horizon
+        },
+        (None, None) => d.horizon,
+    };
+    let p = &raw.physical;
+    let n = &raw.node;
+    Ok(Scene {
+        name: raw.name.unwrap_or_else(|| file.to_string()),
+        description: raw.description.unwrap_or_default(),
+        model,
+        drive: Drive {
+            alpha: raw.drive.alpha.unwrap_or(d.drive.alpha),
+            omega: raw.drive.omega.unwrap_or(d.drive.omega),
+        },
+        control: Control {
+            kp: raw.control.kp.unwrap_or(d.control.kp),
+        },
+        initial,
+        horizon,
+        solver,
+        physical: PhysicalScale {
+            m1_kg: p.m1_kg.unwrap_or(d.physical.m1_kg),
+            k1_n_per_m: p.k1_n_per_m.unwrap_or(d.physical.k1_n_per_m),
+            pf_n: p.pf_n.unwrap_or(d.physical.pf_n),
+        },
+        node: NodeSettings {
+            rate_hz: n.rate_hz.unwrap_or(d.node.rate_hz),
+            command_timeout_s: n.command_timeout_s.unwrap_or(d.node.command_timeout_s),
+        },
+    })
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -429,88 +903,74 @@ enum Rule {
     Positive,
     NonNegative,
     Tolerance,
+    Within((f64, f64)),
 }
 
 impl Rule {
-    fn check(self, v: f64) -> Result<(), &'static str> {
-        if !v.is_finite() {
-            return Err("must be a finite number");
-        }
-        match self {
-            Rule::Finite => Ok(()),
-            Rule::Positive if v > 0.0 => Ok(()),
-            Rule::Positive => Err("must be > 0"),
-            Rule::NonNegative if v >= 0.0 => Ok(()),
-            Rule::NonNegative => Err("must be >= 0"),
-            Rule::Tolerance if v > 0.0 && v < 1.0 => Ok(()),
-            Rule::Tolerance => Err("must be in (0, 1)"),
-        }
+    fn check(self, key: &str, v: f64) -> Result<(), Invalid> {
+        let fault = if !v.is_finite() {
+            Fault::NotFinite(v)
+        } else {
+            match self {
+                Rule::Finite => return Ok(()),
+                Rule::Positive if v > 0.0 => return Ok(()),
+                Rule::Positive => Fault::NotPositive(v),
+                Rule::NonNegative if v >= 0.0 => return Ok(()),
+                Rule::NonNegative => Fault::Negative(v),
+                Rule::Tolerance if v > 0.0 && v < 1.0 => return Ok(()),
+                Rule::Tolerance => Fault::NotInOpenUnit(v),
+                Rule::Within((min, max)) if (min..=max).contains(&v) => return Ok(()),
+                Rule::Within((min, max)) => Fault::OutOfRange { got: v, min, max },
+            }
+        };
+        Err(Invalid::new(key, fault))
     }
 }
 
-fn friction_from(spec: &FrictionSpec) -> Result<Friction, (String, String)> {
-    let need = |name: &str, v: Option<f64>| {
-        v.ok_or_else(|| {
-            (
-                format!("friction.{name}"),
-                format!("required by law `{}`", spec.law),
-            )
-        })
-    };
-    let refuse = |name: &str, v: Option<f64>| match v {
-        Some(_) => Err((
-            format!("friction.{name}"),
-            format!("not used by law `{}`: remove it", spec.law),
-        )),
-        None => Ok(()),
-    };
-    Ok(match spec.law.as_str() {
-        "coulomb" => {
-            refuse("mu_v", spec.mu_v)?;
-            refuse("v_s", spec.v_s)?;
-            refuse("tau_d", spec.tau_d)?;
-            refuse("k_s", spec.k_s)?;
-            Friction::Coulomb
-        }
-        "viscous" => {
-            refuse("v_s", spec.v_s)?;
-            refuse("tau_d", spec.tau_d)?;
-            refuse("k_s", spec.k_s)?;
-            Friction::Viscous {
-                mu_v: need("mu_v", spec.mu_v)?,
-            }
-        }
-        "stribeck" => {
-            refuse("mu_v", spec.mu_v)?;
-            refuse("tau_d", spec.tau_d)?;
-            refuse("k_s", spec.k_s)?;
-            Friction::Stribeck {
-                v_s: need("v_s", spec.v_s)?,
-            }
-        }
+/// The law and its constants; a constant the law uses and the file leaves out is the paper's.
+fn friction_from(spec: &FrictionSpec) -> Result<Friction, Invalid> {
+    let law = spec.law.as_deref().unwrap_or("coulomb");
+    let friction = match law {
+        "coulomb" => Friction::Coulomb,
+        "viscous" => Friction::Viscous {
+            mu_v: spec.mu_v.unwrap_or(PAPER_MU_V),
+        },
+        "stribeck" => Friction::Stribeck {
+            v_s: spec.v_s.unwrap_or(PAPER_V_S),
+        },
         "seven-parameter" => Friction::SevenParameter {
-            mu_v: need("mu_v", spec.mu_v)?,
-            v_s: need("v_s", spec.v_s)?,
-            tau_d: need("tau_d", spec.tau_d)?,
-            k_s: need("k_s", spec.k_s)?,
+            mu_v: spec.mu_v.unwrap_or(PAPER_MU_V),
+            v_s: spec.v_s.unwrap_or(PAPER_V_S),
+            tau_d: spec.tau_d.unwrap_or(PAPER_TAU_D),
+            k_s: spec.k_s.unwrap_or(PAPER_K_S),
         },
         other => {
-            return Err((
-                "friction.law".into(),
-                format!("unknown law `{other}` (coulomb, viscous, stribeck or seven-parameter)"),
+            return Err(Invalid::new(
+                "friction.law",
+                Fault::UnknownLaw(other.to_string()),
             ))
         }
-    })
-}
-
-fn line_of(text: &str, span: Option<std::ops::Range<usize>>) -> String {
-    match span {
-        Some(r) => {
-            let line = text[..r.start.min(text.len())].matches('\n').count() + 1;
-            format!(" (line {line})")
+    };
+    let used = |name: &str| match friction {
+        Friction::Coulomb => false,
+        Friction::Viscous { .. } => name == "mu_v",
+        Friction::Stribeck { .. } => name == "v_s",
+        Friction::SevenParameter { .. } => true,
+    };
+    for (name, v) in [
+        ("mu_v", spec.mu_v),
+        ("v_s", spec.v_s),
+        ("tau_d", spec.tau_d),
+        ("k_s", spec.k_s),
+    ] {
+        if v.is_some() && !used(name) {
+            return Err(Invalid::new(
+                format!("friction.{name}"),
+                Fault::NotUsedByLaw(friction.name()),
+            ));
         }
-        None => String::new(),
     }
+    Ok(friction)
 }
 
 #[cfg(test)]
@@ -546,6 +1006,49 @@ mod tests {
     }
 
     #[test]
+    fn an_empty_scene_is_the_default_scene() {
+        let s = Scene::from_toml_str("", "empty.toml").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            s,
+            Scene {
+                name: "empty.toml".into(),
+                ..Scene::default()
+            }
+        );
+    }
+
+    #[test]
+    fn a_partial_table_takes_the_defaults_for_the_rest() {
+        let s = Scene::from_toml_str("[capsule]\ngamma = 0.5\n[horizon]\nperiods = 30\n", "p")
+            .unwrap_or_else(|e| panic!("{e}"));
+        let d = Scene::default();
+        assert_eq!(s.model.capsule.gamma, 0.5);
+        assert_eq!(s.model.capsule.beta, d.model.capsule.beta);
+        assert_eq!(
+            s.horizon,
+            Horizon {
+                periods: 30,
+                transient: 20
+            }
+        );
+    }
+
+    #[test]
+    fn printed_scenes_read_back_the_same() {
+        let mut s = Scene::from_toml_str(GOOD, "good.toml").unwrap_or_else(|e| panic!("{e}"));
+        s.model.friction = Friction::SevenParameter {
+            mu_v: 0.2,
+            v_s: 0.3,
+            tau_d: 0.04,
+            k_s: 1e4,
+        };
+        s.solver.method = Method::Adaptive;
+        s.initial = State::from_array([0.1, -0.2, 0.3, 1e-7]);
+        let back = Scene::from_toml_str(&s.to_toml(), "x").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back, s);
+    }
+
+    #[test]
     fn errors_name_file_key_and_reason() {
         let bad = GOOD.replace("gamma = 0.235", "gamma = -1.0");
         let e = Scene::from_toml_str(&bad, "bad.toml")
@@ -555,6 +1058,12 @@ mod tests {
             e.as_deref(),
             Some("bad.toml: capsule.gamma: must be > 0 (got -1)")
         );
+        let e = Scene::from_toml_str("[capsule]\ngamma = \"big\"\n", "t.toml").err();
+        assert_eq!(e.map(|e| e.key), Some("capsule.gamma".to_string()));
+        let e = Scene::from_toml_str("[drive]\nalpha = 1\nalpha = 2\n", "d.toml").err();
+        assert_eq!(e.map(|e| e.key), Some("(syntax)".to_string()));
+        let e = Scene::from_toml_bytes(b"\xff\xfe\x00", "g.bin").err();
+        assert_eq!(e.map(|e| e.reason), Some(Fault::NotText));
     }
 
     #[test]
@@ -563,5 +1072,12 @@ mod tests {
         assert!((p.omega0() - 63.245553203367585).abs() < 1e-12);
         assert!((p.length_m() - 5e-4).abs() < 1e-18);
         assert!((p.velocity_m_per_s() - p.length_m() / p.time_s()).abs() < 1e-15);
+        assert!(PhysicalScale { m1_kg: -1.0, ..p }.validate().is_err());
+        assert!(PhysicalScale {
+            pf_n: f64::NAN,
+            ..p
+        }
+        .validate()
+        .is_err());
     }
 }

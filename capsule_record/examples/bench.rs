@@ -135,7 +135,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let w0 = Instant::now();
     let bytes = std::fs::read(&big)?;
-    let scan = capsule_record::read::scan(&bytes, false)?;
+    let scan = capsule_record::scan::scan(&bytes)?;
     println!(
         "for comparison, a full scan: {:.3} s wall ({} messages)",
         w0.elapsed().as_secs_f64(),

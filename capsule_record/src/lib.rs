@@ -5,26 +5,37 @@
 //! - [`writer::RecordWriter`]: profile `ros2`; schemas `pkg/msg/Type` in `ros2msg` with every
 //!   dependency appended; messages in `cdr` with the encapsulation header;
 //!   `offered_qos_profiles` on every channel; a `rosbag2` metadata record; the scene as an
-//!   attachment; uncompressed chunks closed every 0.5 s of log time (and on the caller's
+//!   attachment; chunks (uncompressed, zstd or lz4) closed every 0.5 s of log time (and on the caller's
 //!   timer), so a killed run loses at most its open chunk.
-//! - [`read::info`]: duration, topics, counts, mode changes and scene from the summary section
-//!   (no scan); [`read::messages`] for replay.
-//! - [`recover::recover`]: completes a file cut by a kill.
+//! - [`bag::BagWriter`]: compression and splitting into numbered files with a rosbag2
+//!   `metadata.yaml`, as rosbag2 users configure recordings.
+//! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
+//!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
+//!   file; [`open`] checks a file before reading it.
+//! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
+//!   old schema blocks ([`fix_schemas`]).
 //!
 //! No ROS, no DDS here: the recorder node feeds this crate with bytes.
 
+pub mod bag;
 pub mod cdr;
 pub mod civil;
 pub mod error;
-pub mod read;
+pub mod fix_schemas;
+pub mod info;
+pub mod messages;
+mod open;
 pub mod recover;
+pub mod scan;
 pub mod types;
 pub mod writer;
 
+pub use bag::{BagOptions, BagWriter};
 pub use error::RecordError;
-pub use read::{info, messages, RecordingInfo};
+pub use info::{info, RecordingInfo};
+pub use messages::messages;
 pub use recover::{recover, Recovered};
-pub use writer::{ChannelId, RecordWriter, SceneRecord, WriterOptions};
+pub use writer::{ChannelId, ChunkCompression, RecordWriter, SceneRecord, WriterOptions};
 
 #[cfg(test)]
 mod tests;

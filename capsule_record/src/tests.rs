@@ -6,9 +6,12 @@ use capsule_msgs::{ActuatorForce, CapsuleState, Header, SetModeRequest, SetModeR
 
 use crate::{
     cdr,
-    read::{info, messages, InfoSource},
+    info::{info, InfoSource},
+    messages::messages,
     recover,
+    scan::chunk_records,
     types::{names, topics, OfferedQos, ServiceEventInfo, SetModeEvent},
+    writer::ChunkCompression,
     RecordError, RecordWriter, SceneRecord, WriterOptions,
 };
 
@@ -36,6 +39,16 @@ fn state(seq: u64) -> CapsuleState {
 
 /// Writes `n` states at 1 kHz log time plus one force per state and a mode change at n/2.
 fn write_run(path: &std::path::Path, n: u64, finish: bool) -> Result<(), RecordError> {
+    write_with(path, n, finish, WriterOptions::default())
+}
+
+/// [`write_run`] with writer options (the scene is added).
+fn write_with(
+    path: &std::path::Path,
+    n: u64,
+    finish: bool,
+    options: WriterOptions,
+) -> Result<(), RecordError> {
     let mut w = RecordWriter::create(
         path,
         WriterOptions {
@@ -43,7 +56,7 @@ fn write_run(path: &std::path::Path, n: u64, finish: bool) -> Result<(), RecordE
                 name: "unit".into(),
                 toml: "name = \"unit\"\n".into(),
             }),
-            ..WriterOptions::default()
+            ..options
         },
     )?;
     let s = w.add_topic(topics::STATE, names::STATE, &OfferedQos::reliable(10))?;
@@ -257,5 +270,232 @@ fn full_disk_is_an_error_not_a_silent_truncation() {
     match r {
         Err(e) => assert!(e.to_string().contains("/dev/full"), "{e}"),
         Ok(_) => panic!("writing to /dev/full must fail"),
+    }
+}
+
+/// Each chunk of a complete file (from its summary): offset, length, messages in it.
+fn chunk_table(bytes: &[u8]) -> Vec<(usize, usize, u64)> {
+    let summary = mcap::read::Summary::read(bytes)
+        .ok()
+        .flatten()
+        .unwrap_or_else(|| panic!("no summary"));
+    summary
+        .chunk_indexes
+        .iter()
+        .map(|c| {
+            let (start, len) = (c.chunk_start_offset as usize, c.chunk_length as usize);
+            let msgs = match mcap::parse_record(bytes[start], &bytes[start + 9..start + len]) {
+                Ok(mcap::records::Record::Chunk { header, data }) => chunk_records(header, &data)
+                    .unwrap_or_default()
+                    .iter()
+                    .filter(|r| matches!(r, mcap::records::Record::Message { .. }))
+                    .count()
+                    as u64,
+                other => panic!("not a chunk at {start}: {other:?}"),
+            };
+            (start, len, msgs)
+        })
+        .collect()
+}
+
+const KINDS: [ChunkCompression; 3] = [
+    ChunkCompression::None,
+    ChunkCompression::ZSTD_FAST,
+    ChunkCompression::Lz4,
+];
+
+/// 6000 states + forces + 1 event in about 12 chunks (0.5 s of log time each).
+fn chunked_run(name: &str, compression: ChunkCompression) -> (PathBuf, Vec<u8>) {
+    let p = tmp(name);
+    let options = WriterOptions {
+        compression,
+        ..WriterOptions::default()
+    };
+    write_with(&p, 6000, true, options).unwrap_or_else(|e| panic!("{e}"));
+    let bytes = std::fs::read(&p).unwrap_or_default();
+    (p, bytes)
+}
+
+#[test]
+fn compressed_files_read_whole_and_recover_whole() {
+    let mut sizes = Vec::new();
+    for kind in KINDS {
+        let (p, bytes) = chunked_run(&format!("whole_{}.mcap", kind.chunk_name()), kind);
+        let i = info(&p).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        assert_eq!(i.messages, 12_001, "{kind:?}");
+        assert_eq!(i.mode_changes.len(), 1, "{kind:?}");
+        assert!(i.chunks >= 10, "{kind:?}: {} chunks", i.chunks);
+        assert_eq!(messages(&p).map(|m| m.len()).ok(), Some(12_001));
+        let out = tmp(&format!("whole_{}.recovered.mcap", kind.chunk_name()));
+        let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        assert!(
+            r.was_complete && r.damage.is_empty() && r.cut.is_none(),
+            "{r:?}"
+        );
+        assert_eq!((r.messages, r.summary_messages), (12_001, Some(12_001)));
+        let again = std::fs::read(&out).unwrap_or_default();
+        // the same compression again: the recovered file is not a different size class
+        let ratio = again.len() as f64 / bytes.len() as f64;
+        assert!((0.7..1.4).contains(&ratio), "{kind:?}: size ratio {ratio}");
+        assert_eq!(info(&out).map(|i| i.messages).ok(), Some(12_001));
+        sizes.push(bytes.len());
+    }
+    // none, zstd, lz4: compression does compress
+    assert!(sizes[1] * 2 < sizes[0] && sizes[2] < sizes[0], "{sizes:?}");
+}
+
+#[test]
+fn a_flipped_bit_in_a_middle_chunk_loses_that_chunk_only() {
+    for kind in KINDS {
+        let (_, bytes) = chunked_run(&format!("flip_{}.mcap", kind.chunk_name()), kind);
+        let chunks = chunk_table(&bytes);
+        let total: u64 = chunks.iter().map(|c| c.2).sum();
+        assert_eq!(total, 12_001);
+        for k in [1, chunks.len() / 2, chunks.len() - 2] {
+            let (start, len, lost) = chunks[k];
+            let mut bad = bytes.clone();
+            bad[start + len * 2 / 3] ^= 0x10;
+            let p = tmp(&format!("flip_{}_{k}.mcap", kind.chunk_name()));
+            std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
+            let out = tmp(&format!("flip_{}_{k}.recovered.mcap", kind.chunk_name()));
+            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?} {k}: {e}"));
+            assert_eq!(r.messages, total - lost, "{kind:?} chunk {k}: {r:?}");
+            assert_eq!(r.chunks_dropped, 1, "{kind:?} chunk {k}: {r:?}");
+            assert_eq!(r.chunks_kept as usize, chunks.len() - 1);
+            assert_eq!(info(&out).map(|i| i.messages).ok(), Some(total - lost));
+        }
+    }
+}
+
+#[test]
+fn a_damaged_chunk_length_prefix_loses_nothing() {
+    for kind in KINDS {
+        let (_, bytes) = chunked_run(&format!("len_{}.mcap", kind.chunk_name()), kind);
+        let chunks = chunk_table(&bytes);
+        let k = chunks.len() / 2;
+        for junk in [u64::MAX, 3, (chunks[k].1 as u64) * 3] {
+            let mut bad = bytes.clone();
+            bad[chunks[k].0 + 1..chunks[k].0 + 9].copy_from_slice(&junk.to_le_bytes());
+            let p = tmp(&format!("len_{}.bad.mcap", kind.chunk_name()));
+            std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
+            let out = tmp(&format!("len_{}.recovered.mcap", kind.chunk_name()));
+            let _ = std::fs::remove_file(&out);
+            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+            // the chunk is read by its own fields (its CRC holds): nothing lost, the damage said
+            assert_eq!(r.messages, 12_001, "{kind:?} {junk}: {r:?}");
+            assert_eq!(r.damage.len(), 1, "{kind:?} {junk}: {r:?}");
+            assert_eq!(r.chunks_dropped, 0);
+        }
+    }
+}
+
+#[test]
+fn a_truncated_file_keeps_every_chunk_before_the_cut() {
+    for kind in KINDS {
+        let (_, bytes) = chunked_run(&format!("trunc_{}.mcap", kind.chunk_name()), kind);
+        let chunks = chunk_table(&bytes);
+        for frac in [0.0, 0.1, 0.33, 0.5, 0.77, 0.95, 0.999] {
+            let cut = ((bytes.len() as f64 * frac) as usize).max(8);
+            let whole: u64 = chunks
+                .iter()
+                .filter(|c| c.0 + c.1 <= cut)
+                .map(|c| c.2)
+                .sum();
+            let p = tmp(&format!("trunc_{}_{frac}.mcap", kind.chunk_name()));
+            std::fs::write(&p, &bytes[..cut]).unwrap_or_else(|e| panic!("{e}"));
+            assert!(info(&p).is_err(), "{kind:?} {frac}: a cut file is an error");
+            let out = tmp(&format!(
+                "trunc_{}_{frac}.recovered.mcap",
+                kind.chunk_name()
+            ));
+            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?} {frac}: {e}"));
+            assert_eq!(r.messages, whole, "{kind:?} cut at {frac}: {r:?}");
+            assert!(!r.was_complete);
+            assert_eq!(info(&out).map(|i| i.messages).ok(), Some(whole));
+        }
+    }
+}
+
+#[test]
+fn a_damaged_chunk_header_skips_to_the_next_intact_chunk() {
+    for kind in KINDS {
+        let (_, bytes) = chunked_run(&format!("hdr_{}.mcap", kind.chunk_name()), kind);
+        let chunks = chunk_table(&bytes);
+        let k = chunks.len() / 2;
+        let mut bad = bytes.clone();
+        // the records length (after times, size, CRC and the compression name): past the end
+        let name = kind.chunk_name().len();
+        let at = chunks[k].0 + 9 + 8 + 8 + 8 + 4 + 4 + name;
+        bad[at..at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
+        bad[chunks[k].0 + 1..chunks[k].0 + 9].copy_from_slice(&u64::MAX.to_le_bytes());
+        let p = tmp(&format!("hdr_{}.bad.mcap", kind.chunk_name()));
+        std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
+        let out = tmp(&format!("hdr_{}.recovered.mcap", kind.chunk_name()));
+        let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        assert_eq!(r.messages, 12_001 - chunks[k].2, "{kind:?}: {r:?}");
+        assert_eq!(r.chunks_dropped, 1, "{kind:?}: {r:?}");
+        assert_eq!(r.chunks_kept as usize, chunks.len() - 1);
+    }
+}
+
+#[test]
+fn split_by_duration_and_size_gives_numbered_files_and_one_metadata_yaml() {
+    use crate::bag::{bag_files, bag_info, BagOptions, BagWriter, METADATA_YAML};
+    for (name, bag) in [
+        (
+            "split_dur",
+            BagOptions {
+                compression: ChunkCompression::ZSTD_FAST,
+                max_bytes: None,
+                max_duration_ns: Some(1_000_000_000),
+            },
+        ),
+        (
+            "split_size",
+            BagOptions {
+                compression: ChunkCompression::Lz4,
+                max_bytes: Some(200_000),
+                max_duration_ns: None,
+            },
+        ),
+    ] {
+        let path = tmp(&format!("{name}.mcap"));
+        let dir = path.with_extension("");
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut w = BagWriter::create(&path, WriterOptions::default(), bag)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let s = w
+            .add_topic(topics::STATE, names::STATE, &OfferedQos::reliable(10))
+            .unwrap_or_else(|e| panic!("{e}"));
+        for i in 1..=4500u64 {
+            let t = 1_000_000_000 + i * 1_000_000;
+            let data = cdr::encode(&state(i)).unwrap_or_default();
+            w.write(s, i as u32, t, t, &data)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let summary = w.finish().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            (summary.path.as_path(), summary.messages),
+            (dir.as_path(), 4500)
+        );
+        let files = bag_files(&dir).unwrap_or_else(|e| panic!("{e}"));
+        // 4.5 s in 1 s files: 5; 4500 states of about 170 bytes as counted (with record and
+        // index overhead) in files of 200 kB: 4
+        let want = if name == "split_dur" { 5 } else { 4 };
+        assert_eq!(files.len(), want, "{name}: {files:?}");
+        for (k, f) in files.iter().enumerate() {
+            assert_eq!(f, &dir.join(format!("{name}_{k}.mcap")));
+        }
+        let yaml = std::fs::read_to_string(dir.join(METADATA_YAML)).unwrap_or_default();
+        assert!(yaml.contains("  version: 8\n  storage_identifier: mcap\n"));
+        assert!(yaml.contains("  message_count: 4500\n"), "{yaml}");
+        let i = bag_info(&dir).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((i.messages, i.files), (4500, want as u64));
+        assert_eq!(i.bounds, (1_001_000_000, 5_500_000_000));
+        let per_file: u64 = files
+            .iter()
+            .map(|f| info(f).map(|i| i.messages).unwrap_or(0))
+            .sum();
+        assert_eq!(per_file, 4500);
     }
 }

@@ -2,8 +2,9 @@
 //! (ROS 2 service introspection), `/clock`, and the QoS text rosbag2 writes on every channel.
 
 use capsule_msgs::{
-    interface::TIME_MSG, ActuatorForce, CapsuleState, ControllerStatus, RosInterface,
-    SetModeRequest, SetModeResponse, Time,
+    interface::{nested_definition, ros2msg_text},
+    ActuatorForce, CapsuleState, ControllerStatus, RosInterface, SetModeRequest, SetModeResponse,
+    Time,
 };
 use serde::{Deserialize, Serialize};
 
@@ -91,51 +92,28 @@ pub mod topics {
     pub const SET_MODE_EVENT: &str = "/capsule_controller/set_mode/_service_event";
 }
 
-fn section(out: &mut String, name: &str, text: &str) {
-    if !out.ends_with('\n') {
-        out.push('\n');
+/// The text of a nested type a recording's schemas name, by its spelling in a field.
+fn nested_text(spelled: &str) -> Option<&'static str> {
+    match spelled {
+        "service_msgs/ServiceEventInfo" => Some(SERVICE_EVENT_INFO_MSG),
+        "capsule_msgs/SetModeRequest" => Some(SetModeRequest::definition()),
+        "capsule_msgs/SetModeResponse" => Some(SetModeResponse::definition()),
+        other => nested_definition(other).map(|d| d.1),
     }
-    out.push_str(&"=".repeat(80));
-    out.push_str("\nMSG: ");
-    out.push_str(name);
-    out.push('\n');
-    out.push_str(text);
 }
 
-/// The `ros2msg` schema (the type's text, then every dependency after a `=` line) of a type
-/// this crate knows, or `None`.
+/// The `ros2msg` schema (the type's text, then every dependency after a `=` line, named as
+/// the field spells it: see [`ros2msg_text`]) of a type this crate knows, or `None`.
 pub fn ros2msg_schema(type_name: &str) -> Option<String> {
-    Some(match type_name {
-        names::STATE => CapsuleState::ros2msg_schema(),
-        names::FORCE => ActuatorForce::ros2msg_schema(),
-        names::STATUS => ControllerStatus::ros2msg_schema(),
-        names::CLOCK => {
-            let mut s = CLOCK_MSG.to_string();
-            section(&mut s, "builtin_interfaces/msg/Time", TIME_MSG);
-            s
-        }
-        names::SET_MODE_EVENT => {
-            let mut s = SET_MODE_EVENT_MSG.to_string();
-            section(
-                &mut s,
-                "service_msgs/msg/ServiceEventInfo",
-                SERVICE_EVENT_INFO_MSG,
-            );
-            section(&mut s, "builtin_interfaces/msg/Time", TIME_MSG);
-            section(
-                &mut s,
-                "capsule_msgs/msg/SetModeRequest",
-                SetModeRequest::definition(),
-            );
-            section(
-                &mut s,
-                "capsule_msgs/msg/SetModeResponse",
-                SetModeResponse::definition(),
-            );
-            s
-        }
+    let (root, package) = match type_name {
+        names::STATE => return Some(CapsuleState::ros2msg_schema()),
+        names::FORCE => return Some(ActuatorForce::ros2msg_schema()),
+        names::STATUS => return Some(ControllerStatus::ros2msg_schema()),
+        names::CLOCK => (CLOCK_MSG, "rosgraph_msgs"),
+        names::SET_MODE_EVENT => (SET_MODE_EVENT_MSG, "capsule_msgs"),
         _ => return None,
-    })
+    };
+    Some(ros2msg_text(root, package, &nested_text))
 }
 
 /// Every type name [`ros2msg_schema`] knows.
@@ -213,32 +191,34 @@ mod tests {
     #[test]
     fn state_schema_appends_header_then_time() {
         let s = ros2msg_schema(names::STATE).unwrap_or_default();
-        let h = s.find("MSG: std_msgs/msg/Header").unwrap_or(usize::MAX);
+        let h = s.find("\nMSG: std_msgs/Header\n").unwrap_or(usize::MAX);
         let t = s
-            .find("MSG: builtin_interfaces/msg/Time")
+            .find("\nMSG: builtin_interfaces/Time\n")
             .unwrap_or(usize::MAX);
         assert!(h < t && t < usize::MAX, "{s}");
         assert!(s.starts_with(CapsuleState::definition()));
     }
 
     #[test]
-    fn every_known_type_has_a_schema_and_unknown_types_none() {
+    fn every_field_type_has_a_msg_block_of_exactly_its_spelling() {
         for t in KNOWN_TYPES {
             let s = ros2msg_schema(t).unwrap_or_default();
             assert!(!s.is_empty(), "{t}");
-            // every nested type the text names is defined after a separator
-            for line in s.lines() {
+            let blocks: Vec<&str> = s.lines().filter_map(|l| l.strip_prefix("MSG: ")).collect();
+            // every nested type a line names is defined once, under the field's spelling
+            // (Foxglove's `@foxglove/rosmsg` resolves nothing else)
+            for line in s.lines().filter(|l| !l.starts_with("MSG:")) {
                 let ty = line.split_whitespace().next().unwrap_or("");
-                if ty.contains('/') && !line.starts_with("MSG:") {
+                if ty.contains('/') {
                     let base = ty.split('[').next().unwrap_or(ty);
-                    let (pkg, name) = base.split_once('/').unwrap_or(("", ""));
-                    assert!(
-                        s.contains(&format!("MSG: {pkg}/msg/{name}\n"))
-                            || s.contains(&format!("MSG: {pkg}/srv/{name}\n")),
-                        "{t}: {base} not appended"
+                    assert_eq!(
+                        blocks.iter().filter(|b| **b == base).count(),
+                        1,
+                        "{t}: {base} not appended once:\n{s}"
                     );
                 }
             }
+            assert!(blocks.iter().all(|b| !b.contains("/msg/")), "{t}:\n{s}");
         }
         assert!(ros2msg_schema("sensor_msgs/msg/Imu").is_none());
     }

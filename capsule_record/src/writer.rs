@@ -11,6 +11,7 @@ use std::{
 use mcap::{records::MessageHeader, WriteOptions};
 
 use crate::{
+    bag::{metadata_yaml, BagFile, BagTopic},
     types::{ros2msg_schema, OfferedQos},
     RecordError,
 };
@@ -33,9 +34,74 @@ pub struct SceneRecord {
     pub toml: String,
 }
 
+/// How chunks are compressed: none, or rosbag2's MCAP storage choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ChunkCompression {
+    /// Uncompressed chunks (the default: cheapest to write).
+    #[default]
+    None,
+    /// zstd at a level (0: the library's default, 3).
+    Zstd {
+        /// zstd level, 0-22.
+        level: u32,
+    },
+    /// lz4 (frame format), the library's default level.
+    Lz4,
+}
+
+impl ChunkCompression {
+    /// The names `--compression` takes, as rosbag2 users know them.
+    pub const NAMES: &'static str = "none, zstd, zstd_fast, zstd_small, lz4";
+
+    /// rosbag2's `zstd_fast` preset: zstd at its fastest positive level (the mcap crate takes
+    /// no negative levels).
+    pub const ZSTD_FAST: ChunkCompression = ChunkCompression::Zstd { level: 1 };
+    /// rosbag2's `zstd_small` preset: zstd at a slow, small level.
+    pub const ZSTD_SMALL: ChunkCompression = ChunkCompression::Zstd { level: 19 };
+
+    /// The compression a chunk record names (`zstd`, `lz4`, or empty), at default levels.
+    pub fn like(chunk_compression: &str) -> ChunkCompression {
+        match chunk_compression {
+            "zstd" => ChunkCompression::Zstd { level: 0 },
+            "lz4" => ChunkCompression::Lz4,
+            _ => ChunkCompression::None,
+        }
+    }
+
+    /// The name MCAP chunk records carry (`zstd`, `lz4`, or empty).
+    pub fn chunk_name(&self) -> &'static str {
+        match self {
+            ChunkCompression::None => "",
+            ChunkCompression::Zstd { .. } => "zstd",
+            ChunkCompression::Lz4 => "lz4",
+        }
+    }
+}
+
+impl std::str::FromStr for ChunkCompression {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "none" => ChunkCompression::None,
+            "zstd" => ChunkCompression::Zstd { level: 0 },
+            "zstd_fast" => ChunkCompression::ZSTD_FAST,
+            "zstd_small" => ChunkCompression::ZSTD_SMALL,
+            "lz4" => ChunkCompression::Lz4,
+            other => {
+                return Err(format!(
+                    "unknown compression {other:?} (one of {})",
+                    ChunkCompression::NAMES
+                ))
+            }
+        })
+    }
+}
+
 /// How to write a recording.
 #[derive(Debug, Clone)]
 pub struct WriterOptions {
+    /// Chunk compression.
+    pub compression: ChunkCompression,
     /// Close the open chunk once it holds this much log time (ns); bounds what a kill loses.
     pub flush_interval_ns: u64,
     /// Close the open chunk once it holds this many bytes.
@@ -55,6 +121,7 @@ pub struct WriterOptions {
 impl Default for WriterOptions {
     fn default() -> Self {
         WriterOptions {
+            compression: ChunkCompression::None,
             flush_interval_ns: 500_000_000,
             chunk_bytes: 4 << 20,
             scene: None,
@@ -95,6 +162,8 @@ pub struct WriteSummary {
     pub messages: u64,
     /// First and last log time (ns), if any message.
     pub bounds: Option<(u64, u64)>,
+    /// Messages per topic.
+    pub per_topic: BTreeMap<String, u64>,
 }
 
 /// Writes one recording. Call [`RecordWriter::finish`] to end it properly; a writer dropped
@@ -107,6 +176,7 @@ pub struct RecordWriter {
     chunk_start_ns: Option<u64>,
     bounds: Option<(u64, u64)>,
     messages: u64,
+    bytes: u64,
 }
 
 impl std::fmt::Debug for RecordWriter {
@@ -137,6 +207,11 @@ impl RecordWriter {
             path: path.to_path_buf(),
             cause: source,
         };
+        let (compression, level) = match options.compression {
+            ChunkCompression::None => (None, 0),
+            ChunkCompression::Zstd { level } => (Some(mcap::Compression::Zstd), level),
+            ChunkCompression::Lz4 => (Some(mcap::Compression::Lz4), 0),
+        };
         let mcap = WriteOptions::new()
             .profile("ros2")
             .library(format!(
@@ -144,7 +219,10 @@ impl RecordWriter {
                 env!("CARGO_PKG_VERSION"),
                 mcap::VERSION
             ))
-            .compression(None)
+            .compression(compression)
+            .compression_level(level)
+            // no worker threads: a chunk is compressed when it closes, in the writer's thread
+            .compression_threads(0)
             .chunk_size(Some(options.chunk_bytes))
             .create(BufWriter::with_capacity(1 << 16, file))
             .map_err(werr)?;
@@ -156,6 +234,7 @@ impl RecordWriter {
             chunk_start_ns: None,
             bounds: None,
             messages: 0,
+            bytes: 0,
         };
         let mut meta = w.options.extra_metadata.clone();
         meta.insert("created_ns".into(), w.options.created_ns.to_string());
@@ -183,6 +262,12 @@ impl RecordWriter {
     /// Messages written so far.
     pub fn messages(&self) -> u64 {
         self.messages
+    }
+
+    /// About how many bytes the file holds so far (messages as stored uncompressed, with their
+    /// record and index overhead): what splitting by size compares.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
     }
 
     fn werr(&self, source: mcap::McapError) -> RecordError {
@@ -257,6 +342,8 @@ impl RecordWriter {
             .write_to_known_channel(&header, data)
             .map_err(|e| self.werr(e))?;
         self.messages += 1;
+        // message record (opcode, length, channel, sequence, times) and its index entry
+        self.bytes += data.len() as u64 + 31 + 16;
         self.bounds = Some(match self.bounds {
             None => (log_time, log_time),
             Some((a, b)) => (a.min(log_time), b.max(log_time)),
@@ -322,58 +409,47 @@ impl RecordWriter {
             path: path.clone(),
             cause: e,
         })?;
+        let mut per_topic = BTreeMap::new();
+        for t in self.topics.values() {
+            *per_topic.entry(t.topic.clone()).or_insert(0) += t.count;
+        }
         Ok(WriteSummary {
             path,
             messages: self.messages,
             bounds: self.bounds,
+            per_topic,
         })
     }
 
+    /// The `rosbag2` metadata record: this file's `metadata.yaml` text, as rosbag2's MCAP
+    /// storage writes it into each file.
     fn rosbag2_metadata(&self) -> BTreeMap<String, String> {
-        let (start, end) = self.bounds.unwrap_or((0, 0));
         let file = self
             .path
             .file_name()
             .map(|f| f.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let mut y = String::new();
-        y.push_str("rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n");
-        y.push_str(&format!(
-            "  duration:\n    nanoseconds: {}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {}\n  topics_with_message_count:\n",
-            end - start,
-            self.messages
-        ));
-        for t in self.topics.values() {
-            y.push_str(&format!(
-                "    - topic_metadata:\n        name: {}\n        type: {}\n        serialization_format: cdr\n        offered_qos_profiles: {}\n      message_count: {}\n",
-                t.topic,
-                t.type_name,
-                yaml_quote(&t.qos_yaml),
-                t.count
-            ));
-        }
-        y.push_str(&format!(
-            "  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - {file}\n  files:\n    - path: {file}\n      starting_time:\n        nanoseconds_since_epoch: {start}\n      duration:\n        nanoseconds: {}\n      message_count: {}\n",
-            end - start,
-            self.messages
-        ));
+        let topics: Vec<BagTopic> = self
+            .topics
+            .values()
+            .map(|t| BagTopic {
+                topic: t.topic.clone(),
+                type_name: t.type_name.clone(),
+                qos_yaml: t.qos_yaml.clone(),
+                count: t.count,
+            })
+            .collect();
+        let files = [BagFile {
+            name: file,
+            bounds: self.bounds,
+            messages: self.messages,
+        }];
         let mut m = BTreeMap::new();
-        m.insert("serialized_metadata".to_string(), y);
+        m.insert(
+            "serialized_metadata".to_string(),
+            metadata_yaml(&topics, &files, &self.options.ros_distro),
+        );
         m.insert("ROS_DISTRO".to_string(), self.options.ros_distro.clone());
         m
     }
-}
-
-fn yaml_quote(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
 }

@@ -18,7 +18,7 @@ fn bin() -> PathBuf {
     p
 }
 
-fn capsule(args: &[&str]) -> Output {
+pub(crate) fn capsule(args: &[&str]) -> Output {
     Command::new(bin())
         .args(args)
         .current_dir(root())
@@ -26,7 +26,7 @@ fn capsule(args: &[&str]) -> Output {
         .unwrap_or_else(|e| panic!("cannot run capsule: {e}"))
 }
 
-fn json(args: &[&str]) -> serde_json::Value {
+pub(crate) fn json(args: &[&str]) -> serde_json::Value {
     let out = capsule(args);
     assert!(
         out.status.success(),
@@ -88,14 +88,17 @@ fn flags_named_after_the_paper_override_the_defaults() {
 #[test]
 fn bad_flags_and_files_fail_with_a_clear_message() {
     let cases: &[(&[&str], &str)] = &[
-        (&["simulate", "--gamma", "-1"], "capsule.gamma: must be > 0"),
+        (
+            &["simulate", "--gamma", "-1"],
+            "--gamma <GAMMA>': must be > 0",
+        ),
         (
             &["simulate", "--mu-v", "0.2"],
             "--mu-v does not apply to the coulomb friction law",
         ),
         (
             &["simulate", "--scene", "no/such.toml"],
-            "cannot read scene file no/such.toml",
+            "no/such.toml: (file): cannot read",
         ),
         (
             &["simulate", "--x0", "1,2,3"],
@@ -159,7 +162,7 @@ fn sweep_writes_csv_json_and_svg_and_csv_history_has_rows() {
     .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(js.as_array().map(Vec::len), Some(5));
     let svg = std::fs::read_to_string(prefix.with_extension("svg")).unwrap_or_default();
-    assert!(svg.starts_with("<svg") && svg.contains("<circle"));
+    assert!(svg.starts_with("<svg") && svg.contains("<path d=\"M"));
     let hist = dir.join("h.csv");
     let out = capsule(&[
         "simulate",

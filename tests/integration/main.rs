@@ -1,12 +1,16 @@
 //! Workspace integration tests: one binary, one module per area.
 
+mod attractors;
+mod bad_input;
 mod cli;
 mod hard_cases;
 mod paper;
 mod record;
+mod replay_args;
 mod ros;
 mod scenes;
 mod solver;
+mod stability;
 
 use capsule_plant::scene::Scene;
 use std::path::PathBuf;

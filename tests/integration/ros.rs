@@ -8,16 +8,9 @@
 
 mod harness;
 
+mod fault_matrix;
 mod faults;
 mod interop;
 mod lockstep;
-
-#[test]
-fn controller_reads_the_same_default_scale_as_the_plant() {
-    let plant = capsule_plant::scene::PhysicalScale::default();
-    let ours = capsule_nodes::scale::Scale::SCENE_DEFAULT;
-    assert_eq!(
-        (ours.m1_kg, ours.k1_n_per_m, ours.pf_n),
-        (plant.m1_kg, plant.k1_n_per_m, plant.pf_n)
-    );
-}
+mod params;
+mod views;

@@ -323,9 +323,38 @@ fn names_and_schemas_follow_ros2_conventions() {
     let schema = CapsuleState::ros2msg_schema();
     let sep = "=".repeat(80);
     assert!(schema.starts_with(CapsuleState::definition()));
-    assert!(schema.contains(&format!("{sep}\nMSG: std_msgs/msg/Header\n{HEADER_MSG}")));
-    assert!(schema.contains(&format!(
-        "{sep}\nMSG: builtin_interfaces/msg/Time\n{TIME_MSG}"
-    )));
-    assert_eq!(schema.matches("MSG: ").count(), 2);
+    // each dependency named as its field spells it (rosbag2; Foxglove resolves only that)
+    assert_eq!(
+        schema,
+        format!(
+            "{}\n{sep}\nMSG: std_msgs/Header\n{HEADER_MSG}\n{sep}\nMSG: builtin_interfaces/Time\n{TIME_MSG}",
+            CapsuleState::definition()
+        )
+    );
+}
+
+#[test]
+fn schema_text_follows_rosbag2_order_and_spelling() {
+    // sorted dependencies, depth first, each once; a type without a package gets the
+    // enclosing package; unknown types are left out
+    let lookup = |t: &str| match t {
+        "pkg/B" => Some("pkg/C c\nstring[<=3] s\n"),
+        "pkg/C" => Some("int8 x\n"),
+        "other/A" => Some("C c\n"),
+        "other/C" => Some("uint8 y\n"),
+        _ => None,
+    };
+    let sep = "=".repeat(80);
+    let text = ros2msg_text(
+        "pkg/B[] b\nother/A a\nB again\nfoo/Unknown u\n",
+        "pkg",
+        &lookup,
+    );
+    assert_eq!(
+        text,
+        format!(
+            "pkg/B[] b\nother/A a\nB again\nfoo/Unknown u\n\n{sep}\nMSG: other/A\nC c\n\n{sep}\nMSG: other/C\nuint8 y\n\n{sep}\nMSG: pkg/B\npkg/C c\nstring[<=3] s\n\n{sep}\nMSG: pkg/C\nint8 x\n"
+        )
+    );
+    assert!(is_primitive("string<=10") && !is_primitive("std_msgs/Header"));
 }

@@ -6,8 +6,11 @@ use anyhow::{bail, Context as _, Result};
 use capsule_controller::mode::Mode;
 use capsule_nodes::{
     controller::{self, ControllerCore, ControllerOptions, GainArgs},
+    controller_params, ranges,
     ros::{self, RosArgs, RosEnv, RosSettings},
-    scale::{ControlScene, Scale},
+    ros_args,
+    scale::Scale,
+    scene_file::SceneFile,
 };
 use clap::Parser;
 
@@ -16,78 +19,84 @@ use clap::Parser;
 /// capsule/actuator_force; serves ~/set_mode and publishes ~/status. It knows nothing of the
 /// simulator: give it the scene (for the physical scale, drive and gain) or the values as flags.
 #[derive(Debug, Parser)]
-#[command(name = "capsule_controller", version)]
+#[command(name = "capsule_controller", version, allow_negative_numbers = true)]
 struct Cli {
-    /// Scene TOML to take the physical scale, drive and gain from ([physical], [drive], [control])
+    /// Scene TOML to take the physical scale, drive and gain from ([physical], [drive], [control]);
+    /// the whole scene is validated, as capsule_plant and `capsule simulate` do
     #[arg(long)]
     scene: Option<String>,
-    /// Inner mass m1 [kg] (overrides the scene)
-    #[arg(long)]
+    /// Inner mass m1 [kg], (0, 1e12] (overrides the scene)
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     m1_kg: Option<f64>,
-    /// Primary stiffness k1 [N/m] (overrides the scene)
-    #[arg(long)]
+    /// Primary stiffness k1 [N/m], (0, 1e12] (overrides the scene)
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     k1_n_per_m: Option<f64>,
-    /// Friction threshold P_f [N] (overrides the scene)
-    #[arg(long)]
+    /// Friction threshold P_f [N], (0, 1e12] (overrides the scene)
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pf_n: Option<f64>,
-    /// Drive amplitude alpha = P_d/P_f (overrides the scene)
-    #[arg(long)]
+    /// Drive amplitude alpha = P_d/P_f, [0, 100] (the plant's default force limit; overrides the
+    /// scene)
+    #[arg(long, value_parser = ranges::non_negative(capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF))]
     alpha: Option<f64>,
-    /// Drive frequency omega = Omega/Omega0 (overrides the scene)
-    #[arg(long)]
+    /// Drive frequency omega = Omega/Omega0, (0, 1e12] (overrides the scene)
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     omega: Option<f64>,
     /// Initial mode: off, forward, backward, chaos-control, custom [default: custom with the
     /// scene's k_p if it is not 0, else off]
     #[arg(long)]
     mode: Option<String>,
-    /// Initial gain (as in a SetMode request for --mode)
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    /// Initial gain (as in a SetMode request for --mode), [-1e12, 1e12]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = ranges::finite())]
     gain: f64,
     #[command(flatten)]
     gains: GainArgs,
-    /// Seconds (steady clock) without a state sample before the controller stops commanding
-    #[arg(long, default_value_t = 0.5)]
+    /// Seconds (steady clock) without a state sample before the controller stops commanding,
+    /// (0, 1e6]
+    #[arg(long, default_value_t = 0.5, value_parser = ranges::positive(ranges::MAX_SECONDS))]
     state_timeout_s: f64,
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
     check: bool,
-    /// Status and watchdog period [ms]
-    #[arg(long, default_value_t = 100)]
+    /// Status and watchdog period [ms], 1 to 60000
+    #[arg(long, default_value_t = 100, value_parser = ranges::millis())]
     status_period_ms: u64,
     #[command(flatten)]
     ros: RosArgs,
 }
 
-fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
-    let scene = cli
-        .scene
-        .as_deref()
-        .map(ControlScene::from_file)
-        .transpose()?;
+fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, ControllerOptions)> {
+    let view = match cli.scene.as_deref() {
+        Some(path) => Some(
+            SceneFile::read(std::path::Path::new(path))?
+                .scene
+                .controller_view(),
+        ),
+        None => None,
+    };
     let pick = |flag: Option<f64>, from_scene: Option<f64>, name: &str| -> Result<f64> {
         flag.or(from_scene)
             .with_context(|| format!("--{name} is needed (or a --scene that has it)"))
     };
+    // every value is in range: the flags' parsers and the scene's validation checked it
     let scale = Scale {
-        m1_kg: pick(cli.m1_kg, scene.map(|s| s.scale.m1_kg), "m1-kg")?,
+        m1_kg: pick(cli.m1_kg, view.map(|v| v.physical.m1_kg), "m1-kg")?,
         k1_n_per_m: pick(
             cli.k1_n_per_m,
-            scene.map(|s| s.scale.k1_n_per_m),
+            view.map(|v| v.physical.k1_n_per_m),
             "k1-n-per-m",
         )?,
-        pf_n: pick(cli.pf_n, scene.map(|s| s.scale.pf_n), "pf-n")?,
+        pf_n: pick(cli.pf_n, view.map(|v| v.physical.pf_n), "pf-n")?,
     };
-    scale.validate()?;
-    let alpha = pick(cli.alpha, scene.map(|s| s.alpha), "alpha")?;
-    let omega = pick(cli.omega, scene.map(|s| s.omega), "omega")?;
-    if !alpha.is_finite() {
-        bail!("--alpha {alpha}: not finite");
-    }
-    if !(omega.is_finite() && omega > 0.0) {
-        bail!("--omega {omega}: must be finite and > 0");
+    let alpha = pick(cli.alpha, view.map(|v| v.drive.alpha), "alpha")?;
+    let omega = pick(cli.omega, view.map(|v| v.drive.omega), "omega")?;
+    // a drive beyond the plant's default force limit would only ever be saturated (a scene's
+    // alpha; the flag's range says the same)
+    let limit = capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF;
+    if alpha.abs() > limit {
+        bail!("--alpha {alpha:?}: must satisfy |alpha| <= {limit} (the plant's default force limit in units of P_f)");
     }
     let config = cli.gains.config()?;
-    let scene_kp = scene.map(|s| s.kp).unwrap_or(0.0);
+    let scene_kp = view.map(|v| v.control.kp).unwrap_or(0.0);
     let (mode, gain) = match cli.mode.as_deref() {
         Some(name) => {
             let mode = Mode::parse_name(name).with_context(|| {
@@ -101,42 +110,45 @@ fn build(cli: &Cli) -> Result<(RosSettings, ControllerOptions)> {
     let (mode, kp) = config
         .select(mode.code(), gain)
         .map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
-    if !(cli.state_timeout_s.is_finite() && cli.state_timeout_s > 0.0) {
-        bail!(
-            "--state-timeout-s {}: must be finite and > 0",
-            cli.state_timeout_s
-        );
-    }
-    if cli.status_period_ms == 0 {
-        bail!("--status-period-ms must be > 0");
-    }
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_controller")?;
     let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s);
+    // ROS parameters: the flags' values, then -p / --params-file over them
+    let mut params = controller_params::table(&core, settings.use_sim_time, cli.state_timeout_s);
+    ros_args::apply_overrides(&mut params, overrides, controller_params::rules)?;
+    let core = controller_params::core_from(&params);
     Ok((
         settings,
         ControllerOptions {
             core,
             status_period: Duration::from_millis(cli.status_period_ms),
+            params,
         },
     ))
 }
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
-    let result = build(&cli).and_then(|(settings, opts)| {
-        if cli.check {
-            let (mode, kp) = (opts.core.mode(), opts.core.law().kp);
-            println!(
-                "capsule_controller: ok: {}, {mode} k_p = {kp}",
-                settings.describe()
-            );
-            return Ok(());
-        }
-        ros::block_on(
-            settings.cpu_affinity.clone().as_ref(),
-            controller::run(settings, opts),
-        )
-    });
+    let (argv, ros_cli) = match ros_args::split(std::env::args_os()) {
+        Ok(split) => split,
+        Err(e) => return ros::exit_code("capsule_controller", Err(e)),
+    };
+    let mut cli = Cli::parse_from(argv);
+    let overrides = ros_cli.apply_to(&mut cli.ros, "capsule_controller");
+    let result = overrides
+        .and_then(|o| build(&cli, &o))
+        .and_then(|(settings, opts)| {
+            if cli.check {
+                let (mode, kp) = (opts.core.mode(), opts.core.law().kp);
+                println!(
+                    "capsule_controller: ok: {}, {mode} k_p = {kp}",
+                    settings.describe()
+                );
+                return Ok(());
+            }
+            ros::block_on(
+                settings.cpu_affinity.clone().as_ref(),
+                controller::run(settings, opts),
+            )
+        });
     ros::exit_code("capsule_controller", result)
 }

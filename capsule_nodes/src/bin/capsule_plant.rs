@@ -5,12 +5,14 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use capsule_nodes::{
     plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
-    recorder,
+    plant_params, ranges, recorder,
     ros::{self, RosArgs, RosEnv, RosSettings},
-    scale::Scale,
+    ros_args,
+    scene_file::SceneFile,
     sim::ExactSim,
+    views,
 };
-use capsule_plant::{scene::Scene, Simulator};
+use capsule_plant::{Method, Simulator};
 use clap::Parser;
 
 /// Simulates the capsule of a scene exactly and serves it as a capsule driver would: state on
@@ -18,7 +20,7 @@ use clap::Parser;
 /// commands from capsule/actuator_force (held between samples; non-finite or late ones refused;
 /// zero force once they go stale), and sim time on /clock.
 #[derive(Debug, Parser)]
-#[command(name = "capsule_plant", version)]
+#[command(name = "capsule_plant", version, allow_negative_numbers = true)]
 struct Cli {
     /// Scene TOML (model, friction, initial state, physical scale, node rate and timeout)
     #[arg(long)]
@@ -27,28 +29,33 @@ struct Cli {
     /// controller's answer (reproducible, as fast as the loop allows)
     #[arg(long, value_enum, default_value = "realtime")]
     pacing: Pacing,
-    /// Sample rate [Hz] (overrides the scene's node.rate_hz)
-    #[arg(long)]
+    /// Sample rate [Hz], 1e-3 to 1e6 (overrides the scene's node.rate_hz)
+    #[arg(long, value_parser = ranges::within(ranges::RATE_HZ.0, ranges::RATE_HZ.1))]
     rate_hz: Option<f64>,
-    /// Seconds without a fresh command before zero force (overrides node.command_timeout_s)
-    #[arg(long)]
+    /// Seconds without a fresh command before zero force, (0, 1e6] (overrides
+    /// node.command_timeout_s)
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]
     command_timeout_s: Option<f64>,
-    /// Stop at this sim time [s] (default: run until Ctrl-C / SIGTERM)
-    #[arg(long)]
+    /// Actuator force limit [N], (0, 1e12]: larger commands are applied saturated at it,
+    /// counted and logged [default: 100 P_f of the scene's [physical] scale]
+    #[arg(long, value_parser = ranges::positive(1e12))]
+    max_force_n: Option<f64>,
+    /// Stop at this sim time [s], (0, 1e9] (default: run until Ctrl-C / SIGTERM)
+    #[arg(long, value_parser = ranges::positive(1e9))]
     until_s: Option<f64>,
-    /// Lock-step: re-send an unanswered sample every this many ms
-    #[arg(long, default_value_t = 20)]
+    /// Lock-step: re-send an unanswered sample every this many ms, 1 to 60000
+    #[arg(long, default_value_t = 20, value_parser = ranges::millis())]
     retransmit_ms: u64,
-    /// Lock-step: seconds to wait for the first command and for --wait-subscribers
-    #[arg(long, default_value_t = 30.0)]
+    /// Lock-step: seconds to wait for the first command and for --wait-subscribers, (0, 1e6]
+    #[arg(long, default_value_t = 30.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
     startup_timeout_s: f64,
-    /// Publish the first sample once this many subscribers matched the state topic
-    #[arg(long, default_value_t = 0)]
+    /// Publish the first sample once this many subscribers matched the state topic, 0 to 1000
+    #[arg(long, default_value_t = 0, value_parser = ranges::count_usize(0, ranges::MAX_SUBSCRIBERS as usize))]
     wait_subscribers: usize,
     /// Publish /clock with every N-th sample (1 = every sample; larger saves CPU at high rates
     /// at the cost of a coarser sim clock for use_sim_time nodes). /clock is sent only while
-    /// it has a subscriber; a recording always holds it
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    /// it has a subscriber; a recording always holds it. 1 to 1000000
+    #[arg(long, default_value_t = 1, value_parser = ranges::count(1, 1_000_000))]
     clock_every: u64,
     /// Record the graph in this process to DIR/capsule_<scene>_<UTC time>.mcap (what the plant
     /// publishes and receives, the controller's status and mode changes): the same file as
@@ -61,9 +68,12 @@ struct Cli {
     /// Controller node whose status and service events the in-process recording takes
     #[arg(long, default_value = "capsule_controller")]
     controller_node: String,
-    /// In-process recording: close the open chunk at least this often [ms]
-    #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(1..))]
+    /// In-process recording: close the open chunk at least this often [ms], 1 to 60000
+    #[arg(long, default_value_t = 250, value_parser = ranges::millis())]
     flush_ms: u64,
+    /// In-process recording: compression and splitting
+    #[command(flatten)]
+    storage: recorder::StorageArgs,
     /// Write a JSON summary (loop statistics, last sample) to this file at the end
     #[arg(long)]
     summary_json: Option<String>,
@@ -71,22 +81,20 @@ struct Cli {
     #[arg(long)]
     check: bool,
     #[command(flatten)]
+    views: views::ViewArgs,
+    #[command(flatten)]
     ros: RosArgs,
 }
 
-fn positive(name: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        bail!("{name} = {v}: must be finite and > 0")
-    }
-}
+/// Most fixed-method steps the plant takes per published sample: beyond, one sample would take
+/// longer than a realtime loop can afford (and a loop stuck in one sample would not see Ctrl-C).
+const MAX_FIXED_STEPS_PER_SAMPLE: f64 = 1e6;
 
-fn record_options(cli: &Cli) -> Result<Option<InPlantRecordOptions>> {
+fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOptions>> {
     if cli.record_dir.is_none() && cli.record_output.is_none() {
         return Ok(None);
     }
-    let scene = recorder::scene_record(std::path::Path::new(&cli.scene))?;
+    let scene = scene.record();
     let output = recorder::output_path(
         cli.record_dir
             .as_deref()
@@ -99,80 +107,104 @@ fn record_options(cli: &Cli) -> Result<Option<InPlantRecordOptions>> {
         scene: Some(scene),
         controller_node: cli.controller_node.clone(),
         flush_period: Duration::from_millis(cli.flush_ms),
+        bag: cli.storage.options()?,
     }))
 }
 
-fn build(cli: &Cli) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> {
-    let text = std::fs::read_to_string(&cli.scene)
-        .with_context(|| format!("cannot read scene {}", cli.scene))?;
-    let scene = Scene::from_toml_str(&text, &cli.scene).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let p = &scene.physical;
-    let scale = Scale {
-        m1_kg: p.m1_kg,
-        k1_n_per_m: p.k1_n_per_m,
-        pf_n: p.pf_n,
-    };
-    scale
-        .validate()
-        .with_context(|| format!("{}: [physical]", cli.scene))?;
-    let rate = positive(
-        "--rate-hz / node.rate_hz",
-        cli.rate_hz.unwrap_or(scene.node.rate_hz),
-    )?;
-    let timeout = positive(
-        "--command-timeout-s / node.command_timeout_s",
-        cli.command_timeout_s
-            .unwrap_or(scene.node.command_timeout_s),
-    )?;
-    if let Some(u) = cli.until_s {
-        positive("--until-s", u)?;
-    }
-    positive("--startup-timeout-s", cli.startup_timeout_s)?;
-    if cli.retransmit_ms == 0 {
-        bail!("--retransmit-ms must be > 0");
+fn build(
+    cli: &Cli,
+    overrides: &[ros_args::Override],
+) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> {
+    let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
+    let scene = &file.scene;
+    // both in range: the scene's validation and the flags' parsers check the same bounds
+    let rate = cli.rate_hz.unwrap_or(scene.node.rate_hz);
+    let timeout = cli
+        .command_timeout_s
+        .unwrap_or(scene.node.command_timeout_s);
+    if scene.solver.method == Method::Fixed {
+        let per_sample = 1.0 / rate / scene.physical.time_s() / scene.solver.step;
+        if per_sample > MAX_FIXED_STEPS_PER_SAMPLE {
+            bail!(
+                "{}: solver.step = {:e}: {per_sample:.3e} fixed steps per sample at {rate} Hz, more \
+                 than the plant's limit of {MAX_FIXED_STEPS_PER_SAMPLE:e}: raise the step or the rate",
+                cli.scene,
+                scene.solver.step
+            );
+        }
     }
     let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
         .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?;
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_plant")?;
-    let core = PlantCore::new(ExactSim(sim), scale, rate, timeout);
+    // ROS parameters: the flags' and scene's values, then -p / --params-file over them
+    let started_with = plant_params::PlantSettings {
+        scene: cli.scene.clone(),
+        pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
+        rate_hz: rate,
+        command_timeout_s: timeout,
+        clock_every: cli.clock_every,
+        scale: (
+            scene.physical.m1_kg,
+            scene.physical.k1_n_per_m,
+            scene.physical.pf_n,
+        ),
+    };
+    let mut params = cli.views.declare(plant_params::table(&started_with));
+    ros_args::apply_overrides(&mut params, overrides, capsule_nodes::params::no_rules)?;
+    let (rate, timeout, clock_every) =
+        plant_params::overridable(&params, &started_with).map_err(anyhow::Error::msg)?;
+    let mut core = PlantCore::new(ExactSim(sim), scene.physical, rate, timeout);
+    if let Some(f) = cli.max_force_n {
+        core = core.with_max_force_n(f);
+    }
     let opts = PlantOptions {
         pacing: cli.pacing,
         until_s: cli.until_s,
         retransmit: Duration::from_millis(cli.retransmit_ms),
         startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
         wait_subscribers: cli.wait_subscribers,
-        clock_every: cli.clock_every,
-        record: record_options(cli)?,
+        clock_every,
+        record: record_options(cli, &file)?,
+        params,
     };
     Ok((settings, core, opts))
 }
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
-    let result = build(&cli).and_then(|(settings, core, opts)| {
-        if cli.check {
-            println!(
-                "capsule_plant: ok: {}, {:?}{}",
-                settings.describe(),
-                opts.pacing,
-                opts.record
-                    .as_ref()
-                    .map(|r| format!(", would record to {}", r.output.display()))
-                    .unwrap_or_default()
-            );
-            return Ok(());
-        }
-        let started = std::time::Instant::now();
-        let (stats, last) = ros::block_on(
-            settings.cpu_affinity.clone().as_ref(),
-            plant::run(settings, core, opts),
-        )?;
-        if let Some(path) = &cli.summary_json {
-            let json = plant::summary_json(&stats, &last, started.elapsed().as_secs_f64());
-            std::fs::write(path, json + "\n").with_context(|| format!("cannot write {path}"))?;
-        }
-        Ok(())
-    });
+    let (argv, ros_cli) = match ros_args::split(std::env::args_os()) {
+        Ok(split) => split,
+        Err(e) => return ros::exit_code("capsule_plant", Err(e)),
+    };
+    let mut cli = Cli::parse_from(argv);
+    let overrides = ros_cli.apply_to(&mut cli.ros, "capsule_plant");
+    let result = overrides
+        .and_then(|o| build(&cli, &o))
+        .and_then(|(settings, core, opts)| {
+            if cli.check {
+                println!(
+                    "capsule_plant: ok: {}, {:?}, force limit {} N{}",
+                    settings.describe(),
+                    opts.pacing,
+                    core.max_force_n(),
+                    opts.record
+                        .as_ref()
+                        .map(|r| format!(", would record to {}", r.output.display()))
+                        .unwrap_or_default()
+                );
+                return Ok(());
+            }
+            let started = std::time::Instant::now();
+            let (stats, last) = ros::block_on(
+                settings.cpu_affinity.clone().as_ref(),
+                plant::run(settings, core, opts),
+            )?;
+            if let Some(path) = &cli.summary_json {
+                let json = plant::summary_json(&stats, &last, started.elapsed().as_secs_f64());
+                std::fs::write(path, json + "\n")
+                    .with_context(|| format!("cannot write {path}"))?;
+            }
+            Ok(())
+        });
     ros::exit_code("capsule_plant", result)
 }

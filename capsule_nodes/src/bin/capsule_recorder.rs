@@ -2,10 +2,12 @@
 
 use std::{path::PathBuf, time::Duration};
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use capsule_nodes::{
-    recorder::{self, RecorderOptions},
+    ranges,
+    recorder::{self, RecorderOptions, StorageArgs},
     ros::{self, RosArgs, RosEnv, RosSettings},
+    scene_file::SceneFile,
 };
 use clap::Parser;
 
@@ -13,7 +15,7 @@ use clap::Parser;
 /// `<record-dir>/capsule_<scene>_<UTC time>.mcap` (or --output), the way rosbag2 writes MCAP.
 /// SIGINT / SIGTERM finish the file; after a SIGKILL, `capsule record recover FILE` completes it.
 #[derive(Debug, Parser)]
-#[command(name = "capsule_recorder", version)]
+#[command(name = "capsule_recorder", version, allow_negative_numbers = true)]
 struct Cli {
     /// Directory for the run's file (created if missing)
     #[arg(long, default_value = "runs")]
@@ -21,53 +23,47 @@ struct Cli {
     /// Write exactly this file instead (must not exist)
     #[arg(long)]
     output: Option<PathBuf>,
-    /// The scene that is run: attached to the file, and its name goes into the file name
+    /// The scene that is run (validated as capsule_plant does): attached to the file, and its
+    /// name goes into the file name
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Close the open chunk at least this often [ms] (bounds what a SIGKILL loses)
-    #[arg(long, default_value_t = 250)]
+    /// Close the open chunk at least this often [ms] (bounds what a SIGKILL loses), 1 to 60000
+    #[arg(long, default_value_t = 250, value_parser = ranges::millis())]
     flush_ms: u64,
-    /// Drain the DDS readers this often [ms]
-    #[arg(long, default_value_t = 2)]
+    /// Drain the DDS readers this often [ms], 1 to 60000
+    #[arg(long, default_value_t = 2, value_parser = ranges::millis())]
     poll_ms: u64,
-    /// Seconds to wait for the controller's publishers before subscribing to the state
-    #[arg(long, default_value_t = 10.0)]
+    /// Seconds to wait for the controller's publishers before subscribing to the state,
+    /// [0, 1e6]
+    #[arg(long, default_value_t = 10.0, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
     wait_publishers_s: f64,
     /// Controller node name (its status and service-event topics are private to it)
     #[arg(long, default_value = "capsule_controller")]
     controller_node: String,
-    /// Finish by itself after this many seconds without a message (0: only on a signal)
-    #[arg(long, default_value_t = 0.0)]
+    /// Finish by itself after this many seconds without a message (0: only on a signal),
+    /// [0, 1e6]
+    #[arg(long, default_value_t = 0.0, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
     idle_stop_s: f64,
     /// Check the flags and the output place, print the file name, and exit (no DDS)
     #[arg(long)]
     check: bool,
     #[command(flatten)]
+    storage: StorageArgs,
+    #[command(flatten)]
     ros: RosArgs,
 }
 
 fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
-    let scene = cli
-        .scene
-        .as_deref()
-        .map(recorder::scene_record)
-        .transpose()?;
-    if cli.flush_ms == 0 || cli.poll_ms == 0 {
-        bail!("--flush-ms and --poll-ms must be > 0");
-    }
-    for (v, name) in [
-        (cli.wait_publishers_s, "--wait-publishers-s"),
-        (cli.idle_stop_s, "--idle-stop-s"),
-    ] {
-        if !(v.is_finite() && v >= 0.0) {
-            bail!("{name} {v}: must be finite and >= 0");
-        }
-    }
+    let scene = match cli.scene.as_deref() {
+        Some(path) => Some(SceneFile::read(path)?.record()),
+        None => None,
+    };
     let output = recorder::output_path(&cli.record_dir, cli.output.as_deref(), scene.as_ref())?;
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_recorder")?;
     Ok((
         settings,
         RecorderOptions {
+            bag: cli.storage.options()?,
             output,
             scene,
             flush_period: Duration::from_millis(cli.flush_ms),

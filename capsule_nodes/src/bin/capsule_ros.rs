@@ -7,8 +7,9 @@ use capsule_controller::mode::Mode;
 use capsule_msgs::{SetModeRequest, Time};
 use capsule_nodes::{
     client::{state_subscription, ModeClient, SegmentMeter},
+    ranges,
     ros::{self, names, RosArgs, RosEnv, RosSettings},
-    scale::ControlScene,
+    scene_file::SceneFile,
 };
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
@@ -33,27 +34,29 @@ enum Cmd {
     SetMode {
         /// off, forward, backward, chaos-control, custom, or a numeric code
         mode: String,
-        /// Gain (see SetMode.srv)
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        /// Gain (see SetMode.srv; 0: the mode's default gain), [-1e12, 1e12]
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = ranges::finite())]
         gain: f64,
         /// Apply from this sim time [s] (0 = now)
         #[arg(long, default_value_t = 0.0)]
         at_s: f64,
-        /// Give up after this long [s]
-        #[arg(long, default_value_t = 10.0)]
+        /// Give up after this long [s], (0, 1e6]
+        #[arg(long, default_value_t = 10.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
         timeout_s: f64,
     },
     /// Print the sim time [s] that PERIODS drive periods of a scene take (plus 10 ms of margin)
+    #[command(allow_negative_numbers = true)]
     Period {
         /// Scene (drive frequency and physical scale)
         #[arg(long)]
         scene: String,
-        /// Number of drive periods
-        #[arg(long, default_value_t = 1.0)]
+        /// Number of drive periods, (0, 1e9]
+        #[arg(long, default_value_t = 1.0, value_parser = ranges::positive(1e9))]
         periods: f64,
     },
     /// Schedule the segments (the controller must start in the first one), watch the state,
     /// and print each segment's mean progression per drive period
+    #[command(allow_negative_numbers = true)]
     Demo {
         /// Scene (for the drive period and the length scale)
         #[arg(long)]
@@ -65,11 +68,11 @@ enum Cmd {
             default_value = "forward:60,backward:60,off:60"
         )]
         segments: Vec<String>,
-        /// Drive periods skipped at the start of each segment before measuring
-        #[arg(long, default_value_t = 20.0)]
+        /// Drive periods skipped at the start of each segment before measuring, [0, 1e9]
+        #[arg(long, default_value_t = 20.0, value_parser = ranges::non_negative(1e9))]
         settle_periods: f64,
-        /// Give up after this long [s of wall time]
-        #[arg(long, default_value_t = 600.0)]
+        /// Give up after this long [s of wall time], (0, 1e6]
+        #[arg(long, default_value_t = 600.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
         timeout_s: f64,
     },
 }
@@ -95,7 +98,7 @@ async fn run(cli: Cli) -> Result<()> {
             let req = SetModeRequest {
                 mode: parse_mode(&mode)?,
                 gain,
-                effective_from: Time::from_secs_f64(at_s),
+                effective_from: capsule_nodes::client::effective_from(at_s)?,
             };
             let context = settings.context()?;
             let mut node = settings.node(&context)?;
@@ -116,13 +119,10 @@ async fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Cmd::Period { scene, periods } => {
-            let sc = ControlScene::from_file(&scene)?;
-            if !(periods.is_finite() && periods > 0.0) {
-                bail!("--periods {periods}: must be finite and > 0");
-            }
+            let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
             println!(
                 "{:.6}",
-                periods * std::f64::consts::TAU / sc.omega * sc.scale.time_s() + 0.01
+                periods * sc.drive.period() * sc.physical.time_s() + 0.01
             );
             Ok(())
         }
@@ -132,8 +132,8 @@ async fn run(cli: Cli) -> Result<()> {
             settle_periods,
             timeout_s,
         } => {
-            let sc = ControlScene::from_file(&scene)?;
-            let period_s = std::f64::consts::TAU / sc.omega * sc.scale.time_s();
+            let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
+            let period_s = sc.drive.period() * sc.physical.time_s();
             let mut plan = Vec::new();
             let mut t = 0.0;
             for seg in &segments {
@@ -142,8 +142,8 @@ async fn run(cli: Cli) -> Result<()> {
                     .with_context(|| format!("--segments {seg:?}: expected MODE:PERIODS"))?;
                 let mode = Mode::parse_name(m)
                     .with_context(|| format!("--segments {seg:?}: unknown mode"))?;
-                let n: f64 = n.parse().ok().filter(|n: &f64| *n > settle_periods).with_context(|| {
-                    format!("--segments {seg:?}: PERIODS must be a number above --settle-periods {settle_periods}")
+                let n: f64 = n.parse().ok().filter(|n: &f64| *n > settle_periods && *n <= 1e9).with_context(|| {
+                    format!("--segments {seg:?}: PERIODS must be a number above --settle-periods {settle_periods} and at most 1e9")
                 })?;
                 plan.push((mode, t, t + n * period_s));
                 t += n * period_s;
@@ -174,7 +174,7 @@ async fn run(cli: Cli) -> Result<()> {
                 .iter()
                 .map(|(m, from, to)| (m.name().to_string(), from + settle_periods * period_s, *to))
                 .collect();
-            let mut meter = SegmentMeter::new(windows, period_s, sc.scale.length_m());
+            let mut meter = SegmentMeter::new(windows, period_s, sc.physical.length_m());
             let sub = state_subscription(&mut node, &settings)?;
             let states = sub.async_stream();
             tokio::pin!(states);

@@ -11,7 +11,8 @@
 //! Every event function is linear in `v`, so along the step it is the scalar polynomial
 //! `sum (c . V_k) t^k`, whose first crossing is located to rounding.
 
-use super::{Core, Event, EventFn, EventKind, Mode, Phase, SimError, Simulator};
+use super::{EventKind, Mode, Phase, SimError, Simulator, Transition};
+use crate::equations::{Core, Drive, EventFn};
 use crate::roots::first_crossing;
 
 /// Series terms kept per step.
@@ -20,15 +21,6 @@ const K: usize = 30;
 const TRUNCATION: f64 = 1e-17;
 /// Cancellation bound on any term, relative to the state.
 const GROWTH: f64 = 8.0;
-
-/// Piecewise-affine actuator law `alpha cos(omega tau) + bias + kp |x2 - x1|`.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Drive {
-    pub alpha: f64,
-    pub omega: f64,
-    pub bias: f64,
-    pub kp: f64,
-}
 
 /// The linear dynamics of one mode.
 #[derive(Debug, Clone, Copy)]
@@ -122,7 +114,7 @@ impl Simulator {
         &mut self,
         drive: &Drive,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Event),
+        on_event: &mut impl FnMut(&Transition),
     ) -> Result<(), SimError> {
         let mut series = [[0.0f64; 5]; K + 1];
         let mut gser = [0.0f64; K + 1];

@@ -1,7 +1,9 @@
-//! Friction laws resolved at compile time for the Runge-Kutta right-hand side.
+//! The friction table: each law's sliding force and its slope, written once, resolved at compile
+//! time for the Runge-Kutta right-hand side.
 //!
-//! The scene's [`Friction`] is data; before integrating, [`with_friction!`] turns it into one of
-//! these types, and the right-hand side is compiled once per type. An effect a scene leaves out
+//! The scene's [`Friction`](crate::model::Friction) is data; [`Friction::sliding`](crate::model::Friction::sliding)
+//! (the published friction force) and the solvers both go through [`with_friction!`], which turns
+//! it into one of these types, so the right-hand side is compiled once per type. An effect a scene leaves out
 //! is then a constant `false` the compiler removes: no delay look-up without frictional memory,
 //! no pre-sliding spring without `k_s`, no viscous term in Coulomb friction.
 
@@ -13,6 +15,8 @@ pub(crate) trait SlidingLaw: Copy {
     const PRESLIDING: bool;
     /// Sliding friction for direction `dir`, velocity `y2`, delayed velocity `y2d`.
     fn sliding(&self, dir: f64, y2: f64, y2d: f64) -> f64;
+    /// `d sliding / d y2` with the delayed velocity held fixed (`y2` has the sign of `dir`).
+    fn slope(&self, dir: f64, y2: f64) -> f64;
     /// Pre-sliding stiffness (only read when `PRESLIDING`).
     fn k_s(&self) -> f64 {
         0.0
@@ -29,6 +33,9 @@ impl SlidingLaw for Coulomb {
     fn sliding(&self, dir: f64, _: f64, _: f64) -> f64 {
         dir
     }
+    fn slope(&self, _: f64, _: f64) -> f64 {
+        0.0
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -43,6 +50,9 @@ impl SlidingLaw for Viscous {
     fn sliding(&self, dir: f64, y2: f64, _: f64) -> f64 {
         dir + self.mu_v * y2
     }
+    fn slope(&self, _: f64, _: f64) -> f64 {
+        self.mu_v
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -56,6 +66,10 @@ impl SlidingLaw for Stribeck {
     #[inline(always)]
     fn sliding(&self, dir: f64, y2: f64, _: f64) -> f64 {
         dir * (1.0 + (-y2.abs() / self.v_s).exp())
+    }
+    fn slope(&self, _: f64, y2: f64) -> f64 {
+        // dir sign(y2) = 1 while slipping
+        -(-y2.abs() / self.v_s).exp() / self.v_s
     }
 }
 
@@ -76,6 +90,14 @@ impl<const MEM: bool, const PRE: bool> SlidingLaw for SevenParameter<MEM, PRE> {
         let r = if MEM { y2d } else { y2 } / self.v_s;
         dir + self.mu_v * y2 + dir / (1.0 + r * r)
     }
+    fn slope(&self, dir: f64, y2: f64) -> f64 {
+        if MEM {
+            return self.mu_v;
+        }
+        let r = y2 / self.v_s;
+        let q = 1.0 + r * r;
+        self.mu_v - dir * 2.0 * r / (self.v_s * q * q)
+    }
     fn k_s(&self) -> f64 {
         self.k_s
     }
@@ -86,6 +108,8 @@ macro_rules! with_friction {
     ($friction:expr, $f:ident => $body:expr) => {{
         use $crate::model::Friction as F;
         use $crate::solver::friction as fr;
+        #[allow(unused_imports)]
+        use $crate::solver::friction::SlidingLaw as _;
         match $friction {
             F::Coulomb => {
                 let $f = fr::Coulomb;
@@ -130,11 +154,10 @@ pub(crate) use with_friction;
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::model::Friction;
 
     #[test]
-    fn compiled_laws_agree_with_the_scene_law() {
+    fn slopes_agree_with_central_differences() {
         let laws = [
             Friction::Coulomb,
             Friction::Viscous { mu_v: 0.3 },
@@ -153,19 +176,12 @@ mod tests {
             },
         ];
         for law in laws {
-            for (dir, y2, y2d) in [(1.0, 0.3, 0.1), (-1.0, -0.7, -0.2), (1.0, 0.0, 0.0)] {
-                // the scene law takes the delayed velocity as given; without memory it is y2
-                let y2d_scene = if law.memory_delay().is_some() {
-                    y2d
-                } else {
-                    y2
-                };
-                let expected = law.sliding(dir, y2, y2d_scene);
-                let got = with_friction!(law, f => f.sliding(dir, y2, y2d));
-                assert!(
-                    (got - expected).abs() < 1e-15,
-                    "{law:?}: {got} vs {expected}"
-                );
+            for (dir, y2, y2d) in [(1.0, 0.3, 0.1), (-1.0, -0.7, -0.2), (1.0, 0.02, 0.0)] {
+                let h = 1e-7;
+                let fd =
+                    (law.sliding(dir, y2 + h, y2d) - law.sliding(dir, y2 - h, y2d)) / (2.0 * h);
+                let got = law.sliding_slope(dir, y2);
+                assert!((got - fd).abs() < 1e-6, "{law:?} at {y2}: {got} vs {fd}");
             }
         }
     }

@@ -14,10 +14,11 @@
 //! at events; [`Simulator`] applies the same switching rules whichever method found the event.
 
 mod exact;
-mod friction;
+pub(crate) mod friction;
 mod history;
 mod rk;
 
+use crate::equations::{self, Core, Drive, EventFn};
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::{Model, State};
 use serde::{Deserialize, Serialize};
@@ -114,6 +115,15 @@ pub enum SimError {
         /// Switches counted without time advancing.
         count: u32,
     },
+    /// The adaptive method left its envelope: more than [`MAX_STEPS_PER_TIME`] steps per unit
+    /// of non-dimensional time (the paper's scenes take 30 to 550, at tolerances 1e-10 to 1e-13).
+    #[error("the adaptive method left its envelope at tau = {tau}: {steps} steps, more than {MAX_STEPS_PER_TIME:e} per unit of time (a stiff or absurd scene: check the friction constants and the tolerance)")]
+    StepEnvelope {
+        /// When.
+        tau: f64,
+        /// Steps tried (accepted and rejected) in this advance.
+        steps: u64,
+    },
     /// The adaptive step size underflowed.
     #[error("step size underflow at tau = {tau}")]
     StepUnderflow {
@@ -121,6 +131,10 @@ pub enum SimError {
         tau: f64,
     },
 }
+
+/// The adaptive method's envelope: most steps (accepted and rejected) per unit of
+/// non-dimensional time, plus this many at the start of every advance.
+pub const MAX_STEPS_PER_TIME: f64 = 2e4;
 
 /// Stick or slip of the capsule.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -174,6 +188,21 @@ pub struct Event {
     pub tau: f64,
     /// What happened.
     pub kind: EventKind,
+}
+
+/// An event with the mode and state on both sides (state in the solvers' coordinates).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    /// The event.
+    pub event: Event,
+    /// Mode before.
+    pub mode_before: Mode,
+    /// `[z, y1, y2, p]` before.
+    pub before: Core,
+    /// Mode after.
+    pub mode_after: Mode,
+    /// `[z, y1, y2, p]` after (the reset applied).
+    pub after: Core,
 }
 
 /// Work done by an integrator.
@@ -231,25 +260,6 @@ impl Sum {
     }
     fn value(&self) -> f64 {
         self.hi - self.lo
-    }
-}
-
-/// Continuous state in the solvers' coordinates: `[z = x1 - x2, y1, y2, p]`, `p` the pre-sliding
-/// displacement (zero unless the law has pre-sliding and the capsule is stuck).
-pub(crate) type Core = [f64; 4];
-
-/// A linear event function `c . [z, y1, y2, p] + c0`: the mode is valid while it is `<= 0`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct EventFn {
-    pub c: [f64; 4],
-    pub c0: f64,
-    pub kind: EventKind,
-}
-
-impl EventFn {
-    #[inline]
-    fn eval(&self, v: &[f64]) -> f64 {
-        self.c[0] * v[0] + self.c[1] * v[1] + self.c[2] * v[2] + self.c[3] * v[3] + self.c0
     }
 }
 
@@ -358,6 +368,11 @@ impl Simulator {
         }
     }
 
+    /// Current `[z = x1 - x2, y1, y2, p]`.
+    pub fn core(&self) -> Core {
+        self.core
+    }
+
     /// Current mode.
     pub fn mode(&self) -> Mode {
         self.mode
@@ -429,25 +444,26 @@ impl Simulator {
         tau_end: f64,
         on_event: &mut impl FnMut(&Event),
     ) -> Result<(), SimError> {
+        self.advance_traced(law, tau_end, &mut |t| on_event(&t.event))
+    }
+
+    /// Integrate to `tau_end`, calling `on_transition` for every event with the mode and state
+    /// on both sides of it (what the stability analysis needs to build saltation matrices).
+    pub fn advance_traced(
+        &mut self,
+        law: &impl ActuatorLaw,
+        tau_end: f64,
+        on_event: &mut impl FnMut(&Transition),
+    ) -> Result<(), SimError> {
         if !tau_end.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau });
         }
         let result = match self.config.method {
             Method::Exact => match law.shape() {
-                LawShape::PiecewiseAffine {
-                    alpha,
-                    omega,
-                    bias,
-                    kp,
-                } => {
-                    let drive = exact::Drive {
-                        alpha,
-                        omega,
-                        bias,
-                        kp,
-                    };
-                    self.advance_exact(&drive, tau_end, on_event)
-                }
+                shape @ LawShape::PiecewiseAffine { .. } => match Drive::of(shape) {
+                    Some(drive) => self.advance_exact(&drive, tau_end, on_event),
+                    None => Err(SimError::ExactNeedsAffineLaw),
+                },
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
             Method::Adaptive => friction::with_friction!(self.model.friction, f => {
@@ -463,54 +479,7 @@ impl Simulator {
 
     /// The event functions of the current mode; `kink` adds the feedback's `x1 = x2`.
     fn event_functions(&self, kink: bool, out: &mut Vec<EventFn>) {
-        out.clear();
-        let cap = &self.model.capsule;
-        let mode = &self.mode;
-        let h3 = if mode.contact { cap.beta } else { 0.0 };
-        if self.model.has_contact() {
-            let (d, kind) = if mode.contact {
-                (-1.0, EventKind::ContactOff)
-            } else {
-                (1.0, EventKind::ContactOn)
-            };
-            out.push(EventFn {
-                c: [d, 0.0, 0.0, 0.0],
-                c0: -d * cap.delta,
-                kind,
-            });
-        }
-        if kink {
-            out.push(EventFn {
-                c: [-mode.sigma, 0.0, 0.0, 0.0],
-                c0: 0.0,
-                kind: EventKind::Kink,
-            });
-        }
-        let fb = self.model.friction.threshold();
-        let xi2 = 2.0 * cap.xi;
-        match mode.phase {
-            Phase::Stick => {
-                for d in [1.0, -1.0] {
-                    let (c, c0) = match self.model.friction.presliding() {
-                        Some(ks) => ([0.0, 0.0, 0.0, d * ks], -fb),
-                        None => (
-                            [d * (1.0 + h3), d * xi2, -d * xi2, 0.0],
-                            -d * h3 * cap.delta - fb,
-                        ),
-                    };
-                    out.push(EventFn {
-                        c,
-                        c0,
-                        kind: EventKind::BreakAway { dir: d },
-                    });
-                }
-            }
-            Phase::Slip(d) => out.push(EventFn {
-                c: [0.0, 0.0, -d, 0.0],
-                c0: 0.0,
-                kind: EventKind::SlipEnd,
-            }),
-        }
+        equations::events(&self.model, &self.mode, kink, out)
     }
 
     /// The feedback gain if the law has a kink that must be located.
@@ -543,7 +512,7 @@ impl Simulator {
     }
 
     /// Apply the switching rule for event `kind` at the current state; returns the event.
-    fn switch(&mut self, kind: EventKind) -> Result<Event, SimError> {
+    fn switch(&mut self, kind: EventKind) -> Result<Transition, SimError> {
         self.zeno += 1;
         if self.zeno > 64 {
             return Err(SimError::Zeno {
@@ -551,48 +520,23 @@ impl Simulator {
                 count: self.zeno,
             });
         }
-        let fb = self.model.friction.threshold();
-        let kind = match kind {
-            EventKind::ContactOn | EventKind::ContactOff => {
-                self.mode.contact = !self.mode.contact;
-                if self.mode.contact {
-                    EventKind::ContactOn
-                } else {
-                    EventKind::ContactOff
-                }
-            }
-            EventKind::Kink => {
-                self.mode.sigma = -self.mode.sigma;
-                EventKind::Kink
-            }
-            EventKind::BreakAway { dir } => {
-                self.mode.phase = Phase::Slip(dir);
-                self.core[3] = 0.0;
-                EventKind::BreakAway { dir }
-            }
-            EventKind::SlipEnd | EventKind::Reversal { .. } => {
-                self.core[2] = 0.0;
-                let [z, y1, _, _] = self.core;
-                let f = self.model.capsule_force(z, y1, 0.0, self.mode.contact);
-                if f.abs() <= fb {
-                    self.mode.phase = Phase::Stick;
-                    if let Some(ks) = self.model.friction.presliding() {
-                        self.core[3] = f / ks;
-                    }
-                    EventKind::SlipEnd
-                } else {
-                    self.mode.phase = Phase::Slip(f.signum());
-                    EventKind::Reversal { dir: f.signum() }
-                }
-            }
-        };
+        let (mode_before, core_before) = (self.mode, self.core);
+        let (mode, core, kind) = equations::transition(&self.model, self.mode, self.core, kind);
+        self.mode = mode;
+        self.core = core;
         self.work.events += 1;
         if let Some(h) = self.history.as_mut() {
             h.breakpoint(self.tau);
         }
-        Ok(Event {
-            tau: self.tau,
-            kind,
+        Ok(Transition {
+            event: Event {
+                tau: self.tau,
+                kind,
+            },
+            mode_before,
+            before: core_before,
+            mode_after: mode,
+            after: core,
         })
     }
 }

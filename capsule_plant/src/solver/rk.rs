@@ -7,7 +7,8 @@
 
 use super::friction::SlidingLaw;
 use super::history::Piece;
-use super::{Event, EventFn, EventKind, Phase, SimError, Simulator};
+use super::{EventKind, Phase, SimError, Simulator, Transition, MAX_STEPS_PER_TIME};
+use crate::equations::{field, EventFn};
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::State;
 use crate::roots::{first_crossing, BOUNDARY};
@@ -131,23 +132,27 @@ impl Simulator {
             }
         };
         let fcap = model.capsule_force(z, y1, y2, contact);
-        let inv_gamma = 1.0 / model.capsule.gamma;
-        let (dy2, dp, dx) = match self.mode.phase {
-            Phase::Stick if F::PRESLIDING => ((fcap - ctx.friction.k_s() * p) * inv_gamma, y2, y2),
-            Phase::Stick => (0.0, 0.0, 0.0),
-            Phase::Slip(d) => {
+        let presliding = if F::PRESLIDING {
+            Some(ctx.friction.k_s())
+        } else {
+            None
+        };
+        let [dz, dy1, dy2, dp, dx] = field(
+            model.capsule.gamma,
+            self.mode.phase,
+            presliding,
+            &[z, y1, y2, p],
+            fa,
+            fcap,
+            |d| {
                 let y2d = match &self.history {
                     Some(h) if F::MEMORY => h.delayed(tau),
                     _ => y2,
                 };
-                (
-                    (fcap - ctx.friction.sliding(d, y2, y2d)) * inv_gamma,
-                    0.0,
-                    y2,
-                )
-            }
-        };
-        [y1 - y2, fa - fcap, dy2, dp, dx, fa * y1]
+                ctx.friction.sliding(d, y2, y2d)
+            },
+        );
+        [dz, dy1, dy2, dp, dx, fa * y1]
     }
 
     fn dopri_step<L: ActuatorLaw, F: SlidingLaw>(
@@ -237,7 +242,7 @@ impl Simulator {
         law: &L,
         friction: F,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Event),
+        on_event: &mut impl FnMut(&Transition),
     ) -> Result<(), SimError> {
         let shape = law.shape();
         let kink = Self::kink_gain(law) != 0.0;
@@ -246,7 +251,17 @@ impl Simulator {
         // first-same-as-last: the last stage of a step is the first of the next, unless a
         // switch changed the right-hand side in between
         let mut fsal: Option<V> = None;
+        let (tau0, tried0) = (self.tau, self.work.steps + self.work.rejected);
         while self.tau < tau_end {
+            // the envelope: a scene whose steps collapse (absurd stiffness) stops here instead
+            // of grinding on for hours
+            let tried = self.work.steps + self.work.rejected - tried0;
+            if tried as f64 > MAX_STEPS_PER_TIME * (self.tau - tau0 + 1.0) {
+                return Err(SimError::StepEnvelope {
+                    tau: self.tau,
+                    steps: tried,
+                });
+            }
             let ctx = Rhs {
                 law,
                 friction,
@@ -283,6 +298,9 @@ impl Simulator {
                 let err = self.error_norm(&y0, &s);
                 let fac = if err == 0.0 {
                     5.0
+                } else if err.is_nan() {
+                    // a NaN error estimate must shrink the step, not keep it (that spun forever)
+                    0.2
                 } else {
                     (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
                 };
@@ -382,7 +400,7 @@ impl Simulator {
         law: &L,
         friction: F,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Event),
+        on_event: &mut impl FnMut(&Transition),
     ) -> Result<(), SimError> {
         let shape = law.shape();
         let kink = Self::kink_gain(law) != 0.0;

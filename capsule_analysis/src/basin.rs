@@ -1,0 +1,416 @@
+//! Basins of attraction: a grid of initial states on a plane through the state space, each run
+//! until it settles (see [`crate::attractor`]), in parallel, labelled by the attractor it ends on.
+
+use crate::attractor::{settle, Catalogue, Outcome, SettleConfig, Stop};
+use crate::schedule::GainSchedule;
+use capsule_plant::scene::Scene;
+use capsule_plant::{State, Work};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// A coordinate of the initial state that a plane axis sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Coord {
+    /// Mass displacement.
+    X1,
+    /// Mass velocity.
+    Y1,
+    /// Capsule displacement.
+    X2,
+    /// Capsule velocity.
+    Y2,
+    /// Relative displacement `x1 - x2`.
+    RelX,
+    /// Relative velocity `y1 - y2`.
+    RelY,
+}
+
+impl Coord {
+    const ALL: [Coord; 6] = [
+        Coord::X1,
+        Coord::Y1,
+        Coord::X2,
+        Coord::Y2,
+        Coord::RelX,
+        Coord::RelY,
+    ];
+
+    /// The name on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Coord::X1 => "x1",
+            Coord::Y1 => "y1",
+            Coord::X2 => "x2",
+            Coord::Y2 => "y2",
+            Coord::RelX => "x1-x2",
+            Coord::RelY => "y1-y2",
+        }
+    }
+
+    /// Parse a name as printed by [`Coord::name`].
+    pub fn parse(name: &str) -> Option<Self> {
+        let name: String = name.chars().filter(|c| !c.is_whitespace()).collect();
+        Coord::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// The state variables this coordinate involves (`x1 = 0, y1 = 1, x2 = 2, y2 = 3`).
+    fn vars(self) -> &'static [usize] {
+        match self {
+            Coord::X1 => &[0],
+            Coord::Y1 => &[1],
+            Coord::X2 => &[2],
+            Coord::Y2 => &[3],
+            Coord::RelX => &[0, 2],
+            Coord::RelY => &[1, 3],
+        }
+    }
+}
+
+/// A plane of initial states: two coordinates, the rest of the state from a base state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Plane {
+    /// Horizontal axis.
+    pub x: Coord,
+    /// Vertical axis.
+    pub y: Coord,
+}
+
+impl Plane {
+    /// The paper's phase plane `(x1 - x2, y1 - y2)`.
+    pub const RELATIVE: Plane = Plane {
+        x: Coord::RelX,
+        y: Coord::RelY,
+    };
+
+    /// Parse `A,B` with each a coordinate name (`x1`, `y1`, `x2`, `y2`, `x1-x2`, `y1-y2`); the
+    /// two must be independent (a plane, not a line).
+    pub fn parse(text: &str) -> Result<Plane, String> {
+        let parts: Vec<&str> = text.split(',').collect();
+        let [a, b] = parts[..] else {
+            return Err(format!("`{text}`: expected two coordinates A,B"));
+        };
+        let coord = |s: &str| {
+            Coord::parse(s).ok_or_else(|| {
+                format!("`{s}` is not a state coordinate (x1, y1, x2, y2, x1-x2, y1-y2)")
+            })
+        };
+        let plane = Plane {
+            x: coord(a)?,
+            y: coord(b)?,
+        };
+        if plane.x == plane.y {
+            return Err(format!("`{text}`: the two axes are the same coordinate"));
+        }
+        Ok(plane)
+    }
+
+    /// The state at `(a, b)` on the plane through `base`. A relative coordinate moves the mass
+    /// (`x1 = x2 + a`), or the capsule if the mass's own coordinate is the other axis.
+    pub fn state(&self, base: State, a: f64, b: f64) -> State {
+        let mut v = base.to_array();
+        let axes = [(self.x, a), (self.y, b)];
+        for (c, val) in axes {
+            if let [k] = c.vars() {
+                v[*k] = val;
+            }
+        }
+        for (c, val) in axes {
+            if let [m, k] = c.vars() {
+                if axes.iter().any(|(o, _)| o.vars() == [*m]) {
+                    v[*k] = v[*m] - val;
+                } else {
+                    v[*m] = v[*k] + val;
+                }
+            }
+        }
+        State::from_array(v)
+    }
+}
+
+/// Cells on one side at most: larger grids are refused.
+pub const MAX_SIDE: usize = 4096;
+/// Cells in all at most.
+pub const MAX_CELLS: usize = 4_000_000;
+
+/// A grid of initial states.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Grid {
+    /// The plane.
+    pub plane: Plane,
+    /// Columns.
+    pub nx: usize,
+    /// Rows.
+    pub ny: usize,
+    /// Horizontal range, both ends included (cell centres at the ends).
+    pub x_range: (f64, f64),
+    /// Vertical range.
+    pub y_range: (f64, f64),
+}
+
+impl Grid {
+    /// Check the grid: at least one cell a side, at most [`MAX_SIDE`] and [`MAX_CELLS`], finite
+    /// ranges with the low end below the high one (or equal for one cell). Errors name the
+    /// setting and the reason.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        for (n, name) in [(self.nx, "grid (NX)"), (self.ny, "grid (NY)")] {
+            if n == 0 {
+                return Err((name, "must be at least 1".into()));
+            }
+            if n > MAX_SIDE {
+                return Err((name, format!("{n} is above the limit of {MAX_SIDE}")));
+            }
+        }
+        let cells = self.nx * self.ny;
+        if cells > MAX_CELLS {
+            return Err((
+                "grid",
+                format!("{cells} initial states is above the limit of {MAX_CELLS}"),
+            ));
+        }
+        for ((lo, hi), n, name) in [
+            (self.x_range, self.nx, "x-range"),
+            (self.y_range, self.ny, "y-range"),
+        ] {
+            if !(lo.is_finite() && hi.is_finite()) {
+                return Err((name, format!("{lo},{hi}: both ends must be finite numbers")));
+            }
+            if lo > hi || (lo == hi && n > 1) {
+                return Err((
+                    name,
+                    format!("{lo},{hi}: the first end must be below the second"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The plane coordinates of cell `(i, j)` (column, row; row 0 at the low `y` end).
+    pub fn point(&self, i: usize, j: usize) -> (f64, f64) {
+        let at = |(lo, hi): (f64, f64), k: usize, n: usize| {
+            if n == 1 {
+                0.5 * (lo + hi)
+            } else {
+                lo + (hi - lo) * k as f64 / (n - 1) as f64
+            }
+        };
+        (at(self.x_range, i, self.nx), at(self.y_range, j, self.ny))
+    }
+}
+
+/// One cell's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub enum Cell {
+    /// Not computed (interrupted).
+    Pending,
+    /// Ended on the catalogue's attractor of this index.
+    Attractor {
+        /// Index into [`BasinMap::catalogue`].
+        index: usize,
+        /// How the run stopped.
+        stop: Stop,
+        /// Drive periods integrated.
+        periods_run: u32,
+    },
+    /// The run failed (diverged, Zeno, ...).
+    Failed(String),
+}
+
+/// Totals over a basin computation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct BasinWork {
+    /// Runs done.
+    pub runs: u64,
+    /// Drive periods integrated, all runs.
+    pub periods: u64,
+    /// Runs stopped because their own points repeated.
+    pub settled: u64,
+    /// Runs stopped on a known attractor.
+    pub recognised: u64,
+    /// Runs that reached the horizon.
+    pub horizon: u64,
+    /// Runs that failed.
+    pub failed: u64,
+    /// Integrator work, all runs.
+    pub solver: Work,
+}
+
+/// The labelled grid.
+#[derive(Debug, Clone, Serialize)]
+pub struct BasinMap {
+    /// The grid.
+    pub grid: Grid,
+    /// Row-major cells, row 0 at the low `y` end.
+    pub cells: Vec<Cell>,
+    /// The attractors found.
+    pub catalogue: Catalogue,
+    /// Totals.
+    pub work: BasinWork,
+}
+
+impl BasinMap {
+    /// Share of the grid (computed cells and pending alike) that ended on attractor `index`.
+    pub fn fraction(&self, index: usize) -> f64 {
+        let n = self
+            .cells
+            .iter()
+            .filter(|c| matches!(c, Cell::Attractor { index: i, .. } if *i == index))
+            .count();
+        n as f64 / self.cells.len().max(1) as f64
+    }
+
+    /// Cells still pending (an interrupted computation).
+    pub fn pending(&self) -> usize {
+        self.cells.iter().filter(|c| **c == Cell::Pending).count()
+    }
+}
+
+/// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
+/// attractor `scene` under `schedule` ends on, in parallel. `progress` is called once per cell;
+/// once `cancel` is set, cells not yet started stay [`Cell::Pending`].
+pub fn basins(
+    scene: &Scene,
+    schedule: &GainSchedule,
+    config: &SettleConfig,
+    grid: &Grid,
+    progress: &(dyn Fn() + Sync),
+    cancel: &AtomicBool,
+) -> BasinMap {
+    let shared = Mutex::new(Arc::new(Catalogue::default()));
+    let snapshot = || shared.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    let results: Vec<(Cell, Option<Outcome>)> = (0..grid.nx * grid.ny)
+        .into_par_iter()
+        .map(|c| {
+            if cancel.load(Ordering::Relaxed) {
+                return (Cell::Pending, None);
+            }
+            let (a, b) = grid.point(c % grid.nx, c / grid.nx);
+            let mut s = scene.clone();
+            s.initial = grid.plane.state(scene.initial, a, b);
+            let known = snapshot();
+            let cell = match settle(&s, schedule, config, &known) {
+                Err(e) => (Cell::Failed(e.to_string()), None),
+                Ok(o) => {
+                    let index = match o.stop {
+                        Stop::Recognised(i) => i,
+                        _ => {
+                            let mut guard = shared.lock().unwrap_or_else(|e| e.into_inner());
+                            Arc::make_mut(&mut guard).insert(&o.attractor)
+                        }
+                    };
+                    let cell = Cell::Attractor {
+                        index,
+                        stop: o.stop,
+                        periods_run: o.periods_run,
+                    };
+                    (cell, Some(o))
+                }
+            };
+            progress();
+            cell
+        })
+        .collect();
+    let mut work = BasinWork::default();
+    let mut cells = Vec::with_capacity(results.len());
+    for (cell, outcome) in results {
+        match &cell {
+            Cell::Pending => {}
+            Cell::Failed(_) => {
+                work.runs += 1;
+                work.failed += 1;
+            }
+            Cell::Attractor {
+                stop, periods_run, ..
+            } => {
+                work.runs += 1;
+                work.periods += u64::from(*periods_run);
+                match stop {
+                    Stop::Settled => work.settled += 1,
+                    Stop::Recognised(_) => work.recognised += 1,
+                    Stop::Horizon => work.horizon += 1,
+                }
+            }
+        }
+        if let Some(o) = outcome {
+            work.solver.steps += o.work.steps;
+            work.solver.rejected += o.work.rejected;
+            work.solver.rhs_evals += o.work.rhs_evals;
+            work.solver.events += o.work.events;
+        }
+        cells.push(cell);
+    }
+    let catalogue = Arc::unwrap_or_clone(snapshot());
+    BasinMap {
+        grid: *grid,
+        cells,
+        catalogue,
+        work,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn planes_set_the_state_they_name() {
+        let base = State {
+            x1: 0.0,
+            y1: 0.0,
+            x2: 1.0,
+            y2: 0.0,
+        };
+        let s = Plane::RELATIVE.state(base, 0.3, -0.2);
+        assert!((s.x1 - s.x2 - 0.3).abs() < 1e-15 && (s.x2, s.y1, s.y2) == (1.0, -0.2, 0.0));
+        let p = Plane::parse("x1, x1-x2").unwrap();
+        let s = p.state(base, 0.5, 0.2);
+        assert!((s.x1 - 0.5).abs() < 1e-15 && (s.x1 - s.x2 - 0.2).abs() < 1e-15);
+        let p = Plane::parse("x2,x1-x2").unwrap();
+        let s = p.state(base, 2.0, 0.1);
+        assert!((s.x2 - 2.0).abs() < 1e-15 && (s.x1 - s.x2 - 0.1).abs() < 1e-15);
+        let p = Plane::parse("y2,y1").unwrap();
+        let s = p.state(base, 0.7, 0.4);
+        assert_eq!((s.y2, s.y1, s.x1, s.x2), (0.7, 0.4, 0.0, 1.0));
+    }
+
+    #[test]
+    fn bad_planes_and_grids_are_refused() {
+        assert!(Plane::parse("x1,x1").is_err());
+        assert!(Plane::parse("x3,y1").is_err());
+        assert!(Plane::parse("x1").is_err());
+        let g = Grid {
+            plane: Plane::RELATIVE,
+            nx: 10,
+            ny: 10,
+            x_range: (-2.0, 2.0),
+            y_range: (-2.0, 2.0),
+        };
+        assert_eq!(g.validate(), Ok(()));
+        let err = |g: Grid| g.validate().unwrap_err().0;
+        assert_eq!(err(Grid { nx: 0, ..g }), "grid (NX)");
+        assert_eq!(
+            err(Grid {
+                nx: 4000,
+                ny: 4000,
+                ..g
+            }),
+            "grid"
+        );
+        assert_eq!(
+            err(Grid {
+                x_range: (f64::NAN, 1.0),
+                ..g
+            }),
+            "x-range"
+        );
+        assert_eq!(
+            err(Grid {
+                y_range: (1.0, -1.0),
+                ..g
+            }),
+            "y-range"
+        );
+        assert_eq!(g.point(0, 9), (-2.0, 2.0));
+    }
+}

@@ -1,0 +1,134 @@
+//! Standard ROS 2 message types the capsule's views publish (`sensor_msgs/JointState`,
+//! `tf2_msgs/TFMessage`, `std_msgs/String`, `diagnostic_msgs/DiagnosticArray`), as plain serde
+//! types in the field order and CDR layout of their `.msg` files (ROS 2 Jazzy).
+
+use serde::{Deserialize, Serialize};
+
+use crate::Header;
+
+/// `sensor_msgs/JointState`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointState {
+    /// Stamp and frame.
+    pub header: Header,
+    /// Joint names.
+    pub name: Vec<String>,
+    /// Positions [m] (prismatic joints).
+    pub position: Vec<f64>,
+    /// Velocities [m/s].
+    pub velocity: Vec<f64>,
+    /// Efforts [N].
+    pub effort: Vec<f64>,
+}
+
+/// `geometry_msgs/Vector3`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Vector3 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+/// `geometry_msgs/Quaternion`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w.
+    pub w: f64,
+}
+
+impl Quaternion {
+    /// No rotation.
+    pub const IDENTITY: Quaternion = Quaternion {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        w: 1.0,
+    };
+}
+
+/// `geometry_msgs/Transform`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    /// Translation [m].
+    pub translation: Vector3,
+    /// Rotation.
+    pub rotation: Quaternion,
+}
+
+/// `geometry_msgs/TransformStamped`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped {
+    /// Stamp and parent frame.
+    pub header: Header,
+    /// Child frame.
+    pub child_frame_id: String,
+    /// Pose of the child in the parent.
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/TFMessage`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TFMessage {
+    /// Transforms.
+    pub transforms: Vec<TransformStamped>,
+}
+
+/// `std_msgs/String`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct StringMsg {
+    /// The text.
+    pub data: String,
+}
+
+/// `diagnostic_msgs/KeyValue`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct KeyValue {
+    /// Key.
+    pub key: String,
+    /// Value.
+    pub value: String,
+}
+
+/// `diagnostic_msgs/DiagnosticStatus`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosticStatus {
+    /// OK, WARN, ERROR or STALE.
+    pub level: u8,
+    /// Component name (`node: what`, as aggregators group by prefix).
+    pub name: String,
+    /// One line.
+    pub message: String,
+    /// Hardware id.
+    pub hardware_id: String,
+    /// Values.
+    pub values: Vec<KeyValue>,
+}
+
+impl DiagnosticStatus {
+    /// Level OK.
+    pub const OK: u8 = 0;
+    /// Level WARN.
+    pub const WARN: u8 = 1;
+    /// Level ERROR.
+    pub const ERROR: u8 = 2;
+    /// Level STALE.
+    pub const STALE: u8 = 3;
+}
+
+/// `diagnostic_msgs/DiagnosticArray`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosticArray {
+    /// Stamp.
+    pub header: Header,
+    /// Statuses.
+    pub status: Vec<DiagnosticStatus>,
+}

@@ -1,0 +1,256 @@
+//! Coexisting attractors (the paper's section 5.4, Figs 18-20) at coarse grids: basins and their
+//! change with the gain and the drive amplitude, switching by a gain schedule.
+
+use capsule_analysis::attractor::SettleConfig;
+use capsule_analysis::basin::{basins, BasinMap, Grid, Plane};
+use capsule_analysis::switch::switch_run;
+use capsule_analysis::{GainSchedule, Pulse};
+use capsule_plant::scene::Scene;
+use capsule_plant::State;
+use std::sync::atomic::AtomicBool;
+
+/// The section-3 set, Coulomb friction (the paper's section 5.4 system).
+fn coulomb(alpha: f64, kp: f64) -> Scene {
+    let mut s = Scene::default();
+    s.drive.alpha = alpha;
+    s.control.kp = kp;
+    s
+}
+
+/// The issue's plane: (x1 - x2, y1 - y2) over [-2, 2]^2, capsule at rest.
+fn grid(n: usize) -> Grid {
+    Grid {
+        plane: Plane::RELATIVE,
+        nx: n,
+        ny: n,
+        x_range: (-2.0, 2.0),
+        y_range: (-2.0, 2.0),
+    }
+}
+
+fn map(scene: &Scene, n: usize) -> BasinMap {
+    let cfg = SettleConfig::for_scene(scene);
+    let schedule = GainSchedule::constant(scene.control.kp);
+    basins(
+        scene,
+        &schedule,
+        &cfg,
+        &grid(n),
+        &|| {},
+        &AtomicBool::new(false),
+    )
+}
+
+/// Share of the grid on attractors of period `k`.
+fn share(m: &BasinMap, k: usize) -> f64 {
+    (0..m.catalogue.attractors.len())
+        .filter(|&i| m.catalogue.attractors[i].period == Some(k))
+        .map(|i| m.fraction(i))
+        .sum()
+}
+
+#[test]
+fn fig19_period_one_basin_grows_with_the_gain() {
+    let off = map(&coulomb(1.5, 0.0), 16);
+    let on = map(&coulomb(1.5, 0.1), 16);
+    let (a, b) = (share(&off, 1), share(&on, 1));
+    assert!(off.pending() == 0 && on.pending() == 0);
+    // both coexist without control (Fig 19a)
+    assert!(
+        a > 0.2 && share(&off, 3) > 0.2,
+        "k_p 0: P1 {a}, P3 {}",
+        share(&off, 3)
+    );
+    assert!(b > a + 0.1, "period-1 share: k_p 0 {a}, k_p 0.1 {b}");
+}
+
+#[test]
+fn fig18_period_three_basin_shrinks_toward_alpha_1_654() {
+    let shares: Vec<f64> = [1.3, 1.5, 1.64]
+        .iter()
+        .map(|&alpha| share(&map(&coulomb(alpha, 0.0), 16), 3))
+        .collect();
+    assert!(shares[0] > 0.0, "{shares:?}");
+    assert!(
+        shares[0] > shares[1] && shares[1] > shares[2],
+        "period-3 share over alpha 1.3, 1.5, 1.64: {shares:?}"
+    );
+}
+
+#[test]
+fn fig20_control_switched_on_at_period_300_moves_period_3_to_period_1() {
+    let mut scene = coulomb(1.3, 0.0);
+    scene.initial = ON_PERIOD_THREE;
+    scene.horizon.periods = 600;
+    let on = GainSchedule {
+        before: 0.0,
+        pulse: Some(Pulse {
+            kp: 0.1,
+            at: 300,
+            periods: 1,
+        }),
+        after: 0.1,
+    };
+    on.validate(600).unwrap();
+    let r = switch_run(&scene, &on, 0, &mut |_| {}).unwrap();
+    assert_eq!(r.before.period, Some(3));
+    assert_eq!(r.before.impacts_per_period * 3.0, 5.0);
+    assert_eq!(r.after.period, Some(1));
+    assert_eq!(r.after.impacts_per_period, 1.0);
+    assert!(r.switched);
+    assert!(r.after.avg_progression > r.before.avg_progression);
+}
+
+/// A start in the period-3 basin at alpha 1.3 and 1.5 (k_p 0): x1 - x2 = -1.5, all at rest.
+/// From rest the motion ends on the period-2 (alpha 1.3) or period-1 (alpha 1.5) orbit.
+const ON_PERIOD_THREE: State = State {
+    x1: -1.5,
+    y1: 0.0,
+    x2: 0.0,
+    y2: 0.0,
+};
+
+#[test]
+fn alpha_1_5_a_released_pulse_switches_at_a_suitable_phase_only() {
+    let mut scene = coulomb(1.5, 0.0);
+    scene.initial = ON_PERIOD_THREE;
+    scene.horizon.periods = 400;
+    let pulse = |at| GainSchedule {
+        before: 0.0,
+        pulse: Some(Pulse {
+            kp: 0.3,
+            at,
+            periods: 1,
+        }),
+        after: 0.0,
+    };
+    let outcomes: Vec<(u32, Option<usize>, Option<usize>)> = (200..206)
+        .map(|at| {
+            let r = switch_run(&scene, &pulse(at), 0, &mut |_| {}).unwrap();
+            (at, r.before.period, r.after.period)
+        })
+        .collect();
+    assert!(outcomes.iter().all(|o| o.1 == Some(3)), "{outcomes:?}");
+    assert!(
+        outcomes.iter().any(|o| o.2 == Some(1)),
+        "no phase switches: {outcomes:?}"
+    );
+    assert!(
+        outcomes.iter().any(|o| o.2 == Some(3)),
+        "every phase switches: {outcomes:?}"
+    );
+    // the switch depends on the phase on the cycle only: three drive periods later, the same
+    let by_phase = |at: u32| outcomes.iter().find(|o| o.0 == at).map(|o| o.2);
+    for at in 200..203 {
+        assert_eq!(by_phase(at), by_phase(at + 3), "{outcomes:?}");
+    }
+}
+
+fn capsule(args: &[&str]) -> std::process::Output {
+    let bin = std::env::var("CAPSULE_BIN").map_or_else(
+        |_| crate::root().join("target").join("debug").join("capsule"),
+        std::path::PathBuf::from,
+    );
+    std::process::Command::new(&bin)
+        .args(args)
+        .current_dir(std::env::temp_dir())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", bin.display()))
+}
+
+#[test]
+fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
+    let cases: [(&[&str], &str); 8] = [
+        (
+            &["basins", "--grid", "0,10"],
+            "--grid (NX): must be at least 1",
+        ),
+        (&["basins", "--grid", "40000,40000"], "above the limit"),
+        (&["basins", "--plane", "x1,x3"], "not a state coordinate"),
+        (&["basins", "--plane", "y1,y1"], "the same coordinate"),
+        (&["basins", "--x-range", "nan,1"], "--x-range"),
+        (&["basins", "--y-range", "2,-2"], "--y-range"),
+        (
+            &[
+                "simulate",
+                "--pulse-kp",
+                "0.3",
+                "--pulse-at",
+                "299",
+                "--pulse-periods",
+                "5",
+            ],
+            "--pulse-at",
+        ),
+        (
+            &["simulate", "--pulse-kp", "nan", "--pulse-at", "10"],
+            "--pulse-kp",
+        ),
+    ];
+    for (args, needle) in cases {
+        let t0 = std::time::Instant::now();
+        let out = capsule(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(
+            t0.elapsed().as_secs_f64() < 5.0,
+            "{args:?} worked before refusing"
+        );
+    }
+}
+
+#[test]
+fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
+    let dir = std::env::temp_dir().join(format!("capsule_basins_{}", std::process::id()));
+    let prefix = dir.join("b_kp0.05");
+    let out = capsule(&[
+        "basins",
+        "--alpha",
+        "1.5",
+        "--grid",
+        "3,2",
+        "--periods",
+        "40",
+        "--json",
+        "--out",
+        prefix.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let atts = v["attractors"].as_array().unwrap();
+    assert!(!atts.is_empty());
+    let mut total = 0.0;
+    for a in atts {
+        for key in [
+            "label",
+            "period",
+            "impacts_per_period",
+            "avg_progression",
+            "poincare",
+        ] {
+            assert!(a.get(key).is_some(), "{key} missing in {a}");
+        }
+        assert!(a["period"].is_u64() || a["period"].is_null());
+        assert_eq!(a["poincare"][0].as_array().unwrap().len(), 3);
+        total += a["fraction"].as_f64().unwrap();
+    }
+    assert!((total - 1.0).abs() < 1e-12, "fractions sum to {total}");
+    assert_eq!(v["grid"]["nx"], 3);
+    assert_eq!(v["work"]["runs"], 6);
+    for ext in ["svg", "png", "csv", "json"] {
+        let f = dir.join(format!("b_kp0.05.{ext}"));
+        assert!(
+            f.metadata().map(|m| m.len() > 0).unwrap_or(false),
+            "{}",
+            f.display()
+        );
+    }
+    let png = std::fs::read(dir.join("b_kp0.05.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,744 @@
+//! Bad input, as a careless or hostile user gives it (issue 15): every binary that takes a scene
+//! refuses each malformed scene of `tests/fixtures/scenes_bad/` the same way (exit status 2, the
+//! file, the key and the reason, before anything starts); every numeric flag refuses what is out
+//! of its documented range at parse time; runs over their work limits are refused before they
+//! start, runs that leave the adaptive method's envelope stop with a clear error; sweeps with
+//! failed values exit non-zero. Needs the binaries (`cargo build --workspace`); no DDS starts
+//! (the nodes run with `--check`, which stops after the same checks a real start makes).
+
+use crate::root;
+use proptest::prelude::*;
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin(name: &str) -> PathBuf {
+    let p = root().join("target/debug").join(name);
+    assert!(
+        p.is_file(),
+        "{} missing: run `cargo build --workspace` first",
+        p.display()
+    );
+    p
+}
+
+/// Runs a binary with a deadline (a hang is a failure, not a stuck test run).
+fn run(name: &str, args: &[&str]) -> Output {
+    let mut child = Command::new(bin(name))
+        .args(args)
+        .current_dir(root())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {name}: {e}"));
+    let t0 = Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(_)) => break,
+            Ok(None) if t0.elapsed() > Duration::from_secs(60) => {
+                let _ = child.kill();
+                panic!("{name} {args:?} still running after 60 s");
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(10)),
+            Err(e) => panic!("{name}: {e}"),
+        }
+    }
+    child
+        .wait_with_output()
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("capsule-bad-input-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
+    d.join(name)
+}
+
+/// The command lines that take a scene, `{}` standing for the scene path.
+fn scene_takers(out: &str) -> Vec<(&'static str, Vec<String>)> {
+    let v = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    vec![
+        ("capsule", v(&["simulate", "--scene", "{}"])),
+        (
+            "capsule",
+            v(&[
+                "sweep", "--scene", "{}", "--param", "alpha", "--from", "1", "--to", "1",
+                "--steps", "1", "--out", out,
+            ]),
+        ),
+        ("capsule_plant", v(&["--scene", "{}", "--check"])),
+        ("capsule_controller", v(&["--scene", "{}", "--check"])),
+        (
+            "capsule_recorder",
+            v(&["--scene", "{}", "--check", "--record-dir", out]),
+        ),
+        ("capsule_ros", v(&["period", "--scene", "{}"])),
+    ]
+}
+
+#[test]
+fn every_binary_refuses_every_bad_scene_the_same_way() {
+    let dir = root().join("tests/fixtures/scenes_bad");
+    let table = std::fs::read_to_string(dir.join("expect.tsv")).unwrap_or_default();
+    let out = tmp("sweep").display().to_string();
+    let mut n = 0;
+    for line in table
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+    {
+        let cols: Vec<&str> = line.split('\t').collect();
+        let [file, key, words] = cols[..] else {
+            panic!("expect.tsv: bad line {line:?}")
+        };
+        let path = format!("tests/fixtures/scenes_bad/{file}");
+        let mut refusals = Vec::new();
+        for (name, args) in scene_takers(&out) {
+            let args: Vec<String> = args.iter().map(|a| a.replace("{}", &path)).collect();
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let o = run(name, &args);
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{name} {args:?}: {err}");
+            assert!(!err.contains("panicked"), "{name} {args:?} panicked: {err}");
+            let head = format!("{path}: {key}: ");
+            let Some(at) = err.find(&head) else {
+                panic!("{name} {args:?}: stderr `{err}` lacks `{head}`")
+            };
+            let refusal = err[at..].lines().next().unwrap_or_default().to_string();
+            assert!(
+                refusal.contains(words),
+                "{name} {args:?}: `{refusal}` lacks `{words}`"
+            );
+            assert!(o.stdout.is_empty(), "{name} {args:?} printed results");
+            refusals.push((name, refusal));
+        }
+        let first = &refusals[0].1;
+        for (name, r) in &refusals {
+            assert_eq!(r, first, "{file}: {name} refuses differently");
+        }
+        n += 1;
+    }
+    assert!(
+        n >= 40,
+        "expected the malformed-scene corpus, found {n} cases"
+    );
+    assert!(!tmp("sweep.csv").exists(), "a refused sweep wrote output");
+}
+
+#[test]
+fn every_numeric_flag_refuses_values_out_of_its_range() {
+    let scene = "scenes/control_point.toml";
+    let rec = tmp("never.mcap").display().to_string();
+    let sim = |extra: &[&'static str]| [&["simulate"][..], extra].concat();
+    let sweep = |extra: &[&'static str]| {
+        [
+            &["sweep", "--param", "alpha", "--from", "1", "--to", "2"][..],
+            extra,
+        ]
+        .concat()
+    };
+    let plant = |extra: &[&'static str]| [&["--scene", scene, "--check"][..], extra].concat();
+    // (binary, arguments, words of the refusal)
+    let cases: Vec<(&str, Vec<&str>, &str)> = vec![
+        ("capsule", sim(&["--periods", "-5"]), "from 1 to"),
+        ("capsule", sim(&["--periods", "0"]), "from 1 to"),
+        ("capsule", sim(&["--alpha", "nan"]), "finite"),
+        ("capsule", sim(&["--alpha", "-1"]), "must be in"),
+        ("capsule", sim(&["--omega", "inf"]), "finite"),
+        ("capsule", sim(&["--gamma", "1e308"]), "<= 1e12"),
+        ("capsule", sim(&["--gamma", "-1"]), "must be > 0"),
+        ("capsule", sim(&["--kp", "1e308"]), "must be in"),
+        (
+            "capsule",
+            sim(&["--friction", "seven-parameter", "--mu-v", "1e308"]),
+            "must be in",
+        ),
+        (
+            "capsule",
+            sim(&["--friction", "seven-parameter", "--k-s", "1e308"]),
+            "<= 1e12",
+        ),
+        ("capsule", sim(&["--tol", "0"]), "(0, 1)"),
+        ("capsule", sim(&["--step=-1e-3"]), "must be > 0"),
+        (
+            "capsule",
+            sim(&["--samples-per-period", "100000000"]),
+            "from 1 to 1000000",
+        ),
+        ("capsule", sim(&["--x0", "1,2,3"]), "four comma-separated"),
+        (
+            "capsule",
+            sim(&["--x0", "0,0,0,0,0"]),
+            "four comma-separated",
+        ),
+        ("capsule", sim(&["--x0", "0,nan,0,0"]), "finite"),
+        ("capsule", sim(&["--mu-v", "0.2"]), "does not apply"),
+        ("capsule", sweep(&["--steps", "4294967296"]), "from 1 to"),
+        (
+            "capsule",
+            sweep(&["--steps", "18446744073709551615"]),
+            "from 1 to",
+        ),
+        ("capsule", sweep(&["--steps", "0"]), "from 1 to"),
+        ("capsule", sweep(&["--threads", "100000"]), "from 1 to 1024"),
+        ("capsule", sweep(&["--threads", "0"]), "from 1 to 1024"),
+        (
+            "capsule",
+            vec!["sweep", "--param", "kp", "--from", "nan", "--to", "1"],
+            "finite",
+        ),
+        (
+            "capsule",
+            vec![
+                "sweep", "--param", "kp", "--from", "1e308", "--to", "-1e308",
+            ],
+            "must be in",
+        ),
+        ("capsule", vec!["bench", "--repeat", "0"], "from 1 to"),
+        ("capsule", vec!["bench", "--sweep-values", "0"], "from 1 to"),
+        (
+            "capsule",
+            vec!["bench", "accuracy", "--out", "/nonexistent/dir/acc"],
+            "does not exist",
+        ),
+        (
+            "capsule",
+            vec!["replay", &rec, "--rate", "1e-300"],
+            "must be in",
+        ),
+        ("capsule", vec!["replay", &rec, "--rate", "0"], "must be in"),
+        (
+            "capsule",
+            vec!["replay", &rec, "--delay-s", "1e308"],
+            "must be in",
+        ),
+        (
+            "capsule",
+            vec!["replay", &rec, "--duration", "-1"],
+            "must be > 0",
+        ),
+        (
+            "capsule_plant",
+            plant(&["--startup-timeout-s", "1e308"]),
+            "<= 1e6",
+        ),
+        (
+            "capsule_plant",
+            plant(&["--rate-hz", "1e-300"]),
+            "must be in",
+        ),
+        ("capsule_plant", plant(&["--rate-hz", "nan"]), "finite"),
+        (
+            "capsule_plant",
+            plant(&["--command-timeout-s", "0"]),
+            "must be > 0",
+        ),
+        ("capsule_plant", plant(&["--until-s", "-1"]), "must be > 0"),
+        (
+            "capsule_plant",
+            plant(&["--retransmit-ms", "4294967296"]),
+            "from 1 to 60000",
+        ),
+        (
+            "capsule_plant",
+            plant(&["--flush-ms", "0"]),
+            "from 1 to 60000",
+        ),
+        ("capsule_plant", plant(&["--clock-every", "0"]), "from 1 to"),
+        (
+            "capsule_plant",
+            plant(&["--wait-subscribers", "100000"]),
+            "from 0 to 1000",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--alpha", "-1"]),
+            "must be in",
+        ),
+        ("capsule_controller", plant(&["--gain", "nan"]), "finite"),
+        ("capsule_controller", plant(&["--gain", "inf"]), "finite"),
+        (
+            "capsule_controller",
+            plant(&["--omega", "0"]),
+            "must be > 0",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--m1-kg", "-1"]),
+            "must be > 0",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--state-timeout-s", "1e308"]),
+            "<= 1e6",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--status-period-ms", "4294967296"]),
+            "from 1 to 60000",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--wait-publishers-s", "1e308"],
+            "must be in",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--idle-stop-s", "1e308"],
+            "must be in",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--flush-ms", "4294967296"],
+            "from 1 to 60000",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--poll-ms", "0"],
+            "from 1 to 60000",
+        ),
+        (
+            "capsule_ros",
+            vec!["period", "--scene", scene, "--periods", "-5"],
+            "must be > 0",
+        ),
+        (
+            "capsule_ros",
+            vec!["set-mode", "forward", "--gain", "nan"],
+            "finite",
+        ),
+        (
+            "capsule_ros",
+            vec!["set-mode", "forward", "--timeout-s", "1e308"],
+            "<= 1e6",
+        ),
+        (
+            "capsule_ros",
+            vec!["demo", "--scene", scene, "--settle-periods", "inf"],
+            "finite",
+        ),
+    ];
+    for (name, args, words) in &cases {
+        let o = run(name, args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{name} {args:?}: {err}");
+        assert!(
+            err.contains(words),
+            "{name} {args:?}: `{err}` lacks `{words}`"
+        );
+        assert!(!err.contains("panicked"), "{name} {args:?} panicked: {err}");
+    }
+}
+
+#[test]
+fn runs_over_their_work_limits_are_refused_before_they_start() {
+    let csv = tmp("big.csv");
+    let csv_s = csv.display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "simulate",
+                "--periods",
+                "20",
+                "--transient",
+                "5",
+                "--method",
+                "fixed",
+                "--step",
+                "1e-12",
+            ],
+            "--max-work",
+        ),
+        (
+            vec![
+                "simulate",
+                "--periods",
+                "200000",
+                "--samples-per-period",
+                "1000",
+                "--csv",
+                &csv_s,
+            ],
+            "--max-samples",
+        ),
+        (
+            vec![
+                "sweep", "--param", "alpha", "--from", "0.5", "--to", "1", "--steps", "10000000",
+            ],
+            "--max-work",
+        ),
+        (
+            vec![
+                "simulate",
+                "--periods",
+                "3",
+                "--method",
+                "fixed",
+                "--step",
+                "1e-3",
+                "--max-work",
+                "1000",
+            ],
+            "--max-work",
+        ),
+        (
+            vec![
+                "simulate",
+                "--periods",
+                "3",
+                "--csv",
+                "/nonexistent/dir/h.csv",
+            ],
+            "does not exist",
+        ),
+    ];
+    for (args, words) in &cases {
+        let o = run("capsule", args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(words), "{args:?}: `{err}` lacks `{words}`");
+    }
+    assert!(!csv.exists(), "a refused run wrote its CSV");
+    // the plant node: a fixed step that would take more than 1e6 steps per sample
+    let tiny = tmp("tiny_step.toml");
+    std::fs::write(&tiny, "[solver]\nmethod = \"fixed\"\nstep = 1e-300\n")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let o = run(
+        "capsule_plant",
+        &["--scene", &tiny.display().to_string(), "--check"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("solver.step = 1e-300"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stderr(&o).contains("more than the plant's limit of 1e6"));
+    // raised explicitly, the same run goes
+    let o = run(
+        "capsule",
+        &[
+            "simulate",
+            "--periods",
+            "3",
+            "--method",
+            "fixed",
+            "--step",
+            "1e-3",
+            "--max-work",
+            "1e5",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn runs_that_leave_the_adaptive_envelope_stop_with_a_clear_error() {
+    let dir = root().join("tests/fixtures/scenes_stiff");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+        let path = entry.map(|e| e.path()).unwrap_or_default();
+        let p = path.display().to_string();
+        let t0 = Instant::now();
+        let o = run("capsule", &["simulate", "--scene", &p]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{p}: {err}");
+        assert!(
+            err.contains("envelope") || err.contains("step size underflow"),
+            "{p}: {err}"
+        );
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "{p} took {:?}",
+            t0.elapsed()
+        );
+        n += 1;
+    }
+    assert!(n >= 3);
+    let o = run(
+        "capsule",
+        &[
+            "simulate",
+            "--periods",
+            "20",
+            "--transient",
+            "5",
+            "--friction",
+            "seven-parameter",
+            "--k-s",
+            "1e10",
+        ],
+    );
+    assert!(stderr(&o).contains("envelope"), "{}", stderr(&o));
+}
+
+#[test]
+fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
+    let out = tmp("fail").display().to_string();
+    let args = [
+        "sweep",
+        "--param",
+        "alpha",
+        "--from",
+        "-1",
+        "--to",
+        "1",
+        "--steps",
+        "3",
+        "--periods",
+        "3",
+        "--out",
+        &out,
+    ];
+    let o = run("capsule", &args);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("alpha = -1: drive.alpha: must be >= 0"),
+        "{text}"
+    );
+    assert!(text.contains("1 of 3 values failed"), "{text}");
+    let o = run("capsule", &[&args[..], &["--allow-failures"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    // --out DIR/ writes into the directory
+    let dir = tmp("outdir");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let d = format!("{}/", dir.display());
+    let o = run(
+        "capsule",
+        &[
+            "sweep",
+            "--param",
+            "kp",
+            "--from",
+            "0",
+            "--to",
+            "0.1",
+            "--steps",
+            "2",
+            "--periods",
+            "3",
+            "--out",
+            &d,
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("kp.csv").is_file() && dir.join("kp.svg").is_file());
+}
+
+#[test]
+fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
+    let out = tmp("interrupted");
+    let out_s = out.display().to_string();
+    let child = Command::new(bin("capsule"))
+        .args([
+            "sweep",
+            "--param",
+            "alpha",
+            "--from",
+            "0.5",
+            "--to",
+            "1.5",
+            "--steps",
+            "20000",
+            "--periods",
+            "30",
+            "--threads",
+            "1",
+            "--out",
+            &out_s,
+        ])
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{e}"));
+    std::thread::sleep(Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .map(|s| s.success());
+    assert_eq!(killed.ok(), Some(true));
+    let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted:"), "{err}");
+    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
+    assert!(csv.lines().count() > 1, "nothing written: {err}");
+}
+
+#[test]
+fn partial_scenes_take_the_defaults_and_say_which() {
+    let f = tmp("partial.toml");
+    std::fs::write(&f, "[capsule]\ngamma = 0.5\n").unwrap_or_else(|e| panic!("{e}"));
+    let o = run(
+        "capsule",
+        &[
+            "simulate",
+            "--scene",
+            &f.display().to_string(),
+            "--print-scene",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for line in [
+        "gamma = 0.5",
+        "beta = 15.0",
+        "alpha = 0.8",
+        "law = \"coulomb\"",
+        "periods = 300",
+        "transient = 200",
+    ] {
+        assert!(text.contains(line), "--print-scene lacks `{line}`:\n{text}");
+    }
+    // what --print-scene prints is a scene that reads back the same
+    let back = capsule_plant::scene::Scene::from_toml_str(&text, "printed")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back.model.capsule.gamma, 0.5);
+}
+
+#[test]
+fn one_rule_for_periods_and_transient_with_and_without_a_scene() {
+    let measured = |args: &[&str]| {
+        let o = run("capsule", &[&["simulate", "--json"][..], args].concat());
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}"));
+        (
+            v["scene"]["horizon"]["transient"].as_u64(),
+            v["measured_periods"].as_u64(),
+        )
+    };
+    assert_eq!(measured(&["--periods", "30"]), (Some(20), Some(10)));
+    assert_eq!(
+        measured(&["--scene", "scenes/control_point.toml", "--periods", "30"]),
+        (Some(20), Some(10))
+    );
+    assert_eq!(
+        measured(&[
+            "--scene",
+            "scenes/control_point.toml",
+            "--periods",
+            "30",
+            "--transient",
+            "5"
+        ]),
+        (Some(5), Some(25))
+    );
+    let o = run(
+        "capsule",
+        &["simulate", "--periods", "30", "--transient", "30"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("horizon.transient: must be less than horizon.periods = 30"));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Any scene text: refused with file, key and reason, or accepted and valid; never a panic.
+    #[test]
+    fn any_scene_text_is_refused_cleanly_or_valid(
+        gamma in prop_oneof![any::<f64>().prop_map(|v| v.to_string()), Just("nan".to_string()), Just("-inf".to_string()), "[a-z\"]{0,4}"],
+        periods in prop_oneof![any::<i64>().prop_map(|v| v.to_string()), any::<f64>().prop_map(|v| format!("{v:?}"))],
+        state_len in 0usize..7,
+        law in prop_oneof![Just("coulomb"), Just("viscous"), Just("stribeck"), Just("seven-parameter"), Just("sand")],
+        junk in "[ -~\n]{0,12}",
+    ) {
+        let state = vec!["0.0"; state_len].join(", ");
+        let text = format!(
+            "[capsule]\ngamma = {gamma}\n[friction]\nlaw = \"{law}\"\n[horizon]\nperiods = {periods}\n[initial]\nstate = [{state}]\n{junk}"
+        );
+        match capsule_plant::scene::Scene::from_toml_str(&text, "p.toml") {
+            Ok(s) => prop_assert!(s.validate().is_ok()),
+            Err(e) => {
+                prop_assert_eq!(&e.file, "p.toml");
+                prop_assert!(!e.key.is_empty());
+                prop_assert!(e.to_string().starts_with("p.toml: "));
+            }
+        }
+    }
+
+    /// Any flag text: a value within the documented range, or a refusal; durations convert.
+    #[test]
+    fn any_flag_value_is_in_range_or_refused(text in prop_oneof![
+        any::<f64>().prop_map(|v| v.to_string()),
+        any::<u64>().prop_map(|v| v.to_string()),
+        any::<i64>().prop_map(|v| v.to_string()),
+        "[-+.e0-9a-z]{0,8}",
+    ]) {
+        use capsule_nodes::ranges;
+        if let Ok(v) = ranges::positive(ranges::MAX_SECONDS)(&text) {
+            prop_assert!(v > 0.0 && v <= ranges::MAX_SECONDS);
+            prop_assert!(Duration::try_from_secs_f64(v).is_ok());
+        }
+        if let Ok(v) = ranges::non_negative(ranges::MAX_SECONDS)(&text) {
+            prop_assert!(Duration::try_from_secs_f64(v).is_ok());
+        }
+        if let Ok(v) = ranges::finite()(&text) {
+            prop_assert!(v.is_finite() && v.abs() <= ranges::MAX_MAGNITUDE);
+        }
+        if let Ok(v) = ranges::millis()(&text) {
+            prop_assert!((1..=ranges::MAX_MILLIS).contains(&v));
+        }
+        if let Ok(v) = ranges::within(ranges::RATE_HZ.0, ranges::RATE_HZ.1)(&text) {
+            prop_assert!(Duration::try_from_secs_f64(1.0 / v).is_ok());
+        }
+    }
+}
+
+#[test]
+fn the_launch_scripts_check_their_arguments_and_print_usage() {
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            "demo.sh",
+            &["scenes/control_point.toml", "-5"],
+            "PERIODS_PER_SEGMENT '-5'",
+        ),
+        (
+            "demo.sh",
+            &["scenes/control_point.toml", "abc"],
+            "PERIODS_PER_SEGMENT 'abc'",
+        ),
+        ("demo.sh", &["no/such.toml"], "cannot read scene file"),
+        ("demo.sh", &["a", "b", "c"], "at most two arguments"),
+        ("capsule_launch.sh", &["--scene"], "--scene needs a value"),
+        ("capsule_launch.sh", &[], "--scene is required"),
+        (
+            "capsule_launch.sh",
+            &["--scene", "scenes/control_point.toml", "--pacing", "fast"],
+            "realtime or lockstep",
+        ),
+        (
+            "capsule_launch.sh",
+            &["--scene", "scenes/control_point.toml", "--until-s", "-5"],
+            "--until-s '-5'",
+        ),
+    ];
+    for (script, args, words) in cases {
+        let o = Command::new("bash")
+            .arg(root().join("launch_scripts").join(script))
+            .args(*args)
+            .current_dir(root())
+            .stdin(Stdio::null())
+            .output()
+            .unwrap_or_else(|e| panic!("{script}: {e}"));
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{script} {args:?}: {err}");
+        assert!(
+            err.contains(words),
+            "{script} {args:?}: `{err}` lacks `{words}`"
+        );
+        assert!(
+            err.contains("Usage") || err.contains("  launch_scripts/"),
+            "{script}: no usage"
+        );
+        assert!(!err.contains("unbound variable") && !err.contains("error: invalid value"));
+    }
+}
