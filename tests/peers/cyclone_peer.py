@@ -517,6 +517,12 @@ def cmd_inject(args):
         time.sleep(0.002)
     if latest is None:
         fail("no state from the plant")
+    # the state came through, but our writer may not have matched the plant's reader yet: a
+    # volatile write before that is lost (on a loaded host the single future-stamped command was)
+    while writer.get_publication_matched_status().current_count < 1:
+        if time.time() > deadline:
+            fail("the plant's force reader never matched")
+        time.sleep(0.01)
     for force in [float(f) for f in args.force.split(",")]:
         sent = received = gaps = 0
         max_applied = 0.0

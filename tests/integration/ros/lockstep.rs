@@ -45,8 +45,10 @@ fn lockstep_closed_loop_is_reproducible_bit_for_bit() {
         for i in 1 2; do
           $B/capsule_controller --scene "$SCENE" --mode forward &
           C=$!
+          # a step waits up to 10 s for its answer (the scene's 0.1 s would let a loaded host's
+          # stall step with zero force, and the runs differ: seen in CI-like load)
           $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 1.5 --wait-subscribers 1 \
-              --summary-json "$TMP/run$i.json" || exit 1
+              --command-timeout-s 10 --summary-json "$TMP/run$i.json" || exit 1
           kill -TERM $C; wait $C || exit 1
           echo "RUN$i $(cat $TMP/run$i.json)"
         done"#;
