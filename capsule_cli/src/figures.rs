@@ -10,7 +10,8 @@ use anyhow::{Context, Result};
 use capsule_analysis::basin::{Grid, Plane};
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{run_sampled, sweep, GainSchedule, Param, Pulse, SweepPoint};
-use capsule_plant::scene::{Scene, PAPER_K_S, PAPER_MU_V, PAPER_TAU_D, PAPER_V_S};
+use capsule_plant::model::V_S;
+use capsule_plant::scene::Scene;
 use capsule_plant::{Friction, Snapshot, State};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -52,27 +53,6 @@ type Job = (&'static [u32], fn(&Ctx) -> Result<Vec<Fig>>);
 struct Ctx {
     steps: usize,
     grid: usize,
-}
-
-const LAWS: [&str; 4] = [
-    "Coulomb",
-    "Coulomb viscous",
-    "Coulomb Stribeck",
-    "seven-parameter",
-];
-
-fn law(i: usize) -> Friction {
-    match i {
-        0 => Friction::Coulomb,
-        1 => Friction::Viscous { mu_v: PAPER_MU_V },
-        2 => Friction::Stribeck { v_s: PAPER_V_S },
-        _ => Friction::SevenParameter {
-            mu_v: PAPER_MU_V,
-            v_s: PAPER_V_S,
-            tau_d: PAPER_TAU_D,
-            k_s: PAPER_K_S,
-        },
-    }
 }
 
 fn values(from: f64, to: f64, n: usize) -> Vec<f64> {
@@ -119,28 +99,32 @@ fn caption_params(s: &Scene) -> String {
 fn figs_2_7(ctx: &Ctx) -> Result<Vec<Fig>> {
     let v = values(0.1, 2.0, ctx.steps);
     let sweeps: Vec<Vec<SweepPoint>> = (0..4)
-        .map(|i| sweep(&section3(law(i), 0.8), Param::Alpha, &v, &|| {}))
+        .map(|i| sweep(&section3(Friction::LAWS[i], 0.8), Param::Alpha, &v, &|| {}))
         .collect();
     let (mut dots, mut lines) = (Vec::new(), Vec::new());
     let mut ours2 = String::new();
     let mut ours7 = String::new();
     for (i, pts) in sweeps.iter().enumerate() {
         let (mut d, mut l) = svg::bifurcation_panels("alpha", pts);
-        d.title = format!("({}) {}", (b'a' + i as u8) as char, LAWS[i]);
+        d.title = format!(
+            "({}) {}",
+            (b'a' + i as u8) as char,
+            Friction::LAWS[i].title()
+        );
         l.title = d.title.clone();
         dots.push(d);
         lines.push(l);
         let _ = write!(
             ours2,
             "{}: periodic at {:.0} % of the values; ",
-            LAWS[i],
+            Friction::LAWS[i].title(),
             100.0 * periodic_share(pts)
         );
         let (a, p) = best(pts);
         let _ = write!(
             ours7,
             "{}: fastest {p:+.3}/period at alpha {a:.3}; ",
-            LAWS[i]
+            Friction::LAWS[i].title()
         );
     }
     let cap = vec![format!(
@@ -208,8 +192,9 @@ fn fig_9(ctx: &Ctx) -> Result<Vec<Fig>> {
     let v = values(0.8, 1.2, ctx.steps);
     let mut panels = Vec::new();
     let mut ours = String::new();
-    for (i, name) in LAWS.iter().enumerate() {
-        let pts = sweep(&section3(law(i), 0.8), Param::Omega, &v, &|| {});
+    for (i, law) in Friction::LAWS.iter().enumerate() {
+        let name = law.title();
+        let pts = sweep(&section3(*law, 0.8), Param::Omega, &v, &|| {});
         let (mut d, mut l) = svg::bifurcation_panels("omega", &pts);
         d.title = format!("({}) {}", (b'a' + i as u8) as char, name);
         l.title = format!("{}: progression", name);
@@ -282,8 +267,9 @@ fn phase_and_time(title: &str, rows: &[Snapshot], delta: f64) -> (Panel, Panel) 
 fn four_laws_at(number: u32, omega: f64, claim: &'static str) -> Result<Fig> {
     let mut panels = Vec::new();
     let mut ours = String::new();
-    for (i, name) in LAWS.iter().enumerate() {
-        let mut s = section3(law(i), 0.8);
+    for (i, law) in Friction::LAWS.iter().enumerate() {
+        let name = law.title();
+        let mut s = section3(*law, 0.8);
         s.drive.omega = omega;
         let (r, rows) = history(&s, 5)?;
         let (p, t) = phase_and_time(
@@ -477,7 +463,7 @@ fn fig_15(ctx: &Ctx) -> Result<Vec<Fig>> {
 }
 
 fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
-    let off = section3(law(2), 1.3);
+    let off = section3(Friction::LAWS[2], 1.3);
     let mut on = off.clone();
     on.control.kp = 1.0;
     let (r0, h0) = history(&off, 10)?;
@@ -528,7 +514,8 @@ fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
         vlines: vec![],
     };
     let cap = vec![format!(
-        "Coulomb Stribeck (v_s {PAPER_V_S}), the last 10 of 300 periods from rest; {}",
+        "Coulomb Stribeck (v_s {}), the last 10 of 300 periods from rest; {}",
+        V_S.paper,
         caption_params(&on)
     )];
     let per = |r: &capsule_analysis::RunReport| {

@@ -4,32 +4,25 @@
 use crate::Refused;
 use anyhow::{bail, Result};
 use capsule_nodes::{ranges, scene_file::SceneFile};
-use capsule_plant::scene::{Scene, PAPER_K_S, PAPER_MU_V, PAPER_TAU_D, PAPER_V_S};
+use capsule_plant::model::{K_S, MU_V, TAU_D, V_S};
+use capsule_plant::scene::Scene;
 use capsule_plant::{Friction, Method, SolverConfig, State};
-use clap::{Args, ValueEnum};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::Args;
 
-/// Friction law names on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FrictionArg {
-    /// Dry Coulomb friction.
-    Coulomb,
-    /// Coulomb plus viscous damping (mu_v).
-    Viscous,
-    /// Coulomb plus Stribeck (v_s).
-    Stribeck,
-    /// Stribeck with frictional memory (tau_d) and pre-sliding (k_s).
-    SevenParameter,
+/// `--friction`: the choices are the names of [`Friction::LAWS`] (one table for scene files,
+/// flags and docs), each with the paper's constants.
+fn friction_law() -> impl TypedValueParser<Value = Friction> {
+    PossibleValuesParser::new(Friction::LAWS.map(|l| l.name()))
+        // every possible value is a law's name
+        .map(|name| Friction::by_name(&name).unwrap_or(Friction::Coulomb))
 }
 
-/// Integration methods on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// Exact piecewise solution (coulomb, viscous).
-    Exact,
-    /// Adaptive Dormand-Prince 5(4) with event location.
-    Adaptive,
-    /// Fixed-step RK4 without event location (baseline).
-    Fixed,
+/// `--method`: the names of [`Method::ALL`].
+fn method() -> impl TypedValueParser<Value = Method> {
+    PossibleValuesParser::new(Method::ALL.map(Method::name))
+        // every possible value is a method's name
+        .map(|name| Method::by_name(&name).unwrap_or(Method::Adaptive))
 }
 
 /// A scene and overrides. Without --scene: the paper's section-3 set (gamma 5, omega 0.95,
@@ -42,9 +35,9 @@ pub struct SceneArgs {
     /// Scene file (TOML); flags below override it.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<std::path::PathBuf>,
-    /// Friction law.
-    #[arg(long, value_enum)]
-    pub friction: Option<FrictionArg>,
+    /// Friction law, with the paper's constants unless the flags below set them.
+    #[arg(long, value_parser = friction_law())]
+    pub friction: Option<Friction>,
     /// Drive amplitude alpha = P_d / P_f, [0, 1e12].
     #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub alpha: Option<f64>,
@@ -87,9 +80,11 @@ pub struct SceneArgs {
     /// Leading periods not measured, 0 to --periods - 1 [default: scaled with --periods].
     #[arg(long, value_parser = ranges::count_u32(0, u32::MAX))]
     pub transient: Option<u32>,
-    /// Integration method [default: exact for coulomb/viscous, else adaptive].
-    #[arg(long, value_enum)]
-    pub method: Option<MethodArg>,
+    /// Integration method [default: exact for coulomb/viscous, else adaptive]: exact piecewise
+    /// solution, adaptive Dormand-Prince 5(4) with event location, or fixed-step RK4 without
+    /// event location (baseline).
+    #[arg(long, value_parser = method())]
+    pub method: Option<Method>,
     /// Tolerance of the adaptive method, (0, 1) [default: 1e-10].
     #[arg(long, value_parser = ranges::open_unit())]
     pub tol: Option<f64>,
@@ -107,18 +102,7 @@ impl SceneArgs {
             None => (Scene::default(), "defaults".to_string()),
         };
         if let Some(f) = self.friction {
-            let (mu_v, v_s, tau_d, k_s) = (PAPER_MU_V, PAPER_V_S, PAPER_TAU_D, PAPER_K_S);
-            scene.model.friction = match f {
-                FrictionArg::Coulomb => Friction::Coulomb,
-                FrictionArg::Viscous => Friction::Viscous { mu_v },
-                FrictionArg::Stribeck => Friction::Stribeck { v_s },
-                FrictionArg::SevenParameter => Friction::SevenParameter {
-                    mu_v,
-                    v_s,
-                    tau_d,
-                    k_s,
-                },
-            };
+            scene.model.friction = f;
             if self.method.is_none() {
                 scene.solver = SolverConfig {
                     method: SolverConfig::most_accurate_for(&scene.model).method,
@@ -146,13 +130,7 @@ impl SceneArgs {
                 set(&mut scene.horizon.transient, t);
             }
         }
-        if let Some(m) = self.method {
-            scene.solver.method = match m {
-                MethodArg::Exact => Method::Exact,
-                MethodArg::Adaptive => Method::Adaptive,
-                MethodArg::Fixed => Method::Fixed,
-            };
-        }
+        set(&mut scene.solver.method, self.method);
         set(&mut scene.solver.tol, self.tol);
         set(&mut scene.solver.step, self.step);
         scene
@@ -168,49 +146,23 @@ impl SceneArgs {
         format!("# capsule {}\n{}", args.join(" "), scene.to_toml())
     }
 
+    /// The friction flags onto the law; a flag the law has no constant for is refused.
     fn apply_friction_constants(&self, f: &mut Friction) -> Result<()> {
-        let name = f.name();
-        let use_flag = |flag: &str, v: Option<f64>, slot: Option<&mut f64>| -> Result<()> {
-            match (v, slot) {
-                (Some(v), Some(s)) => {
-                    *s = v;
-                    Ok(())
+        let flags = [
+            (MU_V, self.mu_v),
+            (V_S, self.v_s),
+            (TAU_D, self.tau_d),
+            (K_S, self.k_s),
+        ];
+        for (c, v) in flags {
+            if let Some(v) = v {
+                if !f.set_constant(c.key, v) {
+                    bail!(Refused(format!(
+                        "--{} does not apply to the {} friction law",
+                        c.flag(),
+                        f.name()
+                    )));
                 }
-                (Some(_), None) => bail!(Refused(format!(
-                    "--{flag} does not apply to the {name} friction law"
-                ))),
-                (None, _) => Ok(()),
-            }
-        };
-        match f {
-            Friction::Coulomb => {
-                use_flag("mu-v", self.mu_v, None)?;
-                use_flag("v-s", self.v_s, None)?;
-                use_flag("tau-d", self.tau_d, None)?;
-                use_flag("k-s", self.k_s, None)?;
-            }
-            Friction::Viscous { mu_v } => {
-                use_flag("mu-v", self.mu_v, Some(mu_v))?;
-                use_flag("v-s", self.v_s, None)?;
-                use_flag("tau-d", self.tau_d, None)?;
-                use_flag("k-s", self.k_s, None)?;
-            }
-            Friction::Stribeck { v_s } => {
-                use_flag("mu-v", self.mu_v, None)?;
-                use_flag("v-s", self.v_s, Some(v_s))?;
-                use_flag("tau-d", self.tau_d, None)?;
-                use_flag("k-s", self.k_s, None)?;
-            }
-            Friction::SevenParameter {
-                mu_v,
-                v_s,
-                tau_d,
-                k_s,
-            } => {
-                use_flag("mu-v", self.mu_v, Some(mu_v))?;
-                use_flag("v-s", self.v_s, Some(v_s))?;
-                use_flag("tau-d", self.tau_d, Some(tau_d))?;
-                use_flag("k-s", self.k_s, Some(k_s))?;
             }
         }
         Ok(())

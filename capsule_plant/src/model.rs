@@ -136,7 +136,138 @@ impl Friction {
             Friction::SevenParameter { .. } => "seven-parameter",
         }
     }
+
+    /// The law as the paper's figures title it.
+    pub fn title(&self) -> &'static str {
+        match self {
+            Friction::Coulomb => "Coulomb",
+            Friction::Viscous { .. } => "Coulomb viscous",
+            Friction::Stribeck { .. } => "Coulomb Stribeck",
+            Friction::SevenParameter { .. } => "seven-parameter",
+        }
+    }
+
+    /// Every law with the paper's constants: the one list from which scene files, the command
+    /// line, figures and error messages take the laws and their names.
+    pub const LAWS: [Friction; 4] = [
+        Friction::Coulomb,
+        Friction::Viscous { mu_v: MU_V.paper },
+        Friction::Stribeck { v_s: V_S.paper },
+        Friction::SevenParameter {
+            mu_v: MU_V.paper,
+            v_s: V_S.paper,
+            tau_d: TAU_D.paper,
+            k_s: K_S.paper,
+        },
+    ];
+
+    /// The law called `name` (see [`Friction::name`]) with the paper's constants.
+    pub fn by_name(name: &str) -> Option<Friction> {
+        Friction::LAWS.into_iter().find(|l| l.name() == name)
+    }
+
+    /// The names of all laws, `a, b, c or d`, for messages.
+    pub fn names() -> String {
+        one_of(Friction::LAWS.map(|l| l.name()))
+    }
+
+    /// The law's constants, each with its slot, in [`FRICTION_CONSTANTS`] order: what scene files
+    /// and flags may set for this law (anything else does not apply to it).
+    pub fn constants_mut(&mut self) -> Vec<(&'static FrictionConstant, &mut f64)> {
+        match self {
+            Friction::Coulomb => vec![],
+            Friction::Viscous { mu_v } => vec![(&MU_V, mu_v)],
+            Friction::Stribeck { v_s } => vec![(&V_S, v_s)],
+            Friction::SevenParameter {
+                mu_v,
+                v_s,
+                tau_d,
+                k_s,
+            } => vec![(&MU_V, mu_v), (&V_S, v_s), (&TAU_D, tau_d), (&K_S, k_s)],
+        }
+    }
+
+    /// The law's constants with their values, in [`FRICTION_CONSTANTS`] order.
+    pub fn constants(&self) -> Vec<(&'static FrictionConstant, f64)> {
+        let mut law = *self;
+        law.constants_mut()
+            .into_iter()
+            .map(|(c, v)| (c, *v))
+            .collect()
+    }
+
+    /// Sets the constant `key` (a [`FrictionConstant::key`]); `false` if the law has no such
+    /// constant.
+    pub fn set_constant(&mut self, key: &str, value: f64) -> bool {
+        match self.constants_mut().into_iter().find(|(c, _)| c.key == key) {
+            Some((_, slot)) => {
+                *slot = value;
+                true
+            }
+            None => false,
+        }
+    }
 }
+
+/// `a, b or c`: a list of names for messages.
+pub(crate) fn one_of<const N: usize>(names: [&str; N]) -> String {
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => names.join(""),
+    }
+}
+
+/// A constant of a friction law: its key in scene files (`--mu-v` style on the command line),
+/// the paper's section-3 value, and its range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrictionConstant {
+    /// Key in the scene file's `[friction]` table.
+    pub key: &'static str,
+    /// What it is.
+    pub meaning: &'static str,
+    /// The paper's section-3 value, taken where a scene leaves the constant out.
+    pub paper: f64,
+    /// Must be positive (else non-negative).
+    pub positive: bool,
+}
+
+impl FrictionConstant {
+    /// The command-line flag, without the dashes (`mu-v`).
+    pub fn flag(&self) -> String {
+        self.key.replace('_', "-")
+    }
+}
+
+/// Viscous coefficient `mu_v` (paper: 0.1).
+pub const MU_V: FrictionConstant = FrictionConstant {
+    key: "mu_v",
+    meaning: "viscous coefficient",
+    paper: 0.1,
+    positive: false,
+};
+/// Stribeck velocity `v_s` (paper: 0.1).
+pub const V_S: FrictionConstant = FrictionConstant {
+    key: "v_s",
+    meaning: "Stribeck velocity",
+    paper: 0.1,
+    positive: true,
+};
+/// Frictional-memory delay `tau_d` (paper: 0.05).
+pub const TAU_D: FrictionConstant = FrictionConstant {
+    key: "tau_d",
+    meaning: "frictional-memory delay",
+    paper: 0.05,
+    positive: false,
+};
+/// Pre-sliding stiffness `k_s` (paper: 4e4).
+pub const K_S: FrictionConstant = FrictionConstant {
+    key: "k_s",
+    meaning: "pre-sliding stiffness",
+    paper: 4e4,
+    positive: true,
+};
+/// Every friction constant, in the order scene files write them.
+pub const FRICTION_CONSTANTS: [FrictionConstant; 4] = [MU_V, V_S, TAU_D, K_S];
 
 /// Capsule and friction law: everything the plant needs besides the actuator force.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -16,7 +16,7 @@
 //! [friction]
 //! law = "coulomb" # default; or "viscous" (mu_v), "stribeck" (v_s),
 //!                 # "seven-parameter" (mu_v, v_s, tau_d, k_s); a constant the law uses and
-//!                 # the scene leaves out takes the paper's value (PAPER_MU_V, ...)
+//!                 # the scene leaves out takes the paper's value (model::FRICTION_CONSTANTS)
 //! [drive]
 //! alpha = 1.6     # amplitude        >= 0     default 0.8
 //! omega = 1.1     # frequency        > 0      default 0.95
@@ -41,7 +41,7 @@
 //! command_timeout_s = 0.1  # [1e-6, 1e6]
 //! ```
 
-use crate::model::{Capsule, Friction, Model, State};
+use crate::model::{Capsule, Friction, Model, State, FRICTION_CONSTANTS};
 use crate::solver::{Method, SolverConfig};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -158,10 +158,10 @@ pub enum Fault {
     #[error("must hold exactly 4 numbers x1, y1, x2, y2 (got {0})")]
     StateLength(usize),
     /// A friction law this model does not have.
-    #[error("unknown law `{0}` (coulomb, viscous, stribeck or seven-parameter)")]
+    #[error("unknown law `{0}` ({laws})", laws = Friction::names())]
     UnknownLaw(String),
     /// An integration method this solver does not have.
-    #[error("unknown method `{0}` (exact, adaptive or fixed)")]
+    #[error("unknown method `{0}` ({methods})", methods = Method::names())]
     UnknownMethod(String),
     /// A friction constant the chosen law does not use.
     #[error("not used by law `{0}`: remove it")]
@@ -358,6 +358,20 @@ struct FrictionSpec {
     tau_d: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     k_s: Option<f64>,
+}
+
+impl FrictionSpec {
+    /// The field of the [`FrictionConstant`] with key `key` (every key of
+    /// [`FRICTION_CONSTANTS`] has one: a test checks it).
+    fn slot(&mut self, key: &str) -> Option<&mut Option<f64>> {
+        match key {
+            "mu_v" => Some(&mut self.mu_v),
+            "v_s" => Some(&mut self.v_s),
+            "tau_d" => Some(&mut self.tau_d),
+            "k_s" => Some(&mut self.k_s),
+            _ => None,
+        }
+    }
 }
 
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -559,15 +573,6 @@ impl Default for Scene {
     }
 }
 
-/// The paper's section-3 friction constants: `mu_v = 0.1, v_s = 0.1, tau_d = 0.05, k_s = 4e4`.
-pub const PAPER_MU_V: f64 = 0.1;
-/// Stribeck velocity of the paper's section 3.
-pub const PAPER_V_S: f64 = 0.1;
-/// Frictional-memory delay of the paper's section 3.
-pub const PAPER_TAU_D: f64 = 0.05;
-/// Pre-sliding stiffness of the paper's section 3.
-pub const PAPER_K_S: f64 = 4e4;
-
 impl Scene {
     /// Parse and validate a scene from the bytes of a file; `file` names the source in errors.
     pub fn from_toml_bytes(bytes: &[u8], file: &str) -> Result<Self, SceneError> {
@@ -591,17 +596,15 @@ impl Scene {
     /// same scene.
     pub fn to_toml(&self) -> String {
         let m = &self.model;
-        let (mu_v, v_s, tau_d, k_s) = match m.friction {
-            Friction::Coulomb => (None, None, None, None),
-            Friction::Viscous { mu_v } => (Some(mu_v), None, None, None),
-            Friction::Stribeck { v_s } => (None, Some(v_s), None, None),
-            Friction::SevenParameter {
-                mu_v,
-                v_s,
-                tau_d,
-                k_s,
-            } => (Some(mu_v), Some(v_s), Some(tau_d), Some(k_s)),
+        let mut friction = FrictionSpec {
+            law: Some(m.friction.name().to_string()),
+            ..FrictionSpec::default()
         };
+        for (c, v) in m.friction.constants() {
+            if let Some(slot) = friction.slot(c.key) {
+                *slot = Some(v);
+            }
+        }
         let file = RawScene {
             name: Some(self.name.clone()),
             description: Some(self.description.clone()),
@@ -611,13 +614,7 @@ impl Scene {
                 delta: Some(m.capsule.delta),
                 xi: Some(m.capsule.xi),
             },
-            friction: FrictionSpec {
-                law: Some(m.friction.name().to_string()),
-                mu_v,
-                v_s,
-                tau_d,
-                k_s,
-            },
+            friction,
             drive: DriveSpec {
                 alpha: Some(self.drive.alpha),
                 omega: Some(self.drive.omega),
@@ -707,21 +704,18 @@ impl Scene {
                 Rule::Within(NODE_TIMEOUT_S),
             ),
         ];
-        match self.model.friction {
-            Friction::Coulomb => {}
-            Friction::Viscous { mu_v } => checks.push(("friction.mu_v", mu_v, Rule::NonNegative)),
-            Friction::Stribeck { v_s } => checks.push(("friction.v_s", v_s, Rule::Positive)),
-            Friction::SevenParameter {
-                mu_v,
-                v_s,
-                tau_d,
-                k_s,
-            } => {
-                checks.push(("friction.mu_v", mu_v, Rule::NonNegative));
-                checks.push(("friction.v_s", v_s, Rule::Positive));
-                checks.push(("friction.tau_d", tau_d, Rule::NonNegative));
-                checks.push(("friction.k_s", k_s, Rule::Positive));
-            }
+        let friction = self.model.friction.constants();
+        let keys: Vec<String> = friction
+            .iter()
+            .map(|(c, _)| format!("friction.{}", c.key))
+            .collect();
+        for ((c, v), key) in friction.iter().zip(&keys) {
+            let rule = if c.positive {
+                Rule::Positive
+            } else {
+                Rule::NonNegative
+            };
+            checks.push((key, *v, rule));
         }
         match self.solver.method {
             Method::Adaptive => checks.push(("solver.tol", self.solver.tol, Rule::Tolerance)),
@@ -814,7 +808,7 @@ fn parse(text: &str) -> Result<RawScene, Invalid> {
 }
 
 /// The file's values over the defaults.
-fn resolve(raw: RawScene, file: &str) -> Result<Scene, Invalid> {
+fn resolve(mut raw: RawScene, file: &str) -> Result<Scene, Invalid> {
     let d = Scene::default();
     let c = &raw.capsule;
     let capsule = Capsule {
@@ -825,21 +819,12 @@ fn resolve(raw: RawScene, file: &str) -> Result<Scene, Invalid> {
     };
     let model = Model {
         capsule,
-        friction: friction_from(&raw.friction)?,
+        friction: friction_from(&mut raw.friction)?,
     };
     let mut solver = SolverConfig::most_accurate_for(&model);
     if let Some(m) = &raw.solver.method {
-        solver.method = match m.as_str() {
-            "exact" => Method::Exact,
-            "adaptive" => Method::Adaptive,
-            "fixed" => Method::Fixed,
-            other => {
-                return Err(Invalid::new(
-                    "solver.method",
-                    Fault::UnknownMethod(other.to_string()),
-                ))
-            }
-        };
+        solver.method = Method::by_name(m)
+            .ok_or_else(|| Invalid::new("solver.method", Fault::UnknownMethod(m.to_string())))?;
     }
     solver.tol = raw.solver.tol.unwrap_or(solver.tol);
     solver.step = raw.solver.step.unwrap_or(solver.step);
@@ -928,46 +913,18 @@ impl Rule {
 }
 
 /// The law and its constants; a constant the law uses and the file leaves out is the paper's.
-fn friction_from(spec: &FrictionSpec) -> Result<Friction, Invalid> {
-    let law = spec.law.as_deref().unwrap_or("coulomb");
-    let friction = match law {
-        "coulomb" => Friction::Coulomb,
-        "viscous" => Friction::Viscous {
-            mu_v: spec.mu_v.unwrap_or(PAPER_MU_V),
-        },
-        "stribeck" => Friction::Stribeck {
-            v_s: spec.v_s.unwrap_or(PAPER_V_S),
-        },
-        "seven-parameter" => Friction::SevenParameter {
-            mu_v: spec.mu_v.unwrap_or(PAPER_MU_V),
-            v_s: spec.v_s.unwrap_or(PAPER_V_S),
-            tau_d: spec.tau_d.unwrap_or(PAPER_TAU_D),
-            k_s: spec.k_s.unwrap_or(PAPER_K_S),
-        },
-        other => {
-            return Err(Invalid::new(
-                "friction.law",
-                Fault::UnknownLaw(other.to_string()),
-            ))
-        }
-    };
-    let used = |name: &str| match friction {
-        Friction::Coulomb => false,
-        Friction::Viscous { .. } => name == "mu_v",
-        Friction::Stribeck { .. } => name == "v_s",
-        Friction::SevenParameter { .. } => true,
-    };
-    for (name, v) in [
-        ("mu_v", spec.mu_v),
-        ("v_s", spec.v_s),
-        ("tau_d", spec.tau_d),
-        ("k_s", spec.k_s),
-    ] {
-        if v.is_some() && !used(name) {
-            return Err(Invalid::new(
-                format!("friction.{name}"),
-                Fault::NotUsedByLaw(friction.name()),
-            ));
+fn friction_from(spec: &mut FrictionSpec) -> Result<Friction, Invalid> {
+    let law = spec.law.as_deref().unwrap_or(Friction::Coulomb.name());
+    let mut friction = Friction::by_name(law)
+        .ok_or_else(|| Invalid::new("friction.law", Fault::UnknownLaw(law.to_string())))?;
+    for c in &FRICTION_CONSTANTS {
+        if let Some(v) = spec.slot(c.key).and_then(|v| *v) {
+            if !friction.set_constant(c.key, v) {
+                return Err(Invalid::new(
+                    format!("friction.{}", c.key),
+                    Fault::NotUsedByLaw(friction.name()),
+                ));
+            }
         }
     }
     Ok(friction)
@@ -1030,6 +987,40 @@ mod tests {
                 periods: 30,
                 transient: 20
             }
+        );
+    }
+
+    #[test]
+    fn every_law_of_the_table_reads_back_with_its_constants_and_refuses_others() {
+        for c in &FRICTION_CONSTANTS {
+            assert!(FrictionSpec::default().slot(c.key).is_some(), "{}", c.key);
+        }
+        for law in Friction::LAWS {
+            assert_eq!(Friction::by_name(law.name()), Some(law));
+            let mut s = Scene::default();
+            s.model.friction = law;
+            s.solver = SolverConfig::most_accurate_for(&s.model);
+            let back = Scene::from_toml_str(&s.to_toml(), "t.toml").map_err(|e| e.to_string());
+            assert_eq!(back.map(|b| b.model.friction), Ok(law));
+            let used: Vec<&str> = law.constants().iter().map(|(c, _)| c.key).collect();
+            for c in &FRICTION_CONSTANTS {
+                let text = format!("[friction]\nlaw = \"{}\"\n{} = 0.5\n", law.name(), c.key);
+                let got = Scene::from_toml_str(&text, "t.toml").map(|s| s.model.friction);
+                if used.contains(&c.key) {
+                    let mut want = law;
+                    assert!(want.set_constant(c.key, 0.5));
+                    assert_eq!(got.map_err(|e| e.to_string()), Ok(want));
+                } else {
+                    let e = got.err().map(|e| e.to_string()).unwrap_or_default();
+                    assert!(e.contains(&format!("friction.{}", c.key)), "{e}");
+                }
+            }
+        }
+        let e = Scene::from_toml_str("[friction]\nlaw = \"dry\"\n", "t.toml").err();
+        let e = e.map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            e.contains("coulomb, viscous, stribeck or seven-parameter"),
+            "{e}"
         );
     }
 

@@ -45,6 +45,19 @@ impl Method {
             Method::Fixed => "fixed",
         }
     }
+
+    /// Every method, in the order the command line lists them.
+    pub const ALL: [Method; 3] = [Method::Exact, Method::Adaptive, Method::Fixed];
+
+    /// The method called `name` (see [`Method::name`]).
+    pub fn by_name(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The names of all methods, `a, b or c`, for messages.
+    pub fn names() -> String {
+        crate::model::one_of(Method::ALL.map(Method::name))
+    }
 }
 
 /// How to integrate.
