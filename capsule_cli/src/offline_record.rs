@@ -2,10 +2,12 @@
 //! the same tools (Foxglove, `ros2 bag`, `capsule record info`) read simulations and live runs.
 
 use anyhow::{Context, Result};
+use capsule_msgs::names::{default_topics, type_names};
+use capsule_msgs::std_types::Clock;
 use capsule_msgs::{CapsuleState, Header, Time};
 use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
-use capsule_record::types::{names, Clock, OfferedQos};
+use capsule_record::types::OfferedQos;
 use capsule_record::writer::now_ns;
 use capsule_record::{cdr, BagOptions, BagWriter, SceneRecord, WriterOptions};
 use std::path::Path;
@@ -30,8 +32,16 @@ pub fn write(
     };
     let mut w = BagWriter::create(path, options, bag)
         .with_context(|| format!("cannot record to {}", path.display()))?;
-    let state_ch = w.add_topic("/capsule/state", names::STATE, &OfferedQos::reliable(16))?;
-    let clock_ch = w.add_topic("/clock", names::CLOCK, &OfferedQos::reliable(1))?;
+    let state_ch = w.add_topic(
+        default_topics::STATE,
+        type_names::STATE,
+        &OfferedQos::reliable(16),
+    )?;
+    let clock_ch = w.add_topic(
+        default_topics::CLOCK,
+        type_names::CLOCK,
+        &OfferedQos::reliable(1),
+    )?;
     let p = &scene.physical;
     let (l, v, f, t) = (p.length_m(), p.velocity_m_per_s(), p.force_n(), p.time_s());
     for (seq, s) in rows.iter().enumerate() {

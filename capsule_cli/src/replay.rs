@@ -3,6 +3,8 @@
 //! `--check-controller`, re-drive the controller library offline from the recorded states and
 //! mode changes and compare its commands with the recorded ones.
 
+use capsule_msgs::names::type_names;
+use capsule_msgs::std_types::Clock;
 use std::{
     collections::BTreeMap,
     path::PathBuf,
@@ -21,7 +23,7 @@ use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,
     messages::Message,
-    types::{names, Clock, ServiceEventInfo, SetModeEvent},
+    types::{ServiceEventInfo, SetModeEvent},
 };
 use clap::Args as ClapArgs;
 
@@ -184,9 +186,9 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
             Some(x) => x,
             None => bail!("{}: type {} is not pkg/msg/Type", m.topic, m.type_name),
         };
-        let q = if m.type_name == names::CLOCK {
+        let q = if m.type_name == type_names::CLOCK {
             qos::clock()
-        } else if m.type_name == names::SET_MODE_EVENT {
+        } else if m.type_name == type_names::SET_MODE_EVENT {
             qos::service()
         } else {
             qos::data()
@@ -196,11 +198,11 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
             .create_topic(&name_ros, ros2_client::MessageTypeName::new(pkg, name), &q)
             .with_context(|| format!("topic {}", m.topic))?;
         let p = match m.type_name.as_str() {
-            names::STATE => Pub::State(node.create_publisher(&topic, None)?),
-            names::FORCE => Pub::Force(node.create_publisher(&topic, None)?),
-            names::STATUS => Pub::Status(node.create_publisher(&topic, None)?),
-            names::CLOCK => Pub::Clock(node.create_publisher(&topic, None)?),
-            names::SET_MODE_EVENT => Pub::Event(node.create_publisher(&topic, None)?),
+            type_names::STATE => Pub::State(node.create_publisher(&topic, None)?),
+            type_names::FORCE => Pub::Force(node.create_publisher(&topic, None)?),
+            type_names::STATUS => Pub::Status(node.create_publisher(&topic, None)?),
+            type_names::CLOCK => Pub::Clock(node.create_publisher(&topic, None)?),
+            type_names::SET_MODE_EVENT => Pub::Event(node.create_publisher(&topic, None)?),
             other => bail!("{}: cannot replay type {other}", m.topic),
         };
         pubs.insert(m.topic.clone(), p);
@@ -282,7 +284,7 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
     // the mode in force at the start: the controller's first status, else the scene's gain
     let first_status = msgs
         .iter()
-        .find(|m| m.type_name == names::STATUS)
+        .find(|m| m.type_name == type_names::STATUS)
         .map(|m| cdr::decode::<ControllerStatus>(&m.data))
         .transpose()?;
     let (mode, kp) = match &first_status {
@@ -313,18 +315,18 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
     // a loaded system can be a sample away from where the controller applied it.
     for m in msgs {
         match m.type_name.as_str() {
-            names::STATE => {
+            type_names::STATE => {
                 let s: CapsuleState = cdr::decode(&m.data)?;
                 let now = (m.log_time - t0) as f64 * 1e-9;
                 if let Some(cmd) = core.on_state(&s, now) {
                     ours.entry(cmd.state_seq).or_insert(cmd.force);
                 }
             }
-            names::FORCE => {
+            type_names::FORCE => {
                 let f: ActuatorForce = cdr::decode(&m.data)?;
                 recorded.entry(f.state_seq).or_insert(f.force);
             }
-            names::SET_MODE_EVENT => {
+            type_names::SET_MODE_EVENT => {
                 let e: SetModeEvent = cdr::decode(&m.data)?;
                 let key = (e.info.client_gid, e.info.sequence_number);
                 if e.info.event_type == ServiceEventInfo::REQUEST_RECEIVED {

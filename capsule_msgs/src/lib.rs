@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 pub mod interface;
+pub mod names;
 pub mod std_types;
 
 pub use interface::RosInterface;

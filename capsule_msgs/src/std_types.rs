@@ -1,10 +1,18 @@
 //! Standard ROS 2 message types the capsule's views publish (`sensor_msgs/JointState`,
-//! `tf2_msgs/TFMessage`, `std_msgs/String`, `diagnostic_msgs/DiagnosticArray`), as plain serde
+//! `tf2_msgs/TFMessage`, `std_msgs/String`, `diagnostic_msgs/DiagnosticArray`) and the clock
+//! (`rosgraph_msgs/Clock`), as plain serde
 //! types in the field order and CDR layout of their `.msg` files (ROS 2 Jazzy).
 
 use serde::{Deserialize, Serialize};
 
-use crate::Header;
+use crate::{Header, Time};
+
+/// `rosgraph_msgs/msg/Clock`: the simulation time on `/clock`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Clock {
+    /// The current simulation time.
+    pub clock: Time,
+}
 
 /// `sensor_msgs/JointState`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

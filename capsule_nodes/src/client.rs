@@ -1,13 +1,14 @@
 //! A small ROS client of the capsule graph: mode requests (with retries) and the demo's
 //! segment-by-segment progression measurement.
 
+use capsule_msgs::names::topics;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use ros2_client::{service::Client, Node};
 
-use crate::ros::{names, qos, types, RosSettings, Wire};
+use crate::ros::{qos, types, RosSettings, Wire};
 
 /// The `effective_from` of a request to switch at sim time `at_s` [s] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used
@@ -153,7 +154,7 @@ pub fn state_subscription(
     node: &mut Node,
     settings: &RosSettings,
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
-    let topic = settings.topic(node, names::STATE, types::state(), &qos::data())?;
+    let topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
     node.create_subscription::<CapsuleState>(&topic, Some(qos::data_reader()))
         .context("state subscription")
 }

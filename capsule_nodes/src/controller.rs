@@ -10,6 +10,7 @@
 //! time (sim time under `use_sim_time`). The stale-state watchdog runs on a steady clock,
 //! because sim time stops when the plant does.
 
+use capsule_msgs::names::topics;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
@@ -27,7 +28,7 @@ use crate::{
     command_feedback::CommandFeedback,
     conflicts::TopicRule,
     plant_identity::{PlantIdentity, Source},
-    ros::{names, qos, types, RosSettings, Wire},
+    ros::{qos, types, RosSettings, Wire},
     scale::Scale,
     throttle::Throttle,
 };
@@ -326,9 +327,9 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
     let clock = crate::graph::RosClock::new(&settings, &mut node)?;
-    let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
-    let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
-    let status_topic = settings.topic(&node, names::STATUS, types::status(), &qos::data())?;
+    let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
+    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
+    let status_topic = settings.topic(&node, topics::STATUS, types::status(), &qos::data())?;
     let state_sub = node
         .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
         .context("state subscription")?;
@@ -355,13 +356,13 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
         vec![
             TopicRule::new(
                 &state_topic,
-                settings.resolve_name(names::STATE),
+                settings.resolve_name(topics::STATE),
                 usize::MAX,
                 "",
             ),
             TopicRule::new(
                 &force_topic,
-                settings.resolve_name(names::FORCE),
+                settings.resolve_name(topics::FORCE),
                 0,
                 "ANOTHER CONTROLLER commands the plant too: commands interleave",
             ),
@@ -370,7 +371,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let server = node
         .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
             settings.mapping.into(),
-            &settings.ros_name(names::SET_MODE)?,
+            &settings.ros_name(topics::SET_MODE)?,
             &types::set_mode(),
             qos::service(),
             qos::service(),
@@ -392,10 +393,10 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     info!(
         "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
         settings.describe(),
-        settings.resolve_name(names::STATE),
-        settings.resolve_name(names::FORCE),
-        settings.resolve_name(names::STATUS),
-        settings.resolve_name(names::SET_MODE),
+        settings.resolve_name(topics::STATE),
+        settings.resolve_name(topics::FORCE),
+        settings.resolve_name(topics::STATUS),
+        settings.resolve_name(topics::SET_MODE),
         core.mode(),
         core.law().kp
     );
@@ -430,7 +431,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                             if second_plant_log.tick() {
                                 warn!(
                                     "A SECOND PLANT publishes {} (seq {}) while the first does: both apply every command; its samples are ignored ({} so far)",
-                                    settings.resolve_name(names::STATE),
+                                    settings.resolve_name(topics::STATE),
                                     state.seq,
                                     plants.ignored()
                                 );

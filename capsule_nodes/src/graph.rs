@@ -12,6 +12,8 @@
 //! nodes serve their own in either mapping ([`crate::param_services`]). The command-line tools
 //! (`capsule_ros`, `capsule replay`) keep the Spinner.
 
+use capsule_msgs::names::topics;
+use capsule_msgs::std_types::Clock;
 use std::{
     collections::{HashMap, HashSet},
     sync::{
@@ -28,7 +30,7 @@ use ros2_client::Node;
 use rustdds::{DomainParticipant, DomainParticipantStatusEvent, RTPSEntity, StatusEvented, GUID};
 use tokio::sync::watch;
 
-use crate::ros::{names, qos, types, Clock, RosSettings};
+use crate::ros::{qos, types, RosSettings};
 
 #[derive(Debug, Default)]
 struct Matches {
@@ -232,7 +234,7 @@ impl RosClock {
         if !settings.use_sim_time {
             return Ok(RosClock { sim_nanos: None });
         }
-        let topic = settings.topic(node, names::CLOCK, types::clock(), &qos::clock())?;
+        let topic = settings.topic(node, topics::CLOCK, types::clock(), &qos::clock())?;
         // best effort, like rclcpp's and rclpy's time source
         let sub = node
             .create_subscription::<Clock>(&topic, Some(qos::clock_reader()))

@@ -20,6 +20,8 @@
 //! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
 //! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
 
+use capsule_msgs::names::topics;
+use capsule_msgs::std_types::Clock;
 use std::{
     collections::VecDeque,
     time::{Duration, Instant},
@@ -36,7 +38,7 @@ use crate::{
     graph::Graph,
     latency::LatencyHistogram,
     recorder::{drain_into, graph_topics, Channel, GraphRecording},
-    ros::{names, qos, types, Clock, RosSettings},
+    ros::{qos, types, RosSettings},
     scale::Scale,
     throttle::Throttle,
 };
@@ -598,9 +600,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
         .transpose()?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
-    let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
-    let clock_topic = settings.topic(&node, names::CLOCK, types::clock(), &qos::clock())?;
+    let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
+    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
+    let clock_topic = settings.topic(&node, topics::CLOCK, types::clock(), &qos::clock())?;
     let io = Endpoints {
         state_pub: node
             .create_publisher::<CapsuleState>(&state_topic, None)
@@ -627,7 +629,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
         vec![
             TopicRule::new(
                 &state_topic,
-                settings.resolve_name(names::STATE),
+                settings.resolve_name(topics::STATE),
                 0,
                 "ANOTHER PLANT: both apply every command the controller sends",
             ),
@@ -635,7 +637,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
             // until its lease ends, and its successor would look like a second one
             TopicRule::new(
                 &force_topic,
-                settings.resolve_name(names::FORCE),
+                settings.resolve_name(topics::FORCE),
                 usize::MAX,
                 "",
             ),
@@ -679,9 +681,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
         settings.describe(),
         opts.pacing,
         core.rate_hz,
-        settings.resolve_name(names::STATE),
-        settings.resolve_name(names::FORCE),
-        settings.resolve_name(names::CLOCK),
+        settings.resolve_name(topics::STATE),
+        settings.resolve_name(topics::FORCE),
+        settings.resolve_name(topics::CLOCK),
     );
 
     if opts.wait_subscribers > 0 {
@@ -694,7 +696,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
                 "only {} of {} subscribers matched {} within {:?}",
                 graph.subscribers(writer),
                 opts.wait_subscribers,
-                settings.resolve_name(names::STATE),
+                settings.resolve_name(topics::STATE),
                 opts.startup_timeout
             );
         }

@@ -12,6 +12,8 @@
 //! (`--wait-subscribers`). Chunks close every `flush_period` of wall time and every 0.5 s of
 //! log time, so a SIGKILL loses at most that much; SIGINT / SIGTERM finish the file.
 
+use capsule_msgs::names::{topics, type_names};
+use capsule_msgs::std_types::Clock;
 use std::{
     collections::BTreeMap,
     path::{Path, PathBuf},
@@ -22,14 +24,14 @@ use anyhow::{Context as _, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::{
     cdr,
-    types::{names as rtypes, Clock, OfferedQos, SetModeEvent},
+    types::{OfferedQos, SetModeEvent},
     BagOptions, BagWriter, ChannelId, ChunkCompression, SceneRecord, WriterOptions,
 };
 use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
 use tracing::{info, warn};
 
-use crate::ros::{names, qos, types, RosSettings};
+use crate::ros::{qos, types, RosSettings};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -206,33 +208,33 @@ pub fn graph_topics(
 ); 5] {
     [
         (
-            names::STATE.to_string(),
+            topics::STATE.to_string(),
             types::state(),
-            rtypes::STATE,
+            type_names::STATE,
             qos::data(),
         ),
         (
-            names::FORCE.to_string(),
+            topics::FORCE.to_string(),
             types::force(),
-            rtypes::FORCE,
+            type_names::FORCE,
             qos::data(),
         ),
         (
             format!("{controller_node}/status"),
             types::status(),
-            rtypes::STATUS,
+            type_names::STATUS,
             qos::data(),
         ),
         (
-            names::CLOCK.to_string(),
+            topics::CLOCK.to_string(),
             types::clock(),
-            rtypes::CLOCK,
+            type_names::CLOCK,
             qos::clock(),
         ),
         (
             service_event_topic(controller_node),
             service_event_type(),
-            rtypes::SET_MODE_EVENT,
+            type_names::SET_MODE_EVENT,
             qos::service(),
         ),
     ]
@@ -270,7 +272,7 @@ impl GraphRecording {
         for (name, _, ros_type, _) in graph_topics(controller_node) {
             let full = settings.resolve_name(&name);
             // the QoS the capsule nodes offer (reliable, volatile, keep last)
-            let depth = if ros_type == rtypes::CLOCK { 1 } else { 16 };
+            let depth = if ros_type == type_names::CLOCK { 1 } else { 16 };
             let id = writer.add_topic(&full, ros_type, &OfferedQos::reliable(depth))?;
             channels.push((id, full, 0));
         }

@@ -1,5 +1,6 @@
 //! ROS 2 plumbing shared by the nodes: the ROS environment conventions (domain, discovery
-//! range, RMW service mapping), node names and remapping, QoS, and the DDS participant.
+//! range, RMW service mapping), node names and remapping, QoS, and the DDS participant. The
+//! names themselves are [`capsule_msgs::names`].
 
 use std::{collections::BTreeMap, net::Ipv4Addr, time::Duration};
 
@@ -334,49 +335,35 @@ pub struct Wire<T>(pub T);
 
 impl<T: Serialize + DeserializeOwned> Message for Wire<T> {}
 
-/// `rosgraph_msgs/msg/Clock`.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
-pub struct Clock {
-    /// The current (simulation) time.
-    pub clock: capsule_msgs::Time,
-}
-
-/// Default names of the capsule graph (relative, so a namespace moves them all).
-pub mod names {
-    /// Plant state topic.
-    pub const STATE: &str = "capsule/state";
-    /// Force command topic.
-    pub const FORCE: &str = "capsule/actuator_force";
-    /// Controller status topic (private to the controller node).
-    pub const STATUS: &str = "~/status";
-    /// Mode service (private to the controller node).
-    pub const SET_MODE: &str = "~/set_mode";
-    /// Simulation clock (absolute, as in ROS).
-    pub const CLOCK: &str = "/clock";
-}
-
-/// ROS type names of the capsule interfaces.
+/// ROS type names of the capsule interfaces, as ros2-client takes them (from
+/// [`capsule_msgs::names::type_names`]).
 pub mod types {
     use super::*;
+    use capsule_msgs::names::type_names::{self as n, split};
+    fn message(full: &str) -> MessageTypeName {
+        let (package, name) = split(full);
+        MessageTypeName::new(package, name)
+    }
     /// `capsule_msgs/msg/CapsuleState`.
     pub fn state() -> MessageTypeName {
-        MessageTypeName::new("capsule_msgs", "CapsuleState")
+        message(n::STATE)
     }
     /// `capsule_msgs/msg/ActuatorForce`.
     pub fn force() -> MessageTypeName {
-        MessageTypeName::new("capsule_msgs", "ActuatorForce")
+        message(n::FORCE)
     }
     /// `capsule_msgs/msg/ControllerStatus`.
     pub fn status() -> MessageTypeName {
-        MessageTypeName::new("capsule_msgs", "ControllerStatus")
+        message(n::STATUS)
     }
     /// `rosgraph_msgs/msg/Clock`.
     pub fn clock() -> MessageTypeName {
-        MessageTypeName::new("rosgraph_msgs", "Clock")
+        message(n::CLOCK)
     }
     /// `capsule_msgs/srv/SetMode`.
     pub fn set_mode() -> ServiceTypeName {
-        ServiceTypeName::new("capsule_msgs", "SetMode")
+        let (package, name) = split(n::SET_MODE);
+        ServiceTypeName::new(package, name)
     }
 }
 
@@ -473,6 +460,7 @@ pub async fn shutdown_signal() -> Result<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use capsule_msgs::names::topics;
     use clap::Parser;
 
     #[derive(Parser)]
@@ -546,12 +534,12 @@ mod tests {
     #[test]
     fn names_resolve_with_namespace_private_names_and_remaps() -> Result<()> {
         let s = settings(&[], RosEnv::default())?;
-        assert_eq!(s.resolve_name(names::STATE), "/capsule/state");
+        assert_eq!(s.resolve_name(topics::STATE), "/capsule/state");
         assert_eq!(
-            s.resolve_name(names::SET_MODE),
+            s.resolve_name(topics::SET_MODE),
             "/capsule_controller/set_mode"
         );
-        assert_eq!(s.resolve_name(names::CLOCK), "/clock");
+        assert_eq!(s.resolve_name(topics::CLOCK), "/clock");
         let s = settings(
             &[
                 "--namespace",
@@ -563,13 +551,13 @@ mod tests {
             ],
             RosEnv::default(),
         )?;
-        assert_eq!(s.resolve_name(names::STATE), "/sim/state");
+        assert_eq!(s.resolve_name(topics::STATE), "/sim/state");
         assert_eq!(
-            s.resolve_name(names::FORCE),
+            s.resolve_name(topics::FORCE),
             "/robot1/capsule/actuator_force"
         );
-        assert_eq!(s.resolve_name(names::STATUS), "/robot1/ctl/status");
-        assert_eq!(s.resolve_name(names::CLOCK), "/clock");
+        assert_eq!(s.resolve_name(topics::STATUS), "/robot1/ctl/status");
+        assert_eq!(s.resolve_name(topics::CLOCK), "/clock");
         Ok(())
     }
 }

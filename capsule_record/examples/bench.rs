@@ -7,17 +7,15 @@
 //!
 //!     cargo run --release -p capsule_record --example bench -- [DIR] [SIZE_MIB]
 
+use capsule_msgs::names::{default_topics, type_names};
+use capsule_msgs::std_types::Clock;
 use std::{
     path::{Path, PathBuf},
     time::Instant,
 };
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
-use capsule_record::{
-    cdr,
-    types::{names, topics, Clock, OfferedQos},
-    RecordError, RecordWriter, WriterOptions,
-};
+use capsule_record::{cdr, types::OfferedQos, RecordError, RecordWriter, WriterOptions};
 
 fn cpu_s() -> f64 {
     // user + system time of this process, from /proc (Linux)
@@ -43,9 +41,9 @@ fn write(
         },
     )?;
     let q = OfferedQos::reliable(16);
-    let s = w.add_topic(topics::STATE, names::STATE, &q)?;
-    let f = w.add_topic(topics::FORCE, names::FORCE, &q)?;
-    let c = w.add_topic(topics::CLOCK, names::CLOCK, &q)?;
+    let s = w.add_topic(default_topics::STATE, type_names::STATE, &q)?;
+    let f = w.add_topic(default_topics::FORCE, type_names::FORCE, &q)?;
+    let c = w.add_topic(default_topics::CLOCK, type_names::CLOCK, &q)?;
     let t0 = 1_700_000_000_000_000_000u64;
     let dt = 1_000_000_000 / rate_hz;
     let mut bytes = 0u64;

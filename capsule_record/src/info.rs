@@ -1,6 +1,7 @@
 //! `capsule record info`: what a recording holds, from the summary section (a few small reads,
 //! whatever the file size); a full scan only for files written without one.
 
+use capsule_msgs::names::type_names;
 use std::{
     collections::BTreeMap,
     io::{Read, Seek, SeekFrom},
@@ -18,7 +19,7 @@ use crate::{
     cdr,
     open::{check_channel, corrupt, open_checked, parse_whole, read_at, read_header},
     scan::{chunk_records, scan},
-    types::{names, SetModeEvent},
+    types::SetModeEvent,
     writer::{CAPSULE_METADATA, QOS_KEY, SCENE_ATTACHMENT},
     RecordError,
 };
@@ -155,7 +156,7 @@ pub fn info(path: &Path) -> Result<RecordingInfo, RecordError> {
             .map(|s| (s.name.as_str(), s.encoding.as_str()));
         check_channel(path, &ch.topic, schema, &ch.message_encoding)?;
         let type_name = schema.map(|s| s.0).unwrap_or_default().to_string();
-        if type_name == names::SET_MODE_EVENT {
+        if type_name == type_names::SET_MODE_EVENT {
             event_channels.push(*id);
         }
         topics.push(TopicInfo {
@@ -265,7 +266,7 @@ fn info_by_scan(
         .filter(|(_, c)| {
             scan.schemas
                 .get(&c.schema_id)
-                .is_some_and(|s| s.name == names::SET_MODE_EVENT)
+                .is_some_and(|s| s.name == type_names::SET_MODE_EVENT)
         })
         .map(|(id, _)| *id)
         .collect();

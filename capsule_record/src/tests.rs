@@ -1,5 +1,6 @@
 //! Writer -> reader -> recovery round trips on temporary files.
 
+use capsule_msgs::names::{default_topics, type_names};
 use std::path::PathBuf;
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, SetModeRequest, SetModeResponse, Time};
@@ -10,7 +11,7 @@ use crate::{
     messages::messages,
     recover,
     scan::chunk_records,
-    types::{names, topics, OfferedQos, ServiceEventInfo, SetModeEvent},
+    types::{OfferedQos, ServiceEventInfo, SetModeEvent},
     writer::ChunkCompression,
     RecordError, RecordWriter, SceneRecord, WriterOptions,
 };
@@ -59,11 +60,19 @@ fn write_with(
             ..options
         },
     )?;
-    let s = w.add_topic(topics::STATE, names::STATE, &OfferedQos::reliable(10))?;
-    let f = w.add_topic(topics::FORCE, names::FORCE, &OfferedQos::reliable(10))?;
+    let s = w.add_topic(
+        default_topics::STATE,
+        type_names::STATE,
+        &OfferedQos::reliable(10),
+    )?;
+    let f = w.add_topic(
+        default_topics::FORCE,
+        type_names::FORCE,
+        &OfferedQos::reliable(10),
+    )?;
     let e = w.add_topic(
-        topics::SET_MODE_EVENT,
-        names::SET_MODE_EVENT,
+        default_topics::SET_MODE_EVENT,
+        type_names::SET_MODE_EVENT,
         &OfferedQos::reliable(1000),
     )?;
     for i in 1..=n {
@@ -125,9 +134,9 @@ fn info_reads_the_summary_with_counts_modes_and_scene() {
     assert_eq!(
         counts,
         [
-            (topics::FORCE, 2000),
-            (topics::STATE, 2000),
-            (topics::SET_MODE_EVENT, 1)
+            (default_topics::FORCE, 2000),
+            (default_topics::STATE, 2000),
+            (default_topics::SET_MODE_EVENT, 1)
         ]
     );
     assert!(i.topics.iter().all(|t| t.qos.is_some()));
@@ -148,7 +157,7 @@ fn messages_come_back_in_order_with_their_values() {
     let all = messages(&p).unwrap_or_else(|e| panic!("{e}"));
     let states: Vec<CapsuleState> = all
         .iter()
-        .filter(|m| m.topic == topics::STATE)
+        .filter(|m| m.topic == default_topics::STATE)
         .map(|m| cdr::decode(&m.data).unwrap_or_default())
         .collect();
     assert_eq!(states.len(), 300);
@@ -465,7 +474,11 @@ fn split_by_duration_and_size_gives_numbered_files_and_one_metadata_yaml() {
         let mut w = BagWriter::create(&path, WriterOptions::default(), bag)
             .unwrap_or_else(|e| panic!("{e}"));
         let s = w
-            .add_topic(topics::STATE, names::STATE, &OfferedQos::reliable(10))
+            .add_topic(
+                default_topics::STATE,
+                type_names::STATE,
+                &OfferedQos::reliable(10),
+            )
             .unwrap_or_else(|e| panic!("{e}"));
         for i in 1..=4500u64 {
             let t = 1_000_000_000 + i * 1_000_000;

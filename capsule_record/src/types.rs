@@ -1,19 +1,13 @@
 //! The ROS 2 types a capsule recording holds, their `ros2msg` schemas, the service-event type
-//! (ROS 2 service introspection), `/clock`, and the QoS text rosbag2 writes on every channel.
+//! (ROS 2 service introspection), and the QoS text rosbag2 writes on every channel.
 
 use capsule_msgs::{
     interface::{nested_definition, ros2msg_text},
+    names::type_names,
     ActuatorForce, CapsuleState, ControllerStatus, RosInterface, SetModeRequest, SetModeResponse,
     Time,
 };
 use serde::{Deserialize, Serialize};
-
-/// `rosgraph_msgs/msg/Clock`: the simulation time on `/clock`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-pub struct Clock {
-    /// The current simulation time.
-    pub clock: Time,
-}
 
 /// `service_msgs/msg/ServiceEventInfo` (ROS 2 Jazzy): what a service event reports.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -64,34 +58,6 @@ pub const SET_MODE_EVENT_MSG: &str = "service_msgs/ServiceEventInfo info\ncapsul
 /// `rosgraph_msgs/msg/Clock` text.
 pub const CLOCK_MSG: &str = "builtin_interfaces/Time clock\n";
 
-/// ROS 2 type names (`pkg/msg/Type`) of every type a capsule recording holds.
-pub mod names {
-    /// `/capsule/state`.
-    pub const STATE: &str = "capsule_msgs/msg/CapsuleState";
-    /// `/capsule/actuator_force`.
-    pub const FORCE: &str = "capsule_msgs/msg/ActuatorForce";
-    /// `/capsule_controller/status`.
-    pub const STATUS: &str = "capsule_msgs/msg/ControllerStatus";
-    /// `/clock`.
-    pub const CLOCK: &str = "rosgraph_msgs/msg/Clock";
-    /// `/capsule_controller/set_mode/_service_event`.
-    pub const SET_MODE_EVENT: &str = "capsule_msgs/msg/SetModeEvent";
-}
-
-/// The topic names of a default capsule graph.
-pub mod topics {
-    /// Plant state.
-    pub const STATE: &str = "/capsule/state";
-    /// Force commands.
-    pub const FORCE: &str = "/capsule/actuator_force";
-    /// Controller status.
-    pub const STATUS: &str = "/capsule_controller/status";
-    /// Simulation clock.
-    pub const CLOCK: &str = "/clock";
-    /// Mode changes (service introspection of `/capsule_controller/set_mode`).
-    pub const SET_MODE_EVENT: &str = "/capsule_controller/set_mode/_service_event";
-}
-
 /// The text of a nested type a recording's schemas name, by its spelling in a field.
 fn nested_text(spelled: &str) -> Option<&'static str> {
     match spelled {
@@ -106,11 +72,11 @@ fn nested_text(spelled: &str) -> Option<&'static str> {
 /// the field spells it: see [`ros2msg_text`]) of a type this crate knows, or `None`.
 pub fn ros2msg_schema(type_name: &str) -> Option<String> {
     let (root, package) = match type_name {
-        names::STATE => return Some(CapsuleState::ros2msg_schema()),
-        names::FORCE => return Some(ActuatorForce::ros2msg_schema()),
-        names::STATUS => return Some(ControllerStatus::ros2msg_schema()),
-        names::CLOCK => (CLOCK_MSG, "rosgraph_msgs"),
-        names::SET_MODE_EVENT => (SET_MODE_EVENT_MSG, "capsule_msgs"),
+        type_names::STATE => return Some(CapsuleState::ros2msg_schema()),
+        type_names::FORCE => return Some(ActuatorForce::ros2msg_schema()),
+        type_names::STATUS => return Some(ControllerStatus::ros2msg_schema()),
+        type_names::CLOCK => (CLOCK_MSG, "rosgraph_msgs"),
+        type_names::SET_MODE_EVENT => (SET_MODE_EVENT_MSG, "capsule_msgs"),
         _ => return None,
     };
     Some(ros2msg_text(root, package, &nested_text))
@@ -118,11 +84,11 @@ pub fn ros2msg_schema(type_name: &str) -> Option<String> {
 
 /// Every type name [`ros2msg_schema`] knows.
 pub const KNOWN_TYPES: [&str; 5] = [
-    names::STATE,
-    names::FORCE,
-    names::STATUS,
-    names::CLOCK,
-    names::SET_MODE_EVENT,
+    type_names::STATE,
+    type_names::FORCE,
+    type_names::STATUS,
+    type_names::CLOCK,
+    type_names::SET_MODE_EVENT,
 ];
 
 /// Reliability of an offered QoS profile.
@@ -190,7 +156,7 @@ mod tests {
 
     #[test]
     fn state_schema_appends_header_then_time() {
-        let s = ros2msg_schema(names::STATE).unwrap_or_default();
+        let s = ros2msg_schema(type_names::STATE).unwrap_or_default();
         let h = s.find("\nMSG: std_msgs/Header\n").unwrap_or(usize::MAX);
         let t = s
             .find("\nMSG: builtin_interfaces/Time\n")

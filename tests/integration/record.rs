@@ -4,13 +4,15 @@
 //! .ci/record-setup.sh), and `capsule record info|recover` on good and bad files (needs
 //! `cargo build -p capsule_cli` first).
 
+use capsule_msgs::names::{default_topics, type_names};
+use capsule_msgs::std_types::Clock;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, SetModeRequest, SetModeResponse, Time};
 use capsule_record::{
     cdr,
-    types::{names, ros2msg_schema, topics, Clock, OfferedQos, ServiceEventInfo, SetModeEvent},
+    types::{ros2msg_schema, OfferedQos, ServiceEventInfo, SetModeEvent},
     ChunkCompression, RecordWriter, SceneRecord, WriterOptions,
 };
 use serde_json::Value;
@@ -183,10 +185,10 @@ fn write_run_with(path: &Path, n: u64, finish: bool, options: &WriterOptions, ol
                 w.add_topic(topic, ty, &q)
             }
         };
-        let s = add(topics::STATE, names::STATE)?;
-        let f = add(topics::FORCE, names::FORCE)?;
-        let c = add(topics::CLOCK, names::CLOCK)?;
-        let e = add(topics::SET_MODE_EVENT, names::SET_MODE_EVENT)?;
+        let s = add(default_topics::STATE, type_names::STATE)?;
+        let f = add(default_topics::FORCE, type_names::FORCE)?;
+        let c = add(default_topics::CLOCK, type_names::CLOCK)?;
+        let e = add(default_topics::SET_MODE_EVENT, type_names::SET_MODE_EVENT)?;
         let mut ev = 0;
         for i in 1..=n {
             let t = 1_700_000_000_000_000_000 + i * 1_000_000;
@@ -234,8 +236,8 @@ fn bits(x: f64) -> i64 {
 
 fn check_reader(v: &Value, reader: &str, n: u64) {
     let topics_v = &v[reader]["topics"];
-    let st = &topics_v[topics::STATE];
-    assert_eq!(st["type"], names::STATE, "{reader}");
+    let st = &topics_v[default_topics::STATE];
+    assert_eq!(st["type"], type_names::STATE, "{reader}");
     assert_eq!(st["count"], n, "{reader}");
     let rows = st["rows"].as_array().cloned().unwrap_or_default();
     assert_eq!(rows.len() as u64, n);
@@ -255,7 +257,7 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
         );
         assert_eq!(r[4], want.stuck, "{reader} state {k}");
     }
-    let fr = topics_v[topics::FORCE]["rows"]
+    let fr = topics_v[default_topics::FORCE]["rows"]
         .as_array()
         .cloned()
         .unwrap_or_default();
@@ -268,13 +270,13 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
             "{reader} force {k}"
         );
     }
-    let cl = topics_v[topics::CLOCK]["rows"]
+    let cl = topics_v[default_topics::CLOCK]["rows"]
         .as_array()
         .cloned()
         .unwrap_or_default();
     assert_eq!(cl.len() as u64, n);
     assert_eq!(cl[0][0], 1_000_000);
-    let ev = topics_v[topics::SET_MODE_EVENT]["rows"]
+    let ev = topics_v[default_topics::SET_MODE_EVENT]["rows"]
         .as_array()
         .cloned()
         .unwrap_or_default();
@@ -302,8 +304,8 @@ fn reference_readers_decode_every_message_with_the_published_values() {
     check_reader(&v, "rosbags", n);
     let fox = foxglove_decode(&p);
     foxglove_agrees(&fox, &v, 3 * n + 4);
-    let st = &fox["topics"][topics::STATE];
-    assert_eq!(st["schema"], names::STATE);
+    let st = &fox["topics"][default_topics::STATE];
+    assert_eq!(st["schema"], type_names::STATE);
     assert_eq!(st["first"]["seq"], "1");
     assert_eq!(st["last"]["seq"], n.to_string());
     assert_eq!(
@@ -442,7 +444,7 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
     assert_eq!(std::fs::read(&p).unwrap_or_default(), before);
     let fixed = recovered(&p);
     let v = python_decode(&fixed, "rosbags");
-    assert_eq!(v["rosbags"]["topics"][topics::STATE]["count"], 2400);
+    assert_eq!(v["rosbags"]["topics"][default_topics::STATE]["count"], 2400);
     foxglove_agrees(&foxglove_decode(&fixed), &v, 3 * 2400 + 4);
     let info = capsule(&["record", "info", &fixed.display().to_string()]);
     let info = String::from_utf8_lossy(&info.stdout);
@@ -529,7 +531,8 @@ fn recover_and_info_on_compressed_and_damaged_files() {
             "{kind}: kept {kept} of {total}\n{text}"
         );
         assert_eq!(
-            python_decode(&recovered(&b), "rosbags")["rosbags"]["topics"][topics::STATE]["count"]
+            python_decode(&recovered(&b), "rosbags")["rosbags"]["topics"][default_topics::STATE]
+                ["count"]
                 .as_u64()
                 .map(|n| n < 3000),
             Some(true)
@@ -563,10 +566,10 @@ fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
         String::from_utf8_lossy(&out.stderr)
     );
     for t in [
-        names::STATE,
-        names::FORCE,
-        names::CLOCK,
-        names::SET_MODE_EVENT,
+        type_names::STATE,
+        type_names::FORCE,
+        type_names::CLOCK,
+        type_names::SET_MODE_EVENT,
     ] {
         assert!(
             text.contains(&format!("schema {t}: dependency blocks renamed")),
@@ -614,8 +617,8 @@ fn simulate_record_is_read_by_foxglove() {
     let v = python_decode(&p, "rosbags");
     let fox = foxglove_decode(&p);
     foxglove_agrees(&fox, &v, 2 * (1 + 4 * 50));
-    assert_eq!(fox["topics"][topics::STATE]["count"], 1 + 4 * 50);
-    assert_eq!(fox["topics"][topics::STATE]["first"]["seq"], "0");
+    assert_eq!(fox["topics"][default_topics::STATE]["count"], 1 + 4 * 50);
+    assert_eq!(fox["topics"][default_topics::STATE]["first"]["seq"], "0");
 }
 
 #[test]
@@ -652,7 +655,10 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
     // rosbags opens the directory through its metadata.yaml (rosbag2's reader path)
     let v = python_decode(&dir, "rosbags");
     assert_eq!(v_total(&v), total, "{v}");
-    assert_eq!(v["rosbags"]["topics"][topics::STATE]["count"], 1 + 4 * 100);
+    assert_eq!(
+        v["rosbags"]["topics"][default_topics::STATE]["count"],
+        1 + 4 * 100
+    );
     let files = capsule_record::bag::bag_files(&dir).unwrap_or_else(|e| panic!("{e}"));
     assert!(files.len() >= 3, "{files:?}");
     let mut sum = 0;
@@ -849,7 +855,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     for reader in ["mcap", "rosbags"] {
         let t = &v[reader]["topics"];
         // every state the plant published, in order, none twice
-        let seqs: Vec<u64> = t[topics::STATE]["rows"]
+        let seqs: Vec<u64> = t[default_topics::STATE]["rows"]
             .as_array()
             .cloned()
             .unwrap_or_default()
@@ -859,7 +865,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         expect_all(&seqs, published, &format!("{reader} states"));
         // every command the controller sent: one per state it answered, in order, none twice;
         // at least as many as its last status counted
-        let forces: Vec<u64> = t[topics::FORCE]["rows"]
+        let forces: Vec<u64> = t[default_topics::FORCE]["rows"]
             .as_array()
             .cloned()
             .unwrap_or_default()
@@ -887,9 +893,9 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
             "{reader}: {} forces recorded, controller's last status: {sent} sent, {published} states",
             forces.len()
         );
-        assert_eq!(t[topics::CLOCK]["count"], published, "{reader}");
+        assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
         assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
-        let ev: Vec<String> = t[topics::SET_MODE_EVENT]["rows"]
+        let ev: Vec<String> = t[default_topics::SET_MODE_EVENT]["rows"]
             .as_array()
             .cloned()
             .unwrap_or_default()
@@ -1007,7 +1013,7 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
     let file = recovered(&file);
     let v = python_decode(&file, "rosbags");
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
-    let st = &v["rosbags"]["topics"][topics::STATE];
+    let st = &v["rosbags"]["topics"][default_topics::STATE];
     let seqs: Vec<u64> = st["rows"]
         .as_array()
         .cloned()

@@ -3,14 +3,11 @@
 //! replayed all of it), and `--topics T FILE` (which took FILE as a second topic). All refused
 //! before any DDS starts, so no namespace is needed.
 
+use capsule_msgs::names::{default_topics, type_names};
 use std::path::{Path, PathBuf};
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
-use capsule_record::{
-    cdr,
-    types::{names, topics, OfferedQos},
-    RecordWriter, SceneRecord, WriterOptions,
-};
+use capsule_record::{cdr, types::OfferedQos, RecordWriter, SceneRecord, WriterOptions};
 
 use crate::record::capsule;
 use crate::root;
@@ -32,8 +29,8 @@ fn tampered(path: &Path) {
             },
         )?;
         let q = OfferedQos::reliable(10);
-        let s = w.add_topic(topics::STATE, names::STATE, &q)?;
-        let f = w.add_topic(topics::FORCE, names::FORCE, &q)?;
+        let s = w.add_topic(default_topics::STATE, type_names::STATE, &q)?;
+        let f = w.add_topic(default_topics::FORCE, type_names::FORCE, &q)?;
         for i in 0..1000u64 {
             let t = 1_700_000_000_000_000_000 + i * 1_000_000;
             let header = Header {

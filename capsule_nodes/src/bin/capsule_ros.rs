@@ -8,7 +8,7 @@ use capsule_msgs::{SetModeRequest, Time};
 use capsule_nodes::{
     client::{state_subscription, ModeClient, SegmentMeter},
     ranges,
-    ros::{self, names, RosArgs, RosEnv, RosSettings},
+    ros::{self, RosArgs, RosEnv, RosSettings},
     scene_file::SceneFile,
 };
 use clap::{Parser, Subcommand};
@@ -184,7 +184,7 @@ async fn run(cli: Cli) -> Result<()> {
                 match tokio::time::timeout(left, states.next()).await {
                     Err(_) => bail!(
                         "demo timed out after {timeout_s} s on {}",
-                        settings.resolve_name(names::STATE)
+                        settings.resolve_name(capsule_msgs::names::topics::STATE)
                     ),
                     Ok(None) => bail!("state stream ended"),
                     Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),

@@ -1,0 +1,112 @@
+//! The capsule graph's names, each written once: node, topic and service names as the nodes
+//! declare them ([`topics`]: relative or private, so `__ns` and `__node` move them), the same
+//! names as the default graph resolves them ([`default_topics`]: what recordings hold), and the
+//! ROS 2 type names of everything on them ([`type_names`]).
+
+// Each name's text once; the modules below build the declared and resolved forms from it.
+macro_rules! state {
+    () => {
+        "capsule/state"
+    };
+}
+macro_rules! force {
+    () => {
+        "capsule/actuator_force"
+    };
+}
+macro_rules! controller {
+    () => {
+        "capsule_controller"
+    };
+}
+macro_rules! status {
+    () => {
+        "status"
+    };
+}
+macro_rules! set_mode {
+    () => {
+        "set_mode"
+    };
+}
+
+/// Node names.
+pub mod nodes {
+    /// The plant node.
+    pub const PLANT: &str = "capsule_plant";
+    /// The controller node.
+    pub const CONTROLLER: &str = controller!();
+    /// The recorder node.
+    pub const RECORDER: &str = "capsule_recorder";
+}
+
+/// Topic and service names as the nodes declare them.
+pub mod topics {
+    /// Plant state (`capsule_msgs/msg/CapsuleState`).
+    pub const STATE: &str = state!();
+    /// Force commands (`capsule_msgs/msg/ActuatorForce`).
+    pub const FORCE: &str = force!();
+    /// Controller status, private to the controller node.
+    pub const STATUS: &str = concat!("~/", status!());
+    /// Mode service, private to the controller node.
+    pub const SET_MODE: &str = concat!("~/", set_mode!());
+    /// Simulation clock (absolute, as in ROS).
+    pub const CLOCK: &str = "/clock";
+}
+
+/// Topic names in the default graph (no namespace, default node names).
+pub mod default_topics {
+    /// Plant state.
+    pub const STATE: &str = concat!("/", state!());
+    /// Force commands.
+    pub const FORCE: &str = concat!("/", force!());
+    /// Controller status.
+    pub const STATUS: &str = concat!("/", controller!(), "/", status!());
+    /// Mode changes (service introspection of the mode service).
+    pub const SET_MODE_EVENT: &str =
+        concat!("/", controller!(), "/", set_mode!(), "/_service_event");
+    /// Simulation clock.
+    pub const CLOCK: &str = super::topics::CLOCK;
+}
+
+/// ROS 2 type names (`package/msg/Type`, as rosbag2 and MCAP schemas write them).
+pub mod type_names {
+    /// Plant state.
+    pub const STATE: &str = "capsule_msgs/msg/CapsuleState";
+    /// Force command.
+    pub const FORCE: &str = "capsule_msgs/msg/ActuatorForce";
+    /// Controller status.
+    pub const STATUS: &str = "capsule_msgs/msg/ControllerStatus";
+    /// The mode service.
+    pub const SET_MODE: &str = "capsule_msgs/srv/SetMode";
+    /// A recorded mode change (see `capsule_record::types::SetModeEvent` for why not `srv`).
+    pub const SET_MODE_EVENT: &str = "capsule_msgs/msg/SetModeEvent";
+    /// Simulation clock.
+    pub const CLOCK: &str = "rosgraph_msgs/msg/Clock";
+
+    /// `(package, Type)` of a `package/msg/Type` or `package/srv/Type` name.
+    pub fn split(full: &str) -> (&str, &str) {
+        let package = full.split('/').next().unwrap_or(full);
+        let name = full.rsplit('/').next().unwrap_or(full);
+        (package, name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolved_names_are_the_declared_ones_in_the_default_graph() {
+        assert_eq!(default_topics::STATE, "/capsule/state");
+        assert_eq!(default_topics::STATUS, "/capsule_controller/status");
+        assert_eq!(
+            default_topics::SET_MODE_EVENT,
+            "/capsule_controller/set_mode/_service_event"
+        );
+        assert_eq!(
+            type_names::split(type_names::SET_MODE),
+            ("capsule_msgs", "SetMode")
+        );
+    }
+}
