@@ -10,8 +10,8 @@
 //! **Jacobian.** Along one period the trajectory is a chain of smooth segments joined at events
 //! (contact on and off, the kink of `|x2 - x1|`, break-away, slip end or reversal). The Jacobian is
 //! the product, in order, of each segment's flow Jacobian and each event's saltation matrix
-//! (Müller 1995; Leine and Nijmeijer 2004, ch. 7), both from [`Equations`]. A linear mode's flow
-//! Jacobian is its matrix exponential (exact); a nonlinear mode (Stribeck slip) integrates the
+//! (Müller 1995; Leine and Nijmeijer 2004, ch. 7), both from [`Equations`]. A linear regime's flow
+//! Jacobian is its matrix exponential (exact); a nonlinear regime (Stribeck slip) integrates the
 //! variational equation along the segment with classical RK4 at a step of at most [`VAR_STEP`].
 //!
 //! **Sticking.** The stuck capsule has `y2 = 0`: the stick-entry saltation projects the `y2`
@@ -21,11 +21,11 @@
 use crate::run::PaperLaw;
 use capsule_plant::equations::{expm, mat_mul, Core, Drive, Equations, Mat4, IDENTITY};
 use capsule_plant::scene::Scene;
-use capsule_plant::{EventKind, Mode, Phase, SimError, Simulator, State, Transition};
+use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
 use thiserror::Error;
 
-/// Largest RK4 step for the variational equation of a nonlinear mode.
+/// Largest RK4 step for the variational equation of a nonlinear regime.
 pub const VAR_STEP: f64 = 1e-3;
 
 /// Why the stability analysis cannot be done.
@@ -77,21 +77,22 @@ pub fn equations_of(scene: &Scene) -> Result<Equations, StabilityError> {
     Ok(Equations::new(scene.model, drive))
 }
 
-/// The flow Jacobian of `mode` from state `v` at `tau` over `dt`.
-fn flow_jacobian(eq: &Equations, mode: &Mode, tau: f64, v: &Core, dt: f64) -> Mat4 {
+/// The flow Jacobian of `regime` from state `v` at `tau` over `dt`.
+fn flow_jacobian(eq: &Equations, regime: &Regime, tau: f64, v: &Core, dt: f64) -> Mat4 {
     if dt <= 0.0 {
         return IDENTITY;
     }
-    if eq.is_linear(mode) {
-        return expm(&eq.jacobian(mode, v), dt);
+    if eq.is_linear(regime) {
+        return expm(&eq.jacobian(regime, v), dt);
     }
     // RK4 on the state and the variational equation Phi' = J(v) Phi
     let n = (dt / VAR_STEP).ceil().max(1.0);
     let h = dt / n;
     let mut x = *v;
     let mut phi = IDENTITY;
-    let deriv =
-        |t: f64, x: &Core, phi: &Mat4| (eq.rhs(t, mode, x), mat_mul(&eq.jacobian(mode, x), phi));
+    let deriv = |t: f64, x: &Core, phi: &Mat4| {
+        (eq.rhs(t, regime, x), mat_mul(&eq.jacobian(regime, x), phi))
+    };
     let add = |x: &Core, k: &Core, a: f64| {
         let mut o = *x;
         for (oi, ki) in o.iter_mut().zip(k) {
@@ -144,20 +145,20 @@ pub fn advance_linearized(
     transversality: &mut f64,
 ) -> Result<Mat4, StabilityError> {
     let mut trace: Vec<Transition> = Vec::new();
-    let (mut t, mut mode, mut core) = (sim.time(), sim.mode(), sim.core());
+    let (mut t, mut regime, mut core) = (sim.time(), sim.regime(), sim.core());
     sim.advance_traced(law, tau_end, &mut |tr| trace.push(*tr))?;
     let mut j = IDENTITY;
     for tr in &trace {
         let tau = tr.event.tau;
-        j = mat_mul(&flow_jacobian(eq, &mode, t, &core, tau - t), &j);
+        j = mat_mul(&flow_jacobian(eq, &regime, t, &core, tau - t), &j);
         let grazing = StabilityError::Grazing {
             tau,
             kind: tr.event.kind,
         };
         let ev = eq
-            .event(&tr.mode_before, tr.event.kind)
+            .event(&tr.regime_before, tr.event.kind)
             .ok_or(grazing.clone())?;
-        let f0 = eq.rhs(tau, &tr.mode_before, &tr.before);
+        let f0 = eq.rhs(tau, &tr.regime_before, &tr.before);
         let dot: f64 = ev.c.iter().zip(&f0).map(|(a, b)| a * b).sum();
         let nc = ev.c.iter().map(|x| x * x).sum::<f64>().sqrt();
         let nf = f0.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -168,18 +169,18 @@ pub fn advance_linearized(
             .saltation(
                 tau,
                 &ev,
-                &tr.mode_before,
+                &tr.regime_before,
                 &tr.before,
-                &tr.mode_after,
+                &tr.regime_after,
                 &tr.after,
             )
             .ok_or(grazing)?;
         j = mat_mul(&s, &j);
         events.push(tr.event.kind);
-        (t, mode, core) = (tau, tr.mode_after, tr.after);
+        (t, regime, core) = (tau, tr.regime_after, tr.after);
     }
     Ok(mat_mul(
-        &flow_jacobian(eq, &mode, t, &core, sim.time() - t),
+        &flow_jacobian(eq, &regime, t, &core, sim.time() - t),
         &j,
     ))
 }
@@ -217,7 +218,7 @@ pub fn poincare_map(
     let eq = equations_of(scene)?;
     let law = PaperLaw::of(scene);
     let mut sim = start(scene, x, 0.0)?;
-    let stuck = sim.mode().phase == Phase::Stick;
+    let stuck = sim.regime().phase == Phase::Stick;
     let mut events = Vec::new();
     let mut transversality = f64::INFINITY;
     let tau_end = periods as f64 * scene.drive.period();

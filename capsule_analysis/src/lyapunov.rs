@@ -152,7 +152,7 @@ pub fn lyapunov(scene: &Scene) -> Result<Lyapunov, StabilityError> {
     let mut events = Vec::new();
     let mut transversality = f64::INFINITY;
     for n in transient..periods {
-        let stuck = sim.mode().phase == Phase::Stick;
+        let stuck = sim.regime().phase == Phase::Stick;
         events.clear();
         let j4 = advance_linearized(
             &mut sim,

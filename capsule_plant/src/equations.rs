@@ -1,9 +1,9 @@
-//! The capsule's equations per mode, written once: right-hand side, its Jacobian, the event
+//! The capsule's equations per regime, written once: right-hand side, its Jacobian, the event
 //! functions with their gradients, the transition (reset) at each event and the saltation matrix
 //! that carries a perturbation across it.
 //!
-//! The mode is the discrete state [`Mode`]: contact on/off (`H3`), the side `sigma` of the feedback
-//! kink `|x2 - x1| = sigma (x1 - x2)`, and stick or slip with its direction. In each mode the state
+//! The regime is the discrete state [`Regime`]: contact on/off (`H3`), the side `sigma` of the feedback
+//! kink `|x2 - x1| = sigma (x1 - x2)`, and stick or slip with its direction. In each regime the state
 //! `v = [z, y1, y2, p]` (`z = x1 - x2`, `p` the pre-sliding displacement) obeys
 //!
 //! ```text
@@ -19,14 +19,14 @@
 //! ([`crate::solver`]) and the Runge-Kutta right-hand side apply these same formulas; the
 //! stability analysis (Floquet multipliers, Lyapunov exponents) differentiates them here.
 //!
-//! Every event function is linear in `v` (`g = c . v + c0`, the mode valid while `g <= 0`), so its
+//! Every event function is linear in `v` (`g = c . v + c0`, the regime valid while `g <= 0`), so its
 //! gradient is `c`. The resets are the identity except at stick entry, where the velocity is
 //! pinned to zero; that projection comes out of the saltation formula by itself (Leine and
 //! Nijmeijer 2004, eq. 7.9): `S = I + (f+ - f-) c^T / (c . f-)`.
 
 use crate::law::LawShape;
 use crate::model::Model;
-use crate::solver::{EventKind, Mode, Phase};
+use crate::solver::{EventKind, Phase, Regime};
 
 /// Continuous state in the solvers' coordinates: `[z = x1 - x2, y1, y2, p]`, `p` the pre-sliding
 /// displacement (zero unless the law has pre-sliding and the capsule is stuck).
@@ -82,7 +82,7 @@ impl Drive {
     }
 }
 
-/// A linear event function `c . [z, y1, y2, p] + c0`: the mode is valid while it is `<= 0`; its
+/// A linear event function `c . [z, y1, y2, p] + c0`: the regime is valid while it is `<= 0`; its
 /// gradient is `c`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EventFn {
@@ -104,7 +104,7 @@ impl EventFn {
 
 /// The time derivative of `[z, y1, y2, p, x2]` in `phase`, given the actuator force `fa`, the
 /// force on the capsule `fcap`, the sliding friction `fs` (read only in slip) and the pre-sliding
-/// stiffness if any: the one place the mode's equations are assembled, for the Runge-Kutta path
+/// stiffness if any: the one place the regime's equations are assembled, for the Runge-Kutta path
 /// and for [`Equations::rhs`].
 #[inline(always)]
 pub(crate) fn field(
@@ -126,13 +126,13 @@ pub(crate) fn field(
     [y1 - y2, fa - fcap, dy2, dp, dx]
 }
 
-/// The event functions of `mode`; `kink` adds the feedback's `x1 = x2`.
-pub fn events(model: &Model, mode: &Mode, kink: bool, out: &mut Vec<EventFn>) {
+/// The event functions of `regime`; `kink` adds the feedback's `x1 = x2`.
+pub fn events(model: &Model, regime: &Regime, kink: bool, out: &mut Vec<EventFn>) {
     out.clear();
     let cap = &model.capsule;
-    let h3 = if mode.contact { cap.beta } else { 0.0 };
+    let h3 = if regime.contact { cap.beta } else { 0.0 };
     if model.has_contact() {
-        let (d, kind) = if mode.contact {
+        let (d, kind) = if regime.contact {
             (-1.0, EventKind::ContactOff)
         } else {
             (1.0, EventKind::ContactOn)
@@ -145,14 +145,14 @@ pub fn events(model: &Model, mode: &Mode, kink: bool, out: &mut Vec<EventFn>) {
     }
     if kink {
         out.push(EventFn {
-            c: [-mode.sigma, 0.0, 0.0, 0.0],
+            c: [-regime.sigma, 0.0, 0.0, 0.0],
             c0: 0.0,
             kind: EventKind::Kink,
         });
     }
     let fb = model.friction.threshold();
     let xi2 = 2.0 * cap.xi;
-    match mode.phase {
+    match regime.phase {
         Phase::Stick => {
             for d in [1.0, -1.0] {
                 let (c, c0) = match model.friction.presliding() {
@@ -177,45 +177,50 @@ pub fn events(model: &Model, mode: &Mode, kink: bool, out: &mut Vec<EventFn>) {
     }
 }
 
-/// The switching rule: the mode and state after event `kind` in `mode` at state `v`, and what
+/// The switching rule: the regime and state after event `kind` in `regime` at state `v`, and what
 /// the event turned out to be (a slip end becomes a reversal when the force exceeds the threshold).
-pub fn transition(model: &Model, mode: Mode, v: Core, kind: EventKind) -> (Mode, Core, EventKind) {
-    let mut mode = mode;
+pub fn transition(
+    model: &Model,
+    regime: Regime,
+    v: Core,
+    kind: EventKind,
+) -> (Regime, Core, EventKind) {
+    let mut regime = regime;
     let mut v = v;
     let kind = match kind {
         EventKind::ContactOn | EventKind::ContactOff => {
-            mode.contact = !mode.contact;
-            if mode.contact {
+            regime.contact = !regime.contact;
+            if regime.contact {
                 EventKind::ContactOn
             } else {
                 EventKind::ContactOff
             }
         }
         EventKind::Kink => {
-            mode.sigma = -mode.sigma;
+            regime.sigma = -regime.sigma;
             EventKind::Kink
         }
         EventKind::BreakAway { dir } => {
-            mode.phase = Phase::Slip(dir);
+            regime.phase = Phase::Slip(dir);
             v[3] = 0.0;
             EventKind::BreakAway { dir }
         }
         EventKind::SlipEnd | EventKind::Reversal { .. } => {
             v[2] = 0.0;
-            let f = model.capsule_force(v[0], v[1], 0.0, mode.contact);
+            let f = model.capsule_force(v[0], v[1], 0.0, regime.contact);
             if f.abs() <= model.friction.threshold() {
-                mode.phase = Phase::Stick;
+                regime.phase = Phase::Stick;
                 if let Some(ks) = model.friction.presliding() {
                     v[3] = f / ks;
                 }
                 EventKind::SlipEnd
             } else {
-                mode.phase = Phase::Slip(f.signum());
+                regime.phase = Phase::Slip(f.signum());
                 EventKind::Reversal { dir: f.signum() }
             }
         }
     };
-    (mode, v, kind)
+    (regime, v, kind)
 }
 
 /// A model under a piecewise-affine drive: everything the stability analysis differentiates.
@@ -235,14 +240,14 @@ impl Equations {
         Equations { model, drive }
     }
 
-    /// `v'` in `mode` at time `tau` (without the capsule position).
-    pub fn rhs(&self, tau: f64, mode: &Mode, v: &Core) -> Core {
+    /// `v'` in `regime` at time `tau` (without the capsule position).
+    pub fn rhs(&self, tau: f64, regime: &Regime, v: &Core) -> Core {
         let m = &self.model;
-        let fa = self.drive.force(tau, v[0], mode.sigma);
-        let fcap = m.capsule_force(v[0], v[1], v[2], mode.contact);
+        let fa = self.drive.force(tau, v[0], regime.sigma);
+        let fcap = m.capsule_force(v[0], v[1], v[2], regime.contact);
         let f = field(
             m.capsule.gamma,
-            mode.phase,
+            regime.phase,
             m.friction.presliding(),
             v,
             fa,
@@ -252,19 +257,19 @@ impl Equations {
         [f[0], f[1], f[2], f[3]]
     }
 
-    /// `d v' / d v` in `mode` at state `v` (the time enters only the drive, which is additive).
-    pub fn jacobian(&self, mode: &Mode, v: &Core) -> Mat4 {
+    /// `d v' / d v` in `regime` at state `v` (the time enters only the drive, which is additive).
+    pub fn jacobian(&self, regime: &Regime, v: &Core) -> Mat4 {
         let m = &self.model;
         let c = &m.capsule;
-        let h3 = if mode.contact { c.beta } else { 0.0 };
+        let h3 = if regime.contact { c.beta } else { 0.0 };
         let xi2 = 2.0 * c.xi;
         // d F / d [z, y1, y2]
         let fz = 1.0 + h3;
         let mut j = [[0.0; 4]; 4];
         j[0] = [0.0, 1.0, -1.0, 0.0];
-        j[1] = [self.drive.kp * mode.sigma - fz, -xi2, xi2, 0.0];
+        j[1] = [self.drive.kp * regime.sigma - fz, -xi2, xi2, 0.0];
         let g = 1.0 / c.gamma;
-        match (mode.phase, m.friction.presliding()) {
+        match (regime.phase, m.friction.presliding()) {
             (Phase::Stick, Some(ks)) => {
                 j[2] = [fz * g, xi2 * g, -xi2 * g, -ks * g];
                 j[3] = [0.0, 0.0, 1.0, 0.0];
@@ -278,21 +283,21 @@ impl Equations {
         j
     }
 
-    /// Whether the flow in `mode` is linear (constant Jacobian): the law is piecewise linear, or
+    /// Whether the flow in `regime` is linear (constant Jacobian): the law is piecewise linear, or
     /// the capsule is stuck.
-    pub fn is_linear(&self, mode: &Mode) -> bool {
-        self.model.friction.is_piecewise_linear() || mode.phase == Phase::Stick
+    pub fn is_linear(&self, regime: &Regime) -> bool {
+        self.model.friction.is_piecewise_linear() || regime.phase == Phase::Stick
     }
 
-    /// The event functions of `mode`, the kink included when the drive has feedback.
-    pub fn events(&self, mode: &Mode, out: &mut Vec<EventFn>) {
-        events(&self.model, mode, self.drive.kp != 0.0, out)
+    /// The event functions of `regime`, the kink included when the drive has feedback.
+    pub fn events(&self, regime: &Regime, out: &mut Vec<EventFn>) {
+        events(&self.model, regime, self.drive.kp != 0.0, out)
     }
 
-    /// The event function of `kind` in `mode` (its gradient and constant).
-    pub fn event(&self, mode: &Mode, kind: EventKind) -> Option<EventFn> {
+    /// The event function of `kind` in `regime` (its gradient and constant).
+    pub fn event(&self, regime: &Regime, kind: EventKind) -> Option<EventFn> {
         let mut all = Vec::with_capacity(4);
-        self.events(mode, &mut all);
+        self.events(regime, &mut all);
         all.into_iter().find(|e| match (e.kind, kind) {
             (EventKind::BreakAway { dir: a }, EventKind::BreakAway { dir: b }) => a == b,
             (EventKind::SlipEnd, EventKind::SlipEnd | EventKind::Reversal { .. }) => true,
@@ -301,17 +306,17 @@ impl Equations {
     }
 
     /// The saltation matrix of an event: a perturbation `dv` just before the event at time `tau`
-    /// (state `before` in mode `m0`, crossing the event function `ev`) is `S dv` just after
-    /// (state `after` in mode `m1`). With the reset the identity on the flow's directions,
+    /// (state `before` in regime `m0`, crossing the event function `ev`) is `S dv` just after
+    /// (state `after` in regime `m1`). With the reset the identity on the flow's directions,
     /// `S = I + (f+ - f-) c^T / (c . f-)`; `None` when the crossing is tangent (`c . f- = 0`,
     /// grazing), where no linear map exists.
     pub fn saltation(
         &self,
         tau: f64,
         ev: &EventFn,
-        m0: &Mode,
+        m0: &Regime,
         before: &Core,
-        m1: &Mode,
+        m1: &Regime,
         after: &Core,
     ) -> Option<Mat4> {
         let f0 = self.rhs(tau, m0, before);
@@ -348,7 +353,7 @@ pub fn mat_mul(a: &Mat4, b: &Mat4) -> Mat4 {
 }
 
 /// `exp(a t)` by scaling and squaring of the Taylor series (terms kept until below rounding):
-/// the flow Jacobian of a linear mode over a segment of length `t`.
+/// the flow Jacobian of a linear regime over a segment of length `t`.
 pub fn expm(a: &Mat4, t: f64) -> Mat4 {
     let norm = a
         .iter()
@@ -421,12 +426,12 @@ mod tests {
         kp: -0.3,
     };
 
-    fn modes() -> Vec<Mode> {
+    fn regimes() -> Vec<Regime> {
         let mut out = Vec::new();
         for contact in [false, true] {
             for sigma in [1.0, -1.0] {
                 for phase in [Phase::Stick, Phase::Slip(1.0), Phase::Slip(-1.0)] {
-                    out.push(Mode {
+                    out.push(Regime {
                         phase,
                         contact,
                         sigma,
@@ -452,26 +457,26 @@ mod tests {
         ];
         for law in laws {
             let eq = Equations::new(model(law), DRIVE);
-            for mode in modes() {
-                let y2 = match mode.phase {
+            for regime in regimes() {
+                let y2 = match regime.phase {
                     Phase::Slip(d) => 0.07 * d,
                     Phase::Stick => 0.0,
                 };
                 let v = [0.013, -0.4, y2, 1e-3];
-                let j = eq.jacobian(&mode, &v);
+                let j = eq.jacobian(&regime, &v);
                 for k in 0..4 {
                     let h = 1e-6;
                     let mut vp = v;
                     let mut vm = v;
                     vp[k] += h;
                     vm[k] -= h;
-                    let fp = eq.rhs(0.7, &mode, &vp);
-                    let fm = eq.rhs(0.7, &mode, &vm);
+                    let fp = eq.rhs(0.7, &regime, &vp);
+                    let fm = eq.rhs(0.7, &regime, &vm);
                     for i in 0..4 {
                         let fd = (fp[i] - fm[i]) / (2.0 * h);
                         assert!(
                             (fd - j[i][k]).abs() < 1e-6 * (1.0 + fd.abs()),
-                            "{law:?} {mode:?} d{i}/d{k}: {fd} vs {}",
+                            "{law:?} {regime:?} d{i}/d{k}: {fd} vs {}",
                             j[i][k]
                         );
                     }
@@ -502,7 +507,7 @@ mod tests {
     #[test]
     fn stick_entry_saltation_removes_the_velocity() {
         let eq = Equations::new(model(Friction::Coulomb), DRIVE);
-        let slip = Mode {
+        let slip = Regime {
             phase: Phase::Slip(1.0),
             contact: false,
             sigma: 1.0,
@@ -526,7 +531,7 @@ mod tests {
             .event(&slip, EventKind::ContactOn)
             .unwrap_or_else(|| panic!());
         let v = [0.02, 0.5, 0.1, 0.0];
-        let contact = Mode {
+        let contact = Regime {
             contact: true,
             ..slip
         };

@@ -14,6 +14,6 @@ pub mod solver;
 pub use law::{ActuatorLaw, ConstantForce, LawShape};
 pub use model::{Capsule, Friction, Model, State};
 pub use solver::{
-    Event, EventKind, Method, Mode, Phase, SimError, Simulator, Snapshot, SolverConfig, Transition,
-    Work,
+    Event, EventKind, Method, Phase, Regime, SimError, Simulator, Snapshot, SolverConfig,
+    Transition, Work,
 };

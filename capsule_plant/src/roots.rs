@@ -1,6 +1,6 @@
 //! Locating the first upward zero crossing of a smooth scalar function on an interval.
 //!
-//! Event functions are written so that the current mode is valid while `g <= 0`; an event is
+//! Event functions are written so that the current regime is valid while `g <= 0`; an event is
 //! the first time `g` becomes positive. Both solvers hand in `g` over one step (an exact power
 //! series, or the Runge-Kutta dense output). The step is short compared with the dynamics (the
 //! solvers bound it), so sampling it at a few points and checking the derivative for a hidden

@@ -69,7 +69,7 @@ fn a_slipping_capsule_sticks_or_reverses_only_where_the_force_says_so() {
     for e in ends.iter().take(20) {
         sim.advance(&law, e.tau).unwrap_or_else(|e| panic!("{e}"));
         let st = sim.state();
-        let m = sim.mode();
+        let m = sim.regime();
         let f = s.model.capsule_force(st.x1 - st.x2, st.y1, 0.0, m.contact);
         match e.kind {
             EventKind::SlipEnd => assert!(f.abs() <= 1.0 + 1e-9, "stuck with |F| = {f}"),

@@ -1,6 +1,6 @@
-//! Exact piecewise solution for the linear modes (Coulomb and viscous friction).
+//! Exact piecewise solution for the linear regimes (Coulomb and viscous friction).
 //!
-//! In every mode the state `v = [z, y1, y2, p, dx2]` obeys `v' = A v + b0 + e1 f(tau)` with a
+//! In every regime the state `v = [z, y1, y2, p, dx2]` obeys `v' = A v + b0 + e1 f(tau)` with a
 //! constant matrix `A`, a constant `b0` and the harmonic drive `f(tau) = alpha cos(omega tau)` on
 //! the mass. Over a step of length `h` the flow is its Taylor series `v(t0 + t) = sum V_k t^k`,
 //! with `V_{k+1} = (A V_k + B_k) / (k + 1)` and `B_k` the Taylor coefficients of the forcing.
@@ -11,7 +11,7 @@
 //! Every event function is linear in `v`, so along the step it is the scalar polynomial
 //! `sum (c . V_k) t^k`, whose first crossing is located to rounding.
 
-use super::{EventKind, Mode, Phase, SimError, Simulator, Transition};
+use super::{EventKind, Phase, Regime, SimError, Simulator, Transition};
 use crate::equations::{Core, Drive, EventFn};
 use crate::roots::first_crossing;
 
@@ -22,7 +22,7 @@ const TRUNCATION: f64 = 1e-17;
 /// Cancellation bound on any term, relative to the state.
 const GROWTH: f64 = 8.0;
 
-/// The linear dynamics of one mode.
+/// The linear dynamics of one regime.
 #[derive(Debug, Clone, Copy)]
 struct Linear {
     /// Stiffness on the mass, `kp sigma - 1 - H3 beta`.
@@ -46,19 +46,19 @@ struct Linear {
 }
 
 impl Linear {
-    fn new(sim: &Simulator, mode: &Mode, drive: &Drive) -> Self {
+    fn new(sim: &Simulator, regime: &Regime, drive: &Drive) -> Self {
         let cap = &sim.model.capsule;
-        let h3 = if mode.contact { cap.beta } else { 0.0 };
+        let h3 = if regime.contact { cap.beta } else { 0.0 };
         let xi2 = 2.0 * cap.xi;
         let presliding = sim.model.friction.presliding();
-        let (moves, mu, ks, c2) = match mode.phase {
+        let (moves, mu, ks, c2) = match regime.phase {
             Phase::Slip(d) => (true, sim.model.friction.viscous(), 0.0, -h3 * cap.delta - d),
             Phase::Stick => match presliding {
                 Some(ks) => (true, 0.0, ks, -h3 * cap.delta),
                 None => (false, 0.0, 0.0, 0.0),
             },
         };
-        let az = drive.kp * mode.sigma - 1.0 - h3;
+        let az = drive.kp * regime.sigma - 1.0 - h3;
         let bz = 1.0 + h3;
         let inv_gamma = 1.0 / cap.gamma;
         Linear {
@@ -119,14 +119,14 @@ impl Simulator {
         let mut series = [[0.0f64; 5]; K + 1];
         let mut gser = [0.0f64; K + 1];
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
-        let mut lin = Linear::new(self, &self.mode, drive);
-        let mut lin_mode = self.mode;
+        let mut lin = Linear::new(self, &self.regime, drive);
+        let mut lin_mode = self.regime;
         // the step the series allowed last time: terms are summed only as far as that needs
         let mut h_natural = f64::INFINITY;
         while self.tau < tau_end {
-            if lin_mode != self.mode {
-                lin = Linear::new(self, &self.mode, drive);
-                lin_mode = self.mode;
+            if lin_mode != self.regime {
+                lin = Linear::new(self, &self.regime, drive);
+                lin_mode = self.regime;
             }
             // Taylor coefficients of the state over the step
             let [z, y1, y2, p] = self.core;
@@ -239,7 +239,7 @@ impl Simulator {
     /// of two degree-`K` series, integrated term by term (all `2K` degrees kept: the product
     /// varies twice as fast as its factors).
     fn step_work(&self, series: &[[f64; 5]], forcing: &[f64], drive: &Drive, t: f64) -> f64 {
-        let ks = drive.kp * self.mode.sigma;
+        let ks = drive.kp * self.regime.sigma;
         let n = series.len() - 1;
         let mut fa = [0.0f64; K + 1];
         let mut y1 = [0.0f64; K + 1];

@@ -10,7 +10,7 @@
 //!   noticed at step ends, discontinuities are stepped over): the baseline that shows what
 //!   skipping event location costs.
 //!
-//! The mode (stick or slip and its direction, contact, side of the feedback kink) changes only
+//! The regime (stick or slip and its direction, contact, side of the feedback kink) changes only
 //! at events; [`Simulator`] applies the same switching rules whichever method found the event.
 
 mod exact;
@@ -160,7 +160,7 @@ pub enum Phase {
 
 /// The discrete part of the state: what is switched by events.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Mode {
+pub struct Regime {
     /// Stick or slip.
     pub phase: Phase,
     /// The mass touches the secondary spring (`H3 = 1`).
@@ -203,17 +203,17 @@ pub struct Event {
     pub kind: EventKind,
 }
 
-/// An event with the mode and state on both sides (state in the solvers' coordinates).
+/// An event with the regime and state on both sides (state in the solvers' coordinates).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transition {
     /// The event.
     pub event: Event,
-    /// Mode before.
-    pub mode_before: Mode,
+    /// Regime before.
+    pub regime_before: Regime,
     /// `[z, y1, y2, p]` before.
     pub before: Core,
-    /// Mode after.
-    pub mode_after: Mode,
+    /// Regime after.
+    pub regime_after: Regime,
     /// `[z, y1, y2, p]` after (the reset applied).
     pub after: Core,
 }
@@ -284,7 +284,7 @@ pub struct Simulator {
     tau: f64,
     core: Core,
     x2: Sum,
-    mode: Mode,
+    regime: Regime,
     work: Work,
     actuator_work: Sum,
     track_work: bool,
@@ -295,7 +295,7 @@ pub struct Simulator {
 }
 
 impl Simulator {
-    /// A simulator at time `tau0` in state `s0`. The mode is chosen from the state: stuck if
+    /// A simulator at time `tau0` in state `s0`. The regime is chosen from the state: stuck if
     /// `y2 = 0` and the spring force is below the threshold (with no actuator force yet known,
     /// the first step corrects it at once if not), in contact if `x1 - x2 >= delta`.
     pub fn new(model: Model, s0: State, tau0: f64, config: SolverConfig) -> Result<Self, SimError> {
@@ -350,7 +350,7 @@ impl Simulator {
             tau: tau0,
             core: [z, s0.y1, s0.y2, p],
             x2: Sum::new(s0.x2),
-            mode: Mode {
+            regime: Regime {
                 phase,
                 contact,
                 sigma,
@@ -386,9 +386,9 @@ impl Simulator {
         self.core
     }
 
-    /// Current mode.
-    pub fn mode(&self) -> Mode {
-        self.mode
+    /// Current regime.
+    pub fn regime(&self) -> Regime {
+        self.regime
     }
 
     /// The model being simulated.
@@ -422,8 +422,8 @@ impl Simulator {
         let [z, y1, y2, p] = self.core;
         let state = self.state();
         let m = &self.model;
-        let f = m.capsule_force(z, y1, y2, self.mode.contact);
-        let friction_force = match self.mode.phase {
+        let f = m.capsule_force(z, y1, y2, self.regime.contact);
+        let friction_force = match self.regime.phase {
             Phase::Stick => match m.friction.presliding() {
                 Some(ks) => ks * p,
                 None => f, // static friction balances the force on the capsule
@@ -437,8 +437,8 @@ impl Simulator {
         Snapshot {
             tau: self.tau,
             state,
-            stuck: self.mode.phase == Phase::Stick,
-            contact: self.mode.contact,
+            stuck: self.regime.phase == Phase::Stick,
+            contact: self.regime.contact,
             friction_force,
             contact_force: m.contact_force(z),
             actuator_force: self.last_force,
@@ -460,7 +460,7 @@ impl Simulator {
         self.advance_traced(law, tau_end, &mut |t| on_event(&t.event))
     }
 
-    /// Integrate to `tau_end`, calling `on_transition` for every event with the mode and state
+    /// Integrate to `tau_end`, calling `on_transition` for every event with the regime and state
     /// on both sides of it (what the stability analysis needs to build saltation matrices).
     pub fn advance_traced(
         &mut self,
@@ -490,9 +490,9 @@ impl Simulator {
         result
     }
 
-    /// The event functions of the current mode; `kink` adds the feedback's `x1 = x2`.
+    /// The event functions of the current regime; `kink` adds the feedback's `x1 = x2`.
     fn event_functions(&self, kink: bool, out: &mut Vec<EventFn>) {
-        equations::events(&self.model, &self.mode, kink, out)
+        equations::events(&self.model, &self.regime, kink, out)
     }
 
     /// The feedback gain if the law has a kink that must be located.
@@ -533,9 +533,9 @@ impl Simulator {
                 count: self.zeno,
             });
         }
-        let (mode_before, core_before) = (self.mode, self.core);
-        let (mode, core, kind) = equations::transition(&self.model, self.mode, self.core, kind);
-        self.mode = mode;
+        let (regime_before, core_before) = (self.regime, self.core);
+        let (regime, core, kind) = equations::transition(&self.model, self.regime, self.core, kind);
+        self.regime = regime;
         self.core = core;
         self.work.events += 1;
         if let Some(h) = self.history.as_mut() {
@@ -546,9 +546,9 @@ impl Simulator {
                 tau: self.tau,
                 kind,
             },
-            mode_before,
+            regime_before,
             before: core_before,
-            mode_after: mode,
+            regime_after: regime,
             after: core,
         })
     }

@@ -79,7 +79,7 @@ struct Rhs<'a, L, F> {
     law: &'a L,
     friction: F,
     shape: LawShape,
-    /// Use the mode's contact flag and kink side (event-located), or the state's (fixed step).
+    /// Use the regime's contact flag and kink side (event-located), or the state's (fixed step).
     located: bool,
     x2_base: f64,
 }
@@ -104,7 +104,7 @@ impl Simulator {
         let [z, y1, y2, p, dx2, _] = *v;
         let model = &self.model;
         let (contact, sigma) = if ctx.located {
-            (self.mode.contact, self.mode.sigma)
+            (self.regime.contact, self.regime.sigma)
         } else {
             (
                 model.has_contact() && z >= model.capsule.delta,
@@ -139,7 +139,7 @@ impl Simulator {
         };
         let [dz, dy1, dy2, dp, dx] = field(
             model.capsule.gamma,
-            self.mode.phase,
+            self.regime.phase,
             presliding,
             &[z, y1, y2, p],
             fa,
@@ -386,7 +386,8 @@ impl Simulator {
             hist.push(t0, h, Piece::Dopri(c));
         }
         let [z, y1, y2, p, dx2, dw] = s.y;
-        let y2 = if self.mode.phase == Phase::Stick && self.model.friction.presliding().is_none() {
+        let y2 = if self.regime.phase == Phase::Stick && self.model.friction.presliding().is_none()
+        {
             0.0
         } else {
             y2
@@ -434,7 +435,7 @@ impl Simulator {
             let y2_start = y[2];
             let [z, y1, y2, p, dx2, dw] = yn;
             let stuck_rigid =
-                self.mode.phase == Phase::Stick && self.model.friction.presliding().is_none();
+                self.regime.phase == Phase::Stick && self.model.friction.presliding().is_none();
             let y2 = if stuck_rigid { 0.0 } else { y2 };
             if let Some(hist) = self.history.as_mut() {
                 hist.push(t, h, Piece::Line(y2_start, y2));
