@@ -1,0 +1,38 @@
+//! The plant node: a simulated capsule behind the same topics a real capsule driver would use.
+//!
+//! [`PlantCore`] is the node's logic without DDS (unit-tested here against a stand-in model):
+//! sampling at a fixed rate, the zero-order hold of the last accepted command, command
+//! validation (non-finite refused and counted, older-than-accepted refused: a late command
+//! never rewinds time), the stale-command watchdog (zero force after the timeout, said in the
+//! log and in `CapsuleState.command_stale`), SI conversion through the scene's [`Scale`], and
+//! loop statistics (command latency, steps without an answer). [`run`] wires it to ROS in one of
+//! two pacings:
+//!
+//! - **real time**: sample `k` is published at `start + k / rate` (steady clock, on one
+//!   thread that sleeps, takes the commands received meanwhile and steps); whatever command is
+//!   held at the next sample drives the next step;
+//! - **lock-step**: sample `k` is published and the plant waits for the command that answers
+//!   seq `k` (re-sending the sample every `retransmit` until it comes), then integrates one step
+//!   with it. The run is then a function of the scene and the controller only: reproducible bit
+//!   for bit, as fast as the loop allows. If no answer comes within the command timeout, that
+//!   step runs with zero force and the plant says so.
+//!
+//! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
+//! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
+//!
+//! The node in parts: [`plant_core`] (the logic, unit-tested against a stand-in model),
+//! [`stats`] (loop statistics and the summary), [`options`], [`recording`] (in-plant MCAP),
+//! [`node`] (DDS endpoints and [`run`]) and [`pacing`] (the two loops).
+
+mod node;
+mod options;
+mod pacing;
+mod plant_core;
+mod recording;
+mod stats;
+
+pub use node::run;
+pub use options::{Pacing, PlantOptions};
+pub use plant_core::{CommandOutcome, PlantCore, PlantSample, PlantSim};
+pub use recording::{InPlantRecordOptions, InPlantRecording};
+pub use stats::{summary_json, LoopStats};

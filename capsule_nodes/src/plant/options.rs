@@ -1,0 +1,34 @@
+//! How the plant node runs: pacing and options.
+
+use super::InPlantRecordOptions;
+use std::time::Duration;
+
+/// How the plant paces its steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pacing {
+    /// One sample per `1/rate` of wall time.
+    Realtime,
+    /// Each step waits for the command answering the last sample.
+    Lockstep,
+}
+
+/// How the plant node runs.
+#[derive(Debug, Clone)]
+pub struct PlantOptions {
+    /// Pacing.
+    pub pacing: Pacing,
+    /// Stop at this sim time [s] (`None`: run until a signal).
+    pub until_s: Option<f64>,
+    /// Lock-step: re-send an unanswered sample this often.
+    pub retransmit: Duration,
+    /// Lock-step: how long to wait for the very first command (and for the subscribers).
+    pub startup_timeout: Duration,
+    /// Publish the first sample only once this many subscribers matched the state topic.
+    pub wait_subscribers: usize,
+    /// Publish /clock with every this many samples (1: every sample).
+    pub clock_every: u64,
+    /// Record the graph in this process (see [`InPlantRecording`]).
+    pub record: Option<InPlantRecordOptions>,
+    /// The ROS parameters served (see [`crate::plant_params`]).
+    pub params: crate::params::ParamTable,
+}

@@ -1,0 +1,495 @@
+//! The plant's logic without DDS: the zero-order hold of the last accepted command, command
+//! validation (non-finite refused, huge saturated, late or future refused), the stale-command
+//! watchdog, SI conversion, and the samples it publishes.
+
+use anyhow::Result;
+use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
+use tracing::info;
+
+use super::LoopStats;
+use crate::{
+    command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF},
+    scale::Scale,
+};
+
+/// A non-dimensional sample of the simulated plant (the simulator's snapshot, SI-free).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlantSample {
+    /// Non-dimensional time.
+    pub tau: f64,
+    /// Mass position.
+    pub x1: f64,
+    /// Mass velocity.
+    pub y1: f64,
+    /// Capsule position.
+    pub x2: f64,
+    /// Capsule velocity.
+    pub y2: f64,
+    /// Capsule sticks.
+    pub stuck: bool,
+    /// Mass touches the secondary spring.
+    pub contact: bool,
+    /// Friction force on the capsule.
+    pub friction_force: f64,
+    /// Contact force.
+    pub contact_force: f64,
+    /// Actuator force applied over the last step.
+    pub actuator_force: f64,
+}
+
+/// What the node needs from a simulator: hold a force until a time, and report a sample.
+pub trait PlantSim {
+    /// Integrates to `tau_end` holding the non-dimensional actuator force `force`.
+    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()>;
+    /// The current sample.
+    fn sample(&self) -> PlantSample;
+}
+
+/// Why a command was not taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandOutcome {
+    /// Taken; held from the next step on.
+    Accepted,
+    /// A repeat of the last accepted command (lock-step re-answers): ignored, not counted.
+    Duplicate,
+    /// Force NaN or infinite: refused and counted.
+    NonFinite,
+    /// Stamped before the last accepted command, or answering an old sample: refused, counted.
+    Late,
+    /// Answering a sample not yet published (lock-step), or stamped after the newest sample:
+    /// refused, counted.
+    Future,
+}
+
+/// The plant node's logic around a simulator.
+pub struct PlantCore<S: PlantSim> {
+    pub(super) sim: S,
+    pub(super) scale: Scale,
+    pub(super) rate_hz: f64,
+    pub(super) command_timeout: f64,
+    pub(super) frame_id: String,
+    pub(super) step: u64,
+    pub(super) held_n: f64,
+    pub(super) last_accepted: Option<(i64, u64, f64)>,
+    pub(super) last_command_at: Option<f64>,
+    pub(super) stale: bool,
+    pub(super) rejected: u32,
+    pub(super) answered_current: bool,
+    pub(super) published_at: Option<f64>,
+    pub(super) gate: CommandGate,
+    /// Statistics of the loop.
+    pub stats: LoopStats,
+}
+
+impl<S: PlantSim> PlantCore<S> {
+    /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` [s].
+    pub fn new(sim: S, scale: Scale, rate_hz: f64, command_timeout: f64) -> Self {
+        PlantCore {
+            sim,
+            scale,
+            rate_hz,
+            command_timeout,
+            frame_id: "odom".to_string(),
+            step: 0,
+            held_n: 0.0,
+            last_accepted: None,
+            last_command_at: None,
+            stale: true,
+            rejected: 0,
+            answered_current: false,
+            published_at: None,
+            gate: CommandGate::new(DEFAULT_MAX_FORCE_PF * scale.force_n()),
+            stats: LoopStats::default(),
+        }
+    }
+
+    /// The same plant saturating commands at `max_force_n` [N] (finite, > 0) instead of the
+    /// default [`DEFAULT_MAX_FORCE_PF`] `P_f`.
+    pub fn with_max_force_n(mut self, max_force_n: f64) -> Self {
+        self.gate = CommandGate::new(max_force_n);
+        self
+    }
+
+    /// The force limit [N].
+    pub fn max_force_n(&self) -> f64 {
+        self.gate.max_force_n()
+    }
+
+    /// Seq of the current sample.
+    pub fn seq(&self) -> u64 {
+        self.step
+    }
+
+    /// Stamp of sample `k` in nanoseconds of sim time (`k / rate`, rounded).
+    pub(super) fn stamp_nanos(&self, k: u64) -> i64 {
+        (k as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Stamp of the current sample.
+    pub fn stamp(&self) -> Time {
+        Time::from_nanos(self.stamp_nanos(self.step))
+    }
+
+    /// Force held now [N].
+    pub fn held_force(&self) -> f64 {
+        if self.stale {
+            0.0
+        } else {
+            self.held_n
+        }
+    }
+
+    /// Commands refused so far.
+    pub fn rejected(&self) -> u32 {
+        self.rejected
+    }
+
+    /// True when the watchdog has fallen back to zero force.
+    pub fn stale(&self) -> bool {
+        self.stale
+    }
+
+    /// True once the current sample has been answered (lock-step).
+    pub fn answered(&self) -> bool {
+        self.answered_current
+    }
+
+    /// The current sample as a message (SI).
+    pub fn state(&self) -> CapsuleState {
+        let s = self.sim.sample();
+        let l = self.scale.length_m();
+        let v = self.scale.velocity_m_per_s();
+        let f = self.scale.force_n();
+        CapsuleState {
+            header: Header {
+                stamp: self.stamp(),
+                frame_id: self.frame_id.clone(),
+            },
+            seq: self.step,
+            mass_position: s.x1 * l,
+            mass_velocity: s.y1 * v,
+            capsule_position: s.x2 * l,
+            capsule_velocity: s.y2 * v,
+            in_contact: s.contact,
+            stuck: s.stuck,
+            friction_force: s.friction_force * f,
+            contact_force: s.contact_force * f,
+            actuator_force: s.actuator_force * f,
+            command_stale: self.stale,
+            rejected_commands: self.rejected,
+        }
+    }
+
+    /// Notes that the current sample went out at steady time `now`.
+    pub fn published(&mut self, now: f64) {
+        if self.published_at.is_none() {
+            self.published_at = Some(now);
+            self.stats.on_publish(self.step, now);
+        }
+    }
+
+    /// Takes a command received at steady time `now`. `lockstep` requires it to answer the
+    /// current sample.
+    pub fn on_command(&mut self, cmd: &ActuatorForce, now: f64, lockstep: bool) -> CommandOutcome {
+        let stamp = cmd.header.stamp.to_nanos();
+        if let Some((t, seq, f)) = self.last_accepted {
+            if t == stamp && seq == cmd.state_seq && f.to_bits() == cmd.force.to_bits() {
+                self.stats.on_answer(cmd.state_seq, now, self.step);
+                return CommandOutcome::Duplicate;
+            }
+        }
+        let outcome = if !cmd.force.is_finite() {
+            CommandOutcome::NonFinite
+        } else if self.last_accepted.is_some_and(|(t, _, _)| stamp < t)
+            || (lockstep && cmd.state_seq < self.step)
+        {
+            CommandOutcome::Late
+        } else if (lockstep && cmd.state_seq > self.step)
+            || command_gate::from_the_future(
+                stamp,
+                self.stamp_nanos(self.step),
+                self.stamp_nanos(1),
+            )
+        {
+            CommandOutcome::Future
+        } else {
+            CommandOutcome::Accepted
+        };
+        if outcome != CommandOutcome::Accepted {
+            self.rejected = self.rejected.saturating_add(1);
+            return outcome;
+        }
+        self.last_accepted = Some((stamp, cmd.state_seq, cmd.force));
+        self.held_n = self.gate.limit(cmd.force, cmd.state_seq);
+        self.stats.saturated_commands = self.gate.saturated();
+        self.last_command_at = Some(now);
+        if self.stale {
+            info!(
+                "command received (seq {}): applying commanded force",
+                cmd.state_seq
+            );
+        }
+        self.stale = false;
+        self.stats.on_answer(cmd.state_seq, now, self.step);
+        if cmd.state_seq == self.step {
+            self.answered_current = true;
+        }
+        outcome
+    }
+
+    /// Watchdog at steady time `now`: true when it just fell back to zero force.
+    pub fn check_watchdog(&mut self, now: f64) -> bool {
+        let fresh = self
+            .last_command_at
+            .is_some_and(|t| now - t <= self.command_timeout);
+        if !fresh && !self.stale {
+            self.stale = true;
+            return true;
+        }
+        false
+    }
+
+    /// Forces the zero-force fallback (lock-step: no answer within the timeout).
+    pub fn force_stale(&mut self) -> bool {
+        let was = self.stale;
+        self.stale = true;
+        !was
+    }
+
+    /// Integrates one sample period with the held force and moves to the next sample.
+    pub fn step(&mut self) -> Result<()> {
+        let force = self.held_force() / self.scale.force_n();
+        let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
+        self.sim.advance(force, tau_end)?;
+        self.step += 1;
+        self.answered_current = false;
+        self.published_at = None;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
+    /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
+    struct FreeMass(PlantSample);
+
+    impl PlantSim for FreeMass {
+        fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
+            let h = tau_end - self.0.tau;
+            self.0.x1 += self.0.y1 * h + 0.5 * force * h * h;
+            self.0.y1 += force * h;
+            self.0.tau = tau_end;
+            self.0.actuator_force = force;
+            Ok(())
+        }
+        fn sample(&self) -> PlantSample {
+            self.0
+        }
+    }
+
+    fn scale() -> Scale {
+        Scale {
+            m1_kg: 0.04,
+            k1_n_per_m: 100.0,
+            pf_n: 2.0,
+        }
+    }
+
+    fn plant() -> PlantCore<FreeMass> {
+        PlantCore::new(FreeMass(PlantSample::default()), scale(), 100.0, 0.05)
+    }
+
+    fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {
+        let stamp = Time::from_nanos(p.stamp_nanos(seq));
+        ActuatorForce {
+            header: Header {
+                stamp,
+                frame_id: String::new(),
+            },
+            state_seq: seq,
+            force,
+        }
+    }
+
+    #[test]
+    fn held_command_drives_the_step_in_si() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.001, true),
+            CommandOutcome::Accepted
+        );
+        p.step()?;
+        // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
+        let s = p.state();
+        assert!(
+            (s.mass_velocity - 0.25).abs() < 1e-12,
+            "{}",
+            s.mass_velocity
+        );
+        assert!(
+            (s.mass_position - 1.25e-3).abs() < 1e-15,
+            "{}",
+            s.mass_position
+        );
+        assert!((s.actuator_force - 1.0).abs() < 1e-12);
+        assert_eq!((s.seq, s.header.stamp.to_nanos()), (1, 10_000_000));
+        assert!(!s.command_stale);
+        Ok(())
+    }
+
+    #[test]
+    fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false),
+            CommandOutcome::NonFinite
+        );
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false),
+            CommandOutcome::NonFinite
+        );
+        assert_eq!(p.rejected(), 2);
+        assert!(p.stale(), "nothing accepted yet");
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 0.5), 0.0, false),
+            CommandOutcome::Accepted
+        );
+        p.step()?;
+        p.step()?;
+        assert_eq!(
+            p.on_command(&cmd(&p, 2, 0.7), 0.02, false),
+            CommandOutcome::Accepted
+        );
+        // an older command arriving late does not take over (time does not rewind)
+        assert_eq!(
+            p.on_command(&cmd(&p, 1, -3.0), 0.021, false),
+            CommandOutcome::Late
+        );
+        assert_eq!(p.held_force(), 0.7);
+        assert_eq!(
+            p.on_command(&cmd(&p, 2, 0.7), 0.022, false),
+            CommandOutcome::Duplicate
+        );
+        assert_eq!(p.rejected(), 3);
+        assert_eq!(p.state().rejected_commands, 3);
+        assert_eq!(p.seq(), 2, "the plant kept stepping");
+        Ok(())
+    }
+
+    #[test]
+    fn huge_finite_commands_are_saturated_and_the_plant_goes_on() -> Result<()> {
+        // default limit: 100 P_f = 200 N at this scale
+        let mut p = plant();
+        assert_eq!(p.max_force_n(), 200.0);
+        for (k, f) in [1e308, -1e308, 1000.0].into_iter().enumerate() {
+            let k = k as u64;
+            p.published(k as f64 * 0.01);
+            assert_eq!(
+                p.on_command(&cmd(&p, k, f), k as f64 * 0.01, false),
+                CommandOutcome::Accepted
+            );
+            assert_eq!(p.held_force(), 200.0f64.copysign(f));
+            p.step()?;
+            let s = p.state();
+            assert!(s.mass_position.is_finite() && s.mass_velocity.is_finite());
+            assert_eq!(s.actuator_force, 200.0f64.copysign(f));
+        }
+        assert_eq!(p.stats.saturated_commands, 3);
+        assert_eq!(p.rejected(), 0);
+        let mut p = plant().with_max_force_n(0.5);
+        p.published(0.0);
+        p.on_command(&cmd(&p, 0, 3.0), 0.0, false);
+        assert_eq!(p.held_force(), 0.5);
+        Ok(())
+    }
+
+    #[test]
+    fn a_command_stamped_in_the_future_is_refused_and_does_not_block_later_ones() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 0.1), 0.0, false),
+            CommandOutcome::Accepted
+        );
+        p.step()?;
+        p.published(0.01);
+        let mut poison = cmd(&p, 1, 5.0);
+        poison.header.stamp = Time {
+            sec: i32::MAX,
+            nanosec: 0,
+        };
+        assert_eq!(p.on_command(&poison, 0.01, false), CommandOutcome::Future);
+        assert_eq!(p.held_force(), 0.1);
+        for k in 1..50 {
+            assert_eq!(
+                p.on_command(&cmd(&p, k, 0.2), k as f64 * 0.01, false),
+                CommandOutcome::Accepted,
+                "sample {k}"
+            );
+            p.step()?;
+            p.published(k as f64 * 0.01 + 0.01);
+        }
+        assert_eq!(p.rejected(), 1);
+        Ok(())
+    }
+
+    #[test]
+    fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        assert_eq!(
+            p.on_command(&cmd(&p, 1, 1.0), 0.0, true),
+            CommandOutcome::Future
+        );
+        assert!(!p.answered());
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.0, true),
+            CommandOutcome::Accepted
+        );
+        assert!(p.answered());
+        p.step()?;
+        p.published(0.01);
+        assert_eq!(
+            p.on_command(&cmd(&p, 0, 1.0), 0.01, true),
+            CommandOutcome::Duplicate
+        );
+        assert!(!p.answered());
+        assert_eq!(p.stats.latencies.count(), 1);
+        Ok(())
+    }
+
+    #[test]
+    fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
+        let mut p = plant();
+        p.published(0.0);
+        p.on_command(&cmd(&p, 0, 2.0), 0.0, false);
+        assert!(!p.check_watchdog(0.04));
+        assert_eq!(p.held_force(), 2.0);
+        assert!(p.check_watchdog(0.06));
+        assert!(!p.check_watchdog(0.07), "reported once");
+        assert_eq!(p.held_force(), 0.0);
+        p.step()?;
+        let s = p.state();
+        assert!(s.command_stale);
+        assert_eq!(s.mass_velocity, 0.0);
+        p.published(0.08);
+        p.step()?;
+        p.published(0.09);
+        p.stats.finish();
+        // sample 0 answered; sample 1 never (lost); sample 2 was in flight at the end
+        assert_eq!(
+            (
+                p.stats.published,
+                p.stats.unanswered,
+                p.stats.before_first_answer
+            ),
+            (3, 1, 0)
+        );
+        Ok(())
+    }
+}
