@@ -20,6 +20,7 @@
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
+//! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
 //! - [`sim`]: [`plant::PlantSim`] for the exact simulator of `capsule_plant`
 
 #![warn(missing_docs)]
@@ -31,6 +32,7 @@ pub mod command_gate;
 pub mod conflicts;
 pub mod controller;
 pub mod controller_params;
+pub mod foxglove_bridge;
 pub mod graph;
 pub mod latency;
 pub mod param_services;

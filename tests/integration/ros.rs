@@ -10,6 +10,7 @@ mod harness;
 
 mod fault_matrix;
 mod faults;
+mod foxglove;
 mod interop;
 mod lockstep;
 mod params;
