@@ -14,7 +14,7 @@
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
 //! - [`throttle`]: rate-limited logging of per-sample events
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
-//! - [`controller`]: the controller node
+//! - [`controller`]: the controller node; [`controller_diagnostics`]: its `/diagnostics`
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services);
 //!   [`controller_params`]: the controller's
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
@@ -31,6 +31,7 @@ pub mod command_feedback;
 pub mod command_gate;
 pub mod conflicts;
 pub mod controller;
+pub mod controller_diagnostics;
 pub mod controller_params;
 pub mod foxglove_bridge;
 pub mod graph;

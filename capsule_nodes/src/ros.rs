@@ -370,6 +370,10 @@ pub mod types {
     pub fn status() -> MessageTypeName {
         MessageTypeName::new("capsule_msgs", "ControllerStatus")
     }
+    /// `sensor_msgs/msg/JointState` (joint_states and the JointState commands).
+    pub fn joint_state() -> MessageTypeName {
+        MessageTypeName::new("sensor_msgs", "JointState")
+    }
     /// `rosgraph_msgs/msg/Clock`.
     pub fn clock() -> MessageTypeName {
         MessageTypeName::new("rosgraph_msgs", "Clock")
