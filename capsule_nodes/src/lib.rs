@@ -11,6 +11,7 @@
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
+//! - [`joint_commands`]: JointState commands as topic_based_ros2_control sends them
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
 //! - [`throttle`]: rate-limited logging of per-sample events
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
@@ -35,6 +36,7 @@ pub mod controller_diagnostics;
 pub mod controller_params;
 pub mod foxglove_bridge;
 pub mod graph;
+pub mod joint_commands;
 pub mod latency;
 pub mod param_services;
 pub mod params;

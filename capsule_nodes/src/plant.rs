@@ -26,7 +26,7 @@ use std::{
 };
 
 use anyhow::{Context as _, Result};
-use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
+use capsule_msgs::{std_types::JointState, ActuatorForce, CapsuleState, Header, Time};
 use futures::StreamExt;
 use tracing::{info, warn};
 
@@ -455,6 +455,9 @@ pub struct PlantOptions {
     pub record: Option<InPlantRecordOptions>,
     /// The ROS parameters served (see [`crate::plant_params`]).
     pub params: crate::params::ParamTable,
+    /// Also take commands as JointState on [`names::JOINT_COMMANDS`] (real-time pacing; see
+    /// [`crate::joint_commands`]).
+    pub joint_commands: bool,
 }
 
 /// Where and how the plant records the graph itself.
@@ -524,6 +527,8 @@ struct Endpoints {
     graph: Graph,
     /// Standard-type views (issue 10).
     views: crate::views::PlantViews,
+    /// JointState commands (`--joint-commands`), `None` when off: one branch per sample.
+    joint_sub: Option<ros2_client::Subscription<JointState>>,
 }
 
 impl Endpoints {
@@ -601,6 +606,17 @@ pub async fn run<S: PlantSim + Send + 'static>(
     let state_topic = settings.topic(&node, names::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
     let clock_topic = settings.topic(&node, names::CLOCK, types::clock(), &qos::clock())?;
+    let joint_topic = opts
+        .joint_commands
+        .then(|| {
+            settings.topic(
+                &node,
+                names::JOINT_COMMANDS,
+                types::joint_state(),
+                &qos::data(),
+            )
+        })
+        .transpose()?;
     let io = Endpoints {
         state_pub: node
             .create_publisher::<CapsuleState>(&state_topic, None)
@@ -611,6 +627,10 @@ pub async fn run<S: PlantSim + Send + 'static>(
         force_sub: node
             .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
             .context("force subscription")?,
+        joint_sub: joint_topic
+            .map(|t| node.create_subscription::<JointState>(&t, Some(qos::data_reader())))
+            .transpose()
+            .context("joint command subscription")?,
         graph: graph.clone(),
         views: crate::views::Views::create(
             &mut node,
@@ -683,6 +703,13 @@ pub async fn run<S: PlantSim + Send + 'static>(
         settings.resolve_name(names::FORCE),
         settings.resolve_name(names::CLOCK),
     );
+    if opts.joint_commands {
+        info!(
+            "taking JointState commands on {} (effort of {} = actuator force [N])",
+            settings.resolve_name(names::JOINT_COMMANDS),
+            crate::joint_commands::JOINT
+        );
+    }
 
     if opts.wait_subscribers > 0 {
         let writer = io.state_pub.guid();
@@ -795,6 +822,45 @@ fn outgoing<S: PlantSim>(
     Ok((state, clock))
 }
 
+/// Takes every JointState command received (see [`crate::joint_commands`]): each answers the
+/// current sample and goes through [`PlantCore::on_command`] as a force command does.
+fn take_joint_commands<S: PlantSim>(
+    core: &mut PlantCore<S>,
+    sub: &ros2_client::Subscription<JointState>,
+    at: impl Fn(&ros2_client::MessageInfo) -> f64,
+    refused_logged: &mut Throttle,
+    bad: &mut Throttle,
+) {
+    loop {
+        match sub.take() {
+            Ok(Some((js, info))) => {
+                match crate::joint_commands::to_force(&js, core.seq(), core.stamp(), &core.frame_id)
+                {
+                    Ok(cmd) => match core.on_command(&cmd, at(&info), false) {
+                        CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
+                        refused => log_refused(refused, &cmd, refused_logged, core.rejected()),
+                    },
+                    Err(e) => {
+                        if bad.tick() {
+                            warn!("JointState command not taken ({} so far): {e}", bad.seen());
+                        }
+                    }
+                }
+            }
+            Ok(None) => break,
+            Err(e) => {
+                if bad.tick() {
+                    warn!(
+                        "undecodable JointState command ({} so far): {e:?}",
+                        bad.seen()
+                    );
+                }
+                break;
+            }
+        }
+    }
+}
+
 /// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
 /// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
 /// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
@@ -815,6 +881,7 @@ fn realtime_loop<S: PlantSim>(
     let now = || (capsule_record::writer::now_ns() as i64 - wall0) as f64 * 1e-9;
     let mut refused_logged = Throttle::default();
     let mut undecodable = Throttle::default();
+    let mut joint_bad = Throttle::default();
     loop {
         let stamp = core.stamp();
         let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
@@ -856,6 +923,13 @@ fn realtime_loop<S: PlantSim>(
                     break;
                 }
             }
+        }
+        if let Some(sub) = &io.joint_sub {
+            let at = |info: &ros2_client::MessageInfo| {
+                info.received_timestamp()
+                    .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9)
+            };
+            take_joint_commands(core, sub, at, &mut refused_logged, &mut joint_bad);
         }
         if core.check_watchdog(now()) {
             warn!(

@@ -353,6 +353,9 @@ pub mod names {
     pub const SET_MODE: &str = "~/set_mode";
     /// Simulation clock (absolute, as in ROS).
     pub const CLOCK: &str = "/clock";
+    /// JointState commands, as topic_based_ros2_control sends them (the plant's
+    /// `--joint-commands`; see [`crate::joint_commands`]).
+    pub const JOINT_COMMANDS: &str = "capsule/joint_commands";
 }
 
 /// ROS type names of the capsule interfaces.

@@ -12,6 +12,7 @@ mod fault_matrix;
 mod faults;
 mod foxglove;
 mod interop;
+mod joint_commands;
 mod lockstep;
 mod params;
 mod views;

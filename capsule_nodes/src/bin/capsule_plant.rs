@@ -80,6 +80,11 @@ struct Cli {
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
     check: bool,
+    /// Also take commands as sensor_msgs/JointState on capsule/joint_commands (the effort of
+    /// inner_mass_joint is the actuator force [N], the joint found by name), as
+    /// topic_based_ros2_control sends them; checked as force commands are. Real-time pacing only
+    #[arg(long)]
+    joint_commands: bool,
     #[command(flatten)]
     views: views::ViewArgs,
     #[command(flatten)]
@@ -115,6 +120,9 @@ fn build(
     cli: &Cli,
     overrides: &[ros_args::Override],
 ) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> {
+    if cli.joint_commands && cli.pacing == Pacing::Lockstep {
+        bail!("--joint-commands with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
+    }
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
     // both in range: the scene's validation and the flags' parsers check the same bounds
@@ -166,6 +174,7 @@ fn build(
         clock_every,
         record: record_options(cli, &file)?,
         params,
+        joint_commands: cli.joint_commands,
     };
     Ok((settings, core, opts))
 }
