@@ -25,6 +25,7 @@ fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
     &rest[..end]
 }
 
+/// Through the launcher (`--foxglove-port 0`), as a user starts it.
 #[test]
 fn a_foxglove_websocket_client_decodes_the_live_graph() {
     let client = root().join("tests/peers/foxglove_ws_client.py");
@@ -32,19 +33,19 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
         150,
         &format!(
             r#"
-            $B/capsule_controller --scene "$SCENE" --mode forward &
-            C=$!
-            $B/capsule_plant --scene "$SCENE" --until-s 120 &
-            P=$!
-            $B/capsule_foxglove --port 0 > $TMP/fox.out &
-            F=$!
+            $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --no-record \
+                --foxglove-port 0 > $TMP/fox.out &
+            L=$!
             for i in $(seq 300); do grep -q serving $TMP/fox.out && break; sleep 0.2; done
             URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
             echo "url $URL"
             python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} \
                 --seconds 3 --min 5 --timeout 90 || exit 1
-            kill -TERM $F; wait $F || exit 1
-            kill -TERM $C $P; wait $C; wait $P"#,
+            KIDS=$(pgrep -P $L)
+            kill -TERM $L; wait $L || exit 1
+            # the launcher stopped every node, the bridge too
+            for k in $KIDS; do kill -0 $k 2>/dev/null && {{ echo "left running: $k"; exit 1; }}; done
+            exit 0"#,
             client = client.display()
         ),
     );
