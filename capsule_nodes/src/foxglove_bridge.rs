@@ -10,15 +10,17 @@
 //!   `y1_minus_y2`, `force`, ... in SI (what the paper's plots show, in metres and seconds);
 //! - the controller's status (`/capsule_controller/status`): mode, gain, commands sent,
 //!   progression per period, mean speed;
+//! - the force commands (`/capsule/actuator_force`): `t` (the stamp of the sample answered),
+//!   `state_seq`, `force` [N] as commanded (the state's `force` is the one applied);
 //! - [`FRAME_TOPIC`]: a `foxglove.FrameTransform` of the capsule body in `odom` (the 3D panel).
 //!
-//! State and frame are thinned by their stamps to at most `--max-rate-hz`, and nothing is
+//! State, frame and commands are thinned by their stamps to at most `--max-rate-hz`, and nothing is
 //! encoded while no client subscribes. The server binds 127.0.0.1 only ([`check_host`]).
 
 use std::{net::Ipv4Addr, sync::Arc};
 
 use anyhow::{bail, Context as _, Result};
-use capsule_msgs::{CapsuleState, ControllerStatus, Time};
+use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use foxglove::{ChannelBuilder, RawChannel, Schema};
 use futures::StreamExt;
 use serde_json::json;
@@ -42,7 +44,7 @@ pub struct BridgeOptions {
     pub port: u16,
     /// The controller node whose `~/status` is served.
     pub controller_node: String,
-    /// Most state and frame messages per second (by the samples' stamps); 0: every sample.
+    /// Most state, frame and command messages per second (by their stamps); 0: every one.
     pub max_rate_hz: f64,
 }
 
@@ -73,6 +75,18 @@ pub const STATE_SCHEMA: &str = r#"{
     "contact_force": {"type": "number"},
     "in_contact": {"type": "boolean"}, "stuck": {"type": "boolean"},
     "command_stale": {"type": "boolean"}, "rejected_commands": {"type": "integer"}
+  }
+}"#;
+
+/// JSON schema of the force command channel.
+pub const FORCE_SCHEMA: &str = r#"{
+  "title": "capsule.ActuatorForce",
+  "description": "A force command as the controller sent it",
+  "type": "object",
+  "properties": {
+    "t": {"type": "number", "description": "stamp of the state sample it answers [s]"},
+    "state_seq": {"type": "integer"},
+    "force": {"type": "number", "description": "commanded force [N]"}
   }
 }"#;
 
@@ -124,6 +138,15 @@ pub fn state_json(s: &CapsuleState) -> serde_json::Value {
         "stuck": s.stuck,
         "command_stale": s.command_stale,
         "rejected_commands": s.rejected_commands,
+    })
+}
+
+/// The force command as the force channel's JSON.
+pub fn force_json(c: &ActuatorForce) -> serde_json::Value {
+    json!({
+        "t": c.header.stamp.as_secs_f64(),
+        "state_seq": c.state_seq,
+        "force": c.force,
     })
 }
 
@@ -238,6 +261,11 @@ pub async fn run(
             &qos::data(),
         )
         .with_context(|| format!("topic {status_name}"))?;
+    let force_name = settings.resolve_name(names::FORCE);
+    let force_topic = settings.topic(&node, names::FORCE, types::force(), &qos::data())?;
+    let force_sub = node
+        .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
+        .context("force subscription")?;
     let state_sub = node
         .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
         .context("state subscription")?;
@@ -248,6 +276,7 @@ pub async fn run(
     let state_ch = channel(&state_name, STATE_SCHEMA)?;
     let status_ch = channel(&status_name, STATUS_SCHEMA)?;
     let frame_ch = channel(FRAME_TOPIC, FRAME_SCHEMA)?;
+    let force_ch = channel(&force_name, FORCE_SCHEMA)?;
     let server = foxglove::WebSocketServer::new()
         .name("capsule_foxglove")
         .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
@@ -256,7 +285,7 @@ pub async fn run(
         .with_context(|| format!("cannot serve on 127.0.0.1:{}", opts.port))?;
     let port = server.port();
     info!(
-        "{}: ws://127.0.0.1:{port} ({SUBPROTOCOL}) serves {state_name}, {status_name}, {FRAME_TOPIC}",
+        "{}: ws://127.0.0.1:{port} ({SUBPROTOCOL}) serves {state_name}, {status_name}, {force_name}, {FRAME_TOPIC}",
         settings.describe()
     );
     ready(port);
@@ -264,8 +293,11 @@ pub async fn run(
     let states = state_sub.async_stream();
     let statuses = status_sub.async_stream();
     tokio::pin!(states);
+    let forces = force_sub.async_stream();
     tokio::pin!(statuses);
+    tokio::pin!(forces);
     let mut thin = StampThinner::new(opts.max_rate_hz);
+    let mut thin_force = StampThinner::new(opts.max_rate_hz);
     let shutdown = crate::ros::shutdown_signal();
     tokio::pin!(shutdown);
     loop {
@@ -287,6 +319,14 @@ pub async fn run(
                     }
                 }
                 Err(e) => warn!("bad state sample: {e:?}"),
+            },
+            msg = forces.select_next_some() => match msg {
+                Ok((c, _)) => {
+                    if force_ch.has_sinks() && thin_force.pass(c.header.stamp) {
+                        log(&force_ch, force_json(&c));
+                    }
+                }
+                Err(e) => warn!("bad force command: {e:?}"),
             },
             msg = statuses.select_next_some() => match msg {
                 Ok((s, _)) => {
@@ -345,7 +385,18 @@ mod tests {
         assert_eq!(f["parent_frame_id"], "odom");
         assert_eq!(f["child_frame_id"], BODY_FRAME);
         assert_eq!(f["translation"]["x"], 0.001);
-        for schema in [STATE_SCHEMA, STATUS_SCHEMA, FRAME_SCHEMA] {
+        let c = ActuatorForce {
+            header: s.header.clone(),
+            state_seq: 7,
+            force: -0.5,
+        };
+        let j = force_json(&c);
+        assert_eq!(
+            (j["t"].as_f64(), j["state_seq"].as_u64()),
+            (Some(2.25), Some(7))
+        );
+        assert_eq!(j["force"], -0.5);
+        for schema in [STATE_SCHEMA, STATUS_SCHEMA, FRAME_SCHEMA, FORCE_SCHEMA] {
             let v: serde_json::Value = serde_json::from_str(schema).unwrap_or_default();
             assert!(v["title"].is_string(), "{schema}");
         }

@@ -10,10 +10,11 @@ use capsule_nodes::{
 };
 use clap::Parser;
 
-/// Serves the plant's state, the controller's status and the capsule's frame on a Foxglove
-/// WebSocket (foxglove.sdk.v1, Foxglove's v1 protocol) on 127.0.0.1: open Foxglove, "Open connection", Foxglove
-/// WebSocket, ws://127.0.0.1:PORT, and the layout docs/foxglove/capsule_layout.json. A node of
-/// its own that reads the DDS topics: the plant's loop is untouched.
+/// Serves the plant's state, the controller's commands and status, and the capsule's frame on
+/// a Foxglove WebSocket (foxglove.sdk.v1, Foxglove's v1 protocol) on 127.0.0.1: in Foxglove,
+/// "Open connection", Foxglove WebSocket, ws://127.0.0.1:PORT, then the layout
+/// docs/foxglove/capsule_layout.json. A node of its own that reads the DDS topics: the plant's
+/// loop is untouched.
 #[derive(Debug, Parser)]
 #[command(name = "capsule_foxglove", version)]
 struct Cli {
@@ -26,7 +27,7 @@ struct Cli {
     /// Controller node name (its status topic is private to it)
     #[arg(long, default_value = "capsule_controller")]
     controller_node: String,
-    /// Most state and frame messages per second, by the samples' stamps (0: every sample),
+    /// Most state, frame and command messages per second, each by its stamps (0: all),
     /// [0, 1e6]
     #[arg(long, default_value_t = 200.0, value_parser = ranges::non_negative(1e6))]
     max_rate_hz: f64,

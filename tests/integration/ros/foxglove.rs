@@ -9,6 +9,7 @@ use super::harness::{json_number, json_raw, netns, root};
 const STATE: &str = "/capsule/state";
 const STATUS: &str = "/capsule_controller/status";
 const FRAME: &str = "/capsule/frame";
+const FORCE: &str = "/capsule/actuator_force";
 
 /// The part of the client's summary about `topic` (up to the next topic's key).
 fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
@@ -17,7 +18,7 @@ fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
         return "";
     };
     let rest = &summary[at + key.len()..];
-    let end = [STATE, STATUS, FRAME]
+    let end = [STATE, STATUS, FRAME, FORCE]
         .iter()
         .filter_map(|t| rest.find(&format!("\"{t}\":")))
         .min()
@@ -39,7 +40,7 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
             for i in $(seq 300); do grep -q serving $TMP/fox.out && break; sleep 0.2; done
             URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
             echo "url $URL"
-            python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} \
+            python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} \
                 --seconds 3 --min 5 --timeout 90 || exit 1
             KIDS=$(pgrep -P $L)
             kill -TERM $L; wait $L || exit 1
@@ -64,8 +65,14 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
     let state = section(summary, STATE);
     let status = section(summary, STATUS);
     let frame = section(summary, FRAME);
+    let force = section(summary, FORCE);
     // thinned to at most 200 per second of sim time, but at least the client's minimum
-    for (name, s) in [("state", state), ("status", status), ("frame", frame)] {
+    for (name, s) in [
+        ("state", state),
+        ("status", status),
+        ("frame", frame),
+        ("force", force),
+    ] {
         assert!(json_number(s, "count").unwrap_or(0.0) >= 5.0, "{name}: {s}");
     }
     assert_eq!(json_raw(state, "schema"), Some("\"capsule.State\""));
@@ -98,6 +105,11 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
         "{status}"
     );
     assert!(frame.contains("\"child_frame_id\": \"capsule\""), "{frame}");
+    assert_eq!(json_raw(force, "schema"), Some("\"capsule.ActuatorForce\""));
+    assert!(
+        json_number(force, "force").is_some_and(f64::is_finite),
+        "{force}"
+    );
     assert!(frame.contains("\"parent_frame_id\": \"odom\""), "{frame}");
 }
 
@@ -139,7 +151,9 @@ fn plot_paths(value: &serde_json::Value, out: &mut Vec<String>) {
 
 #[test]
 fn the_foxglove_layout_plots_fields_the_bridge_serves() {
-    use capsule_nodes::foxglove_bridge::{FRAME_SCHEMA, FRAME_TOPIC, STATE_SCHEMA, STATUS_SCHEMA};
+    use capsule_nodes::foxglove_bridge::{
+        FORCE_SCHEMA, FRAME_SCHEMA, FRAME_TOPIC, STATE_SCHEMA, STATUS_SCHEMA,
+    };
     let path = root().join("docs/foxglove/capsule_layout.json");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
@@ -150,6 +164,7 @@ fn the_foxglove_layout_plots_fields_the_bridge_serves() {
         (STATE, schema(STATE_SCHEMA)),
         (STATUS, schema(STATUS_SCHEMA)),
         (FRAME_TOPIC, schema(FRAME_SCHEMA)),
+        (FORCE, schema(FORCE_SCHEMA)),
     ];
     let mut paths = Vec::new();
     plot_paths(&layout["configById"], &mut paths);
