@@ -11,6 +11,8 @@ fn peer() -> String {
         .to_string()
 }
 
+/// Switched on as a launch file would, by the parameter (the flag `--joint-commands` sets the
+/// same parameter; the lock-step refusal below uses the flag).
 #[test]
 fn joint_state_commands_drive_the_plant_when_switched_on() {
     let py = peer();
@@ -18,7 +20,7 @@ fn joint_state_commands_drive_the_plant_when_switched_on() {
         120,
         &format!(
             r#"
-            $B/capsule_plant --scene "$SCENE" --until-s 90 --joint-commands &
+            $B/capsule_plant --scene "$SCENE" --until-s 90 --ros-args -p joint_commands:=true &
             P=$!
             sleep 1
             python3 {py} joint-command --effort 0.2 || exit 1
@@ -73,7 +75,7 @@ fn joint_state_commands_are_off_by_default_and_refused_in_lockstep() {
     assert!(run.stdout.contains("rc=2"), "{}", run.all());
     assert!(
         run.stderr
-            .contains("--joint-commands with --pacing lockstep"),
+            .contains("--joint-commands (or -p joint_commands:=true) with --pacing lockstep"),
         "{}",
         run.all()
     );
