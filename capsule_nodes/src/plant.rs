@@ -586,6 +586,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
     core: PlantCore<S>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
+    if opts.joint_commands && opts.pacing == Pacing::Lockstep {
+        anyhow::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+    }
     // the file first: an unwritable place is an error before anything else starts
     let recording = opts
         .record
