@@ -4,6 +4,8 @@
 #   - procps (pgrep, used by the launcher test)
 #   - python3 + the Eclipse Cyclone DDS binding (PyPI `cyclonedds`, ships its C library): the
 #     interop peer tests/peers/cyclone_peer.py
+#   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
+#     tests/peers/foxglove_ws_client.py
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
 # `cargo build --workspace` (the tests start the node binaries from target/debug).
 set -euo pipefail
@@ -24,6 +26,12 @@ if ! python3 -c "import cyclonedds" >/dev/null 2>&1; then
     || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages cyclonedds==11.0.1
 fi
 
+if ! python3 -c "import websockets" >/dev/null 2>&1; then
+  echo "ros-setup: pip install websockets"
+  python3 -m pip install --quiet --disable-pip-version-check websockets==15.0.1 \
+    || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages websockets==15.0.1
+fi
+
 # the namespace recipe must work here (root, kernel support); fail early with the reason
 probe="capsule_probe_$$"
 if ! ip netns add "$probe" 2>/dev/null; then
@@ -31,4 +39,4 @@ if ! ip netns add "$probe" 2>/dev/null; then
   exit 1
 fi
 ip netns delete "$probe"
-echo "ros-setup: ok (iproute2, python3 $(python3 -c 'import cyclonedds, importlib.metadata as m; print("cyclonedds", m.version("cyclonedds"))'))"
+echo "ros-setup: ok (iproute2, python3 $(python3 -c 'import cyclonedds, importlib.metadata as m; print("cyclonedds", m.version("cyclonedds"), "websockets", m.version("websockets"))'))"

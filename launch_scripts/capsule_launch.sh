@@ -8,13 +8,16 @@
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
-#       [--cpu-affinity LIST]
+#       [--cpu-affinity LIST] [--foxglove-port PORT]
 #
 # Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
 # --record-in-plant: the plant writes the same file itself instead (no recorder process; at
 # 10 kHz that costs 1-2 % of a core instead of half a core, see docs/recording.md).
 # --cpu-affinity LIST (e.g. 0): every node's threads on these CPUs; plant and controller on one
 # CPU wake each other without inter-processor interrupts (less CPU, lower latency: docs/ros.md).
+# --foxglove-port PORT: also serve the graph live to Foxglove (capsule_foxglove, 127.0.0.1 only;
+# 0 picks a free port and prints it; docs/foxglove/README.md). Like the recorder, a failed live
+# view does not stop control.
 #
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
@@ -26,8 +29,8 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0 cpus=
+usage() { sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port=
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
@@ -49,6 +52,7 @@ while [ $# -gt 0 ]; do
     --record-in-plant) in_plant=1; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
+    --foxglove-port) fox_port="$2"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) die "unknown argument $1" ;;
   esac
@@ -87,6 +91,12 @@ else
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
 fi
 "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2
+if [ -n "$fox_port" ]; then
+  [ -x "$bin/capsule_foxglove" ] || { echo "capsule_launch: $bin/capsule_foxglove not built (cargo build --workspace)" >&2; exit 2; }
+  fox=("$bin/capsule_foxglove" --port "$fox_port")
+  [ -n "$cpus" ] && fox+=(--cpu-affinity "$cpus")
+  "${fox[@]}" --check >/dev/null || exit 2
+fi
 
 pids=() names=()
 stop_all() {
@@ -109,6 +119,7 @@ start() { # name cmd...
 
 start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
 [ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
+[ -n "$fox_port" ] && start foxglove "${fox[@]}"
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
 start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
 
@@ -137,6 +148,11 @@ while :; do
         if [ -z "${said[$i]+x}" ]; then
           said[$i]=1
           echo "capsule_launch: RECORDER DIED (status ${status[$i]}): control goes on, NOT RECORDED from now on; complete its file with: capsule record recover FILE (in $record_dir)" >&2
+        fi
+      elif [ "${names[$i]}" = foxglove ]; then
+        if [ -z "${said[$i]+x}" ]; then
+          said[$i]=1
+          echo "capsule_launch: the Foxglove live view failed (status ${status[$i]}): control goes on without it" >&2
         fi
       else
         echo "capsule_launch: ${names[$i]} failed (status ${status[$i]}): stopping the graph" >&2

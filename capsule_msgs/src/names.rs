@@ -52,6 +52,9 @@ pub mod topics {
     pub const SET_MODE: &str = concat!("~/", set_mode!());
     /// Simulation clock (absolute, as in ROS).
     pub const CLOCK: &str = "/clock";
+    /// JointState commands, as topic_based_ros2_control sends them (the plant's
+    /// `--joint-commands`).
+    pub const JOINT_COMMANDS: &str = "capsule/joint_commands";
 }
 
 /// Topic names in the default graph (no namespace, default node names).
@@ -83,6 +86,8 @@ pub mod type_names {
     pub const SET_MODE_EVENT: &str = "capsule_msgs/msg/SetModeEvent";
     /// Simulation clock.
     pub const CLOCK: &str = "rosgraph_msgs/msg/Clock";
+    /// Joint states and JointState commands.
+    pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 
     /// `(package, Type)` of a `package/msg/Type` or `package/srv/Type` name.
     pub fn split(full: &str) -> (&str, &str) {

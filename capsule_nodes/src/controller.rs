@@ -291,6 +291,8 @@ pub struct ControllerOptions {
     pub status_period: Duration,
     /// The ROS parameters served (see [`crate::controller_params`]).
     pub params: crate::params::ParamTable,
+    /// Publish `/diagnostics` at 1 Hz (see [`crate::controller_diagnostics`]).
+    pub diagnostics: bool,
 }
 
 /// The controller's gain settings on the command line (the node's and `capsule replay
@@ -377,6 +379,11 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
             qos::service(),
         )
         .context("set_mode service")?;
+    let mut diagnostics = opts
+        .diagnostics
+        .then(|| crate::views::Diagnostics::create(&mut node, &settings))
+        .transpose()?;
+    let mut diag = crate::controller_diagnostics::ControllerDiag::default();
     // ROS parameters (rcl_interfaces services): served by their own task, applied here
     let (handle, mut applied) = crate::param_services::serve(
         &context,
@@ -510,6 +517,9 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                 }
                 if let Err(e) = status_pub.async_publish(core.status(clock.now())).await {
                     warn!("status not sent: {e:?}");
+                }
+                if let Some(d) = diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
+                    d.publish(diag.status(&settings.node_name, &core));
                 }
             }
         }

@@ -11,15 +11,17 @@
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
+//! - [`joint_commands`]: JointState commands as topic_based_ros2_control sends them
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
 //! - [`throttle`]: rate-limited logging of per-sample events
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
-//! - [`controller`]: the controller node
+//! - [`controller`]: the controller node; [`controller_diagnostics`]: its `/diagnostics`
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services);
 //!   [`controller_params`]: the controller's
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
+//! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
 //! - [`sim`]: [`plant::PlantSim`] for the exact simulator of `capsule_plant`
 
 #![warn(missing_docs)]
@@ -30,8 +32,11 @@ pub mod command_feedback;
 pub mod command_gate;
 pub mod conflicts;
 pub mod controller;
+pub mod controller_diagnostics;
 pub mod controller_params;
+pub mod foxglove_bridge;
 pub mod graph;
+pub mod joint_commands;
 pub mod latency;
 pub mod param_services;
 pub mod params;

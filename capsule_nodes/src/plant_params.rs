@@ -26,6 +26,8 @@ pub mod names {
     pub const K1_N_PER_M: &str = "k1_n_per_m";
     /// Physical scale: friction threshold [N].
     pub const PF_N: &str = "pf_n";
+    /// JointState commands on capsule/joint_commands (`--joint-commands`).
+    pub const JOINT_COMMANDS: &str = "joint_commands";
 }
 use names::*;
 
@@ -79,6 +81,17 @@ pub fn table(s: &PlantSettings) -> ParamTable {
         .declare(M1_KG, ro("physical scale: inner mass m1 [kg]"), V::Double(s.scale.0))
         .declare(K1_N_PER_M, ro("physical scale: primary stiffness k1 [N/m]"), V::Double(s.scale.1))
         .declare(PF_N, ro("physical scale: friction threshold P_f [N]"), V::Double(s.scale.2))
+}
+
+/// Declares [`JOINT_COMMANDS`] (read-only once running), valued by the flag.
+pub fn declare_joint_commands(t: ParamTable, on: bool) -> ParamTable {
+    t.declare(
+        JOINT_COMMANDS,
+        ParamSpec::read_only(
+            "take JointState commands on capsule/joint_commands (topic_based_ros2_control; set at start)",
+        ),
+        V::Boolean(on),
+    )
 }
 
 /// Rate, command timeout and clock thinning from the table after start-up overrides; the

@@ -356,6 +356,10 @@ pub mod types {
     pub fn status() -> MessageTypeName {
         message(n::STATUS)
     }
+    /// `sensor_msgs/msg/JointState` (joint_states and the JointState commands).
+    pub fn joint_state() -> MessageTypeName {
+        message(n::JOINT_STATE)
+    }
     /// `rosgraph_msgs/msg/Clock`.
     pub fn clock() -> MessageTypeName {
         message(n::CLOCK)

@@ -39,7 +39,7 @@ use crate::{
     latency::LatencyHistogram,
     params::{ParamSpec, ParamTable},
     plant::LoopStats,
-    ros::{qos, RosSettings},
+    ros::{qos, types, RosSettings},
 };
 
 /// Joint names, in `JointState` order.
@@ -318,6 +318,55 @@ impl DiagWindow {
     }
 }
 
+/// A node's `/diagnostics` publisher: one `DiagnosticArray` a second, stamped with the wall
+/// clock (as diagnostic_updater does). The plant's loop and the controller both use it.
+pub struct Diagnostics {
+    publisher: Publisher<DiagnosticArray>,
+    next: std::time::Instant,
+}
+
+impl Diagnostics {
+    /// The publisher on `/diagnostics` (resolved with the node's settings); first due in 1 s.
+    pub fn create(node: &mut Node, settings: &RosSettings) -> Result<Self> {
+        let topic = settings.topic(
+            node,
+            names::DIAGNOSTICS,
+            type_name("diagnostic_msgs", "DiagnosticArray"),
+            &qos::data(),
+        )?;
+        Ok(Diagnostics {
+            publisher: node
+                .create_publisher(&topic, None)
+                .context("/diagnostics publisher")?,
+            next: std::time::Instant::now() + Duration::from_secs(1),
+        })
+    }
+
+    /// True once a second (then not again until the next second).
+    pub fn due(&mut self) -> bool {
+        let now = std::time::Instant::now();
+        if now < self.next {
+            return false;
+        }
+        self.next = now + Duration::from_secs(1);
+        true
+    }
+
+    /// Publishes `status` as a one-status array (a failed write is logged).
+    pub fn publish(&self, status: DiagnosticStatus) {
+        let array = DiagnosticArray {
+            header: Header {
+                stamp: Time::from_nanos(capsule_record::writer::now_ns() as i64),
+                frame_id: String::new(),
+            },
+            status: vec![status],
+        };
+        if let Err(e) = self.publisher.publish(array) {
+            tracing::warn!("/diagnostics not sent: {e:?}");
+        }
+    }
+}
+
 /// Every how many samples joint_states and /tf go out: `rate / views_rate`, rounded, >= 1.
 pub fn view_every(rate_hz: f64, views_rate_hz: f64) -> u64 {
     ((rate_hz / views_rate_hz).round() as u64).max(1)
@@ -335,13 +384,12 @@ pub struct PlantViews {
 pub struct Views {
     joint_states: Option<Publisher<JointState>>,
     tf: Option<Publisher<TFMessage>>,
-    diagnostics: Option<Publisher<DiagnosticArray>>,
+    diagnostics: Option<Diagnostics>,
     graph: Graph,
     node: String,
     pacing: String,
     rate_hz: f64,
     diag: DiagWindow,
-    next_diag: std::time::Instant,
     every: u64,
     count: u64,
 }
@@ -379,27 +427,11 @@ impl Views {
             |name: &str, ty: MessageTypeName, q: &QosProfile| settings.topic(node, name, ty, q);
         let js_topic = on
             .joint_states
-            .then(|| {
-                topic(
-                    names::JOINT_STATES,
-                    type_name("sensor_msgs", "JointState"),
-                    &data,
-                )
-            })
+            .then(|| topic(names::JOINT_STATES, types::joint_state(), &data))
             .transpose()?;
         let tf_topic = on
             .tf
             .then(|| topic(names::TF, type_name("tf2_msgs", "TFMessage"), &tf_qos()))
-            .transpose()?;
-        let diag_topic = on
-            .diagnostics
-            .then(|| {
-                topic(
-                    names::DIAGNOSTICS,
-                    type_name("diagnostic_msgs", "DiagnosticArray"),
-                    &data,
-                )
-            })
             .transpose()?;
         let rd_topic = on
             .robot_description
@@ -431,16 +463,15 @@ impl Views {
                 .map(|t| node.create_publisher(&t, None))
                 .transpose()
                 .context("/tf publisher")?,
-            diagnostics: diag_topic
-                .map(|t| node.create_publisher(&t, None))
-                .transpose()
-                .context("/diagnostics publisher")?,
+            diagnostics: on
+                .diagnostics
+                .then(|| Diagnostics::create(node, settings))
+                .transpose()?,
             graph: graph.clone(),
             node: settings.node_name.clone(),
             pacing: pacing.to_string(),
             rate_hz,
             diag: DiagWindow::default(),
-            next_diag: std::time::Instant::now() + Duration::from_secs(1),
             every: view_every(rate_hz, on.rate_hz),
             count: 0,
         };
@@ -469,21 +500,11 @@ impl Views {
                 let _ = p.publish(tf(state));
             }
         }
-        if let Some(p) = &self.diagnostics {
-            let now = std::time::Instant::now();
-            if now >= self.next_diag {
-                self.next_diag = now + Duration::from_secs(1);
-                let status = self
-                    .diag
-                    .status(&self.node, &self.pacing, self.rate_hz, stats, state);
-                let _ = p.publish(DiagnosticArray {
-                    header: Header {
-                        stamp: Time::from_nanos(capsule_record::writer::now_ns() as i64),
-                        frame_id: String::new(),
-                    },
-                    status: vec![status],
-                });
-            }
+        if let Some(d) = self.diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
+            d.publish(
+                self.diag
+                    .status(&self.node, &self.pacing, self.rate_hz, stats, state),
+            );
         }
     }
 }

@@ -303,6 +303,21 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
             "from 1 to 60000",
         ),
         (
+            "capsule_foxglove",
+            vec!["--check", "--max-rate-hz", "inf"],
+            "finite",
+        ),
+        (
+            "capsule_foxglove",
+            vec!["--check", "--port", "70000"],
+            "0..=65535",
+        ),
+        (
+            "capsule_foxglove",
+            vec!["--check", "--host", "0.0.0.0"],
+            "127.0.0.1 only",
+        ),
+        (
             "capsule_ros",
             vec!["period", "--scene", scene, "--periods", "-5"],
             "must be > 0",

@@ -10,7 +10,9 @@ mod harness;
 
 mod fault_matrix;
 mod faults;
+mod foxglove;
 mod interop;
+mod joint_commands;
 mod lockstep;
 mod params;
 mod views;

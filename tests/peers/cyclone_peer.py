@@ -18,8 +18,17 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   cyclone_peer.py foreign   --kind K        publish on rt/capsule/actuator_force what the plant
                             [--seconds S]   cannot take: K = type (another type name) or layout
                                             (the ActuatorForce name with another layout)
+  cyclone_peer.py joint-command --effort F   command the plant (--joint-commands, no controller)
+                                            as topic_based_ros2_control does: JointState on
+                                            rt/capsule/joint_commands, stamped with the wall clock;
+                                            checks the state and joint_states show F applied, NaN
+                                            refused, another joint's command ignored, zero force
+                                            after silence
   cyclone_peer.py views     [--absent NAME...] joint_states, /tf, robot_description, /diagnostics
                                             checked against the state samples
+  cyclone_peer.py diagnostics --name N... [--seconds S]
+                                            read /diagnostics, print each named status's last
+                                            message (level, message, values) as JSON
   cyclone_peer.py params    [--node N] [--set NAME=V]... [--refuse NAME=V]...
                                             the rcl_interfaces parameter services and
                                             /parameter_events, as `ros2 param` uses them
@@ -451,6 +460,64 @@ def cmd_force(args):
                       "stale_fallback": True}))
 
 
+def cmd_joint_command(args):
+    dp = participant()
+    reader = DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE)
+    js_reader = DataReader(dp, Topic(dp, "rt/joint_states", JointState), qos=RELIABLE)
+    writer = DataWriter(dp, Topic(dp, "rt/capsule/joint_commands", JointState), qos=RELIABLE)
+    latest = [None]
+    joint_states = []
+
+    def command(names, efforts):
+        now = time.time()
+        writer.write(JointState(header=Header(stamp=Time(sec=int(now), nanosec=int((now % 1) * 1e9)), frame_id=""),
+                                name=names, position=[], velocity=[], effort=efforts))
+
+    def pump(seconds, names=None, efforts=None):
+        end = time.time() + seconds
+        seen = []
+        while time.time() < end:
+            for s in reader.take(N=64):
+                latest[0] = s
+                seen.append(s)
+            joint_states.extend(js_reader.take(N=64))
+            if names is not None:
+                command(names, efforts)
+            time.sleep(0.005)
+        return seen
+
+    pump(1.0)
+    if latest[0] is None:
+        fail("no state from the plant")
+    f = args.effort
+    # both joints named, as topic_based_ros2_control sends them when both have an effort
+    # interface: the plant must pick inner_mass_joint's by name
+    seen = pump(1.0, ["capsule_joint", "inner_mass_joint"], [9.0, f])
+    applied = [s for s in seen if not s.command_stale and abs(s.actuator_force - f) < 1e-9]
+    if len(applied) < 5:
+        fail(f"plant did not apply the effort {f} N: last {[(s.actuator_force, s.command_stale) for s in seen[-5:]]}")
+    efforts = [js.effort[list(js.name).index("inner_mass_joint")] for js in joint_states
+               if "inner_mass_joint" in js.name and len(js.effort) == len(js.name)]
+    if not any(abs(e - f) < 1e-9 for e in efforts):
+        fail(f"joint_states never showed inner_mass_joint's effort {f} ({len(joint_states)} joint states, last efforts {efforts[-3:]})")
+    before = seen[-1].rejected_commands
+    seen = pump(0.3, ["inner_mass_joint"], [float("nan")]) + pump(0.3)
+    after = seen[-1].rejected_commands if seen else before
+    if after <= before:
+        fail(f"NaN efforts not counted as refused ({before} -> {after})")
+    if any(not math.isfinite(s.actuator_force) for s in seen):
+        fail("a NaN effort reached the simulation")
+    seen = pump(0.5, ["wheel_joint"], [-f])
+    if any(abs(s.actuator_force + f) < 1e-12 for s in seen):
+        fail("a command for another joint was applied")
+    seen = pump(args.stale_wait)
+    tail = seen[-3:]
+    if not tail or not all(s.command_stale and s.actuator_force == 0.0 for s in tail):
+        fail(f"no zero-force fallback after silence: {[(s.actuator_force, s.command_stale) for s in tail]}")
+    print(json.dumps({"applied_samples": len(applied), "joint_states_effort_seen": True,
+                      "refused_before": before, "refused_after": after, "stale_fallback": True}))
+
+
 def cmd_status(args):
     """Waits for a status with at least --periods complete periods and prints it."""
     dp = participant()
@@ -759,9 +826,41 @@ def cmd_views(args):
     if "diagnostics" not in args.absent:
         if not got["diagnostics"]:
             fail("no /diagnostics")
-        st = got["diagnostics"][-1].status[0]
+        # the plant's loop status (the controller publishes on /diagnostics too)
+        loops = [st for m in got["diagnostics"] for st in m.status if st.name.endswith(": loop")]
+        if not loops:
+            fail(f"no loop status among {[st.name for m in got['diagnostics'] for st in m.status]}")
+        st = loops[-1]
         out["diagnostics_last"] = {"level": st.level, "name": st.name, "message": st.message,
                                    "values": {kv.key: kv.value for kv in st.values}}
+    print(json.dumps(out))
+
+
+def cmd_diagnostics(args):
+    """Reads /diagnostics for --seconds (counted from the first array) and prints the last
+    status of each --name (a node's statuses are named "NODE: ..."); fails if one is missing."""
+    dp = participant()
+    r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=RELIABLE)
+    got = []
+    start = time.time()
+    deadline = start + args.timeout
+    while time.time() < deadline:
+        got.extend(r.take(N=64))
+        if got and deadline - start > args.seconds:
+            start = time.time()
+            deadline = start + args.seconds
+        time.sleep(0.02)
+    last = {}
+    for m in got:
+        for st in m.status:
+            last[st.name] = {"level": st.level, "message": st.message,
+                             "values": {kv.key: kv.value for kv in st.values}, "count": last.get(st.name, {}).get("count", 0) + 1}
+    out = {}
+    for name in args.name:
+        found = [k for k in last if k.split(":")[0] == name]
+        if not found:
+            fail(f"no /diagnostics status of {name} (got {sorted(last)})")
+        out[name] = {k: last[k] for k in found}
     print(json.dumps(out))
 
 
@@ -773,6 +872,9 @@ def main():
     a.add_argument("--timeout", type=float, default=15.0)
     a = sub.add_parser("force")
     a.add_argument("--force", type=float, default=0.123)
+    a.add_argument("--stale-wait", type=float, default=1.5)
+    a = sub.add_parser("joint-command")
+    a.add_argument("--effort", type=float, default=0.123)
     a.add_argument("--stale-wait", type=float, default=1.5)
     a = sub.add_parser("status")
     a.add_argument("--periods", type=int, default=10)
@@ -797,13 +899,18 @@ def main():
     a.add_argument("--set", action="append", default=[], metavar="NAME=JSON")
     a.add_argument("--refuse", action="append", default=[], metavar="NAME=JSON")
     a.add_argument("--timeout", type=float, default=15.0)
+    a = sub.add_parser("diagnostics")
+    a.add_argument("--name", nargs="+", required=True)
+    a.add_argument("--seconds", type=float, default=2.5)
+    a.add_argument("--timeout", type=float, default=30.0)
     a = sub.add_parser("views")
     a.add_argument("--seconds", type=float, default=3.0)
     a.add_argument("--timeout", type=float, default=30.0)
     a.add_argument("--absent", nargs="*", default=[])
     args = p.parse_args()
     {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode,
-     "inject": cmd_inject, "foreign": cmd_foreign, "params": cmd_params, "views": cmd_views}[args.cmd](args)
+     "inject": cmd_inject, "foreign": cmd_foreign, "params": cmd_params, "views": cmd_views,
+     "diagnostics": cmd_diagnostics, "joint-command": cmd_joint_command}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -60,6 +60,10 @@ struct Cli {
     /// Status and watchdog period [ms], 1 to 60000
     #[arg(long, default_value_t = 100, value_parser = ranges::millis())]
     status_period_ms: u64,
+    /// Do not publish /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz: mode, gain,
+    /// commands sent, states ignored, plant seen, OK / WARN / ERROR)
+    #[arg(long)]
+    no_diagnostics: bool,
     #[command(flatten)]
     ros: RosArgs,
 }
@@ -122,6 +126,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
             core,
             status_period: Duration::from_millis(cli.status_period_ms),
             params,
+            diagnostics: !cli.no_diagnostics,
         },
     ))
 }

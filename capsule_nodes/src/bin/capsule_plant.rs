@@ -80,6 +80,12 @@ struct Cli {
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
     check: bool,
+    /// Also take commands as sensor_msgs/JointState on capsule/joint_commands (the effort of
+    /// inner_mass_joint is the actuator force [N], the joint found by name), as
+    /// topic_based_ros2_control sends them; checked as force commands are (also
+    /// `-p joint_commands:=true`). Real-time pacing only
+    #[arg(long)]
+    joint_commands: bool,
     #[command(flatten)]
     views: views::ViewArgs,
     #[command(flatten)]
@@ -149,8 +155,15 @@ fn build(
             scene.physical.pf_n,
         ),
     };
-    let mut params = cli.views.declare(plant_params::table(&started_with));
+    let mut params = cli.views.declare(plant_params::declare_joint_commands(
+        plant_params::table(&started_with),
+        cli.joint_commands,
+    ));
     ros_args::apply_overrides(&mut params, overrides, capsule_nodes::params::no_rules)?;
+    let joint_commands = params.boolean(plant_params::names::JOINT_COMMANDS);
+    if joint_commands && cli.pacing == Pacing::Lockstep {
+        bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
+    }
     let (rate, timeout, clock_every) =
         plant_params::overridable(&params, &started_with).map_err(anyhow::Error::msg)?;
     let mut core = PlantCore::new(ExactSim(sim), scene.physical, rate, timeout);
@@ -166,6 +179,7 @@ fn build(
         clock_every,
         record: record_options(cli, &file)?,
         params,
+        joint_commands,
     };
     Ok((settings, core, opts))
 }

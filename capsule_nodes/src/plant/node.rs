@@ -1,5 +1,6 @@
 //! The plant node on DDS: endpoints, start-up, and the run around the pacing loops.
 
+use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
@@ -32,6 +33,8 @@ pub(super) struct Endpoints {
     pub(super) graph: Graph,
     /// Standard-type views (issue 10).
     pub(super) views: crate::views::PlantViews,
+    /// JointState commands (`--joint-commands`), `None` when off: one branch per sample.
+    pub(super) joint_sub: Option<ros2_client::Subscription<JointState>>,
 }
 
 impl Endpoints {
@@ -94,6 +97,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
     core: PlantCore<S>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
+    if opts.joint_commands && opts.pacing == Pacing::Lockstep {
+        anyhow::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+    }
     // the file first: an unwritable place is an error before anything else starts
     let recording = opts
         .record
@@ -114,6 +120,17 @@ pub async fn run<S: PlantSim + Send + 'static>(
     let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
     let clock_topic = settings.topic(&node, topics::CLOCK, types::clock(), &qos::clock())?;
+    let joint_topic = opts
+        .joint_commands
+        .then(|| {
+            settings.topic(
+                &node,
+                topics::JOINT_COMMANDS,
+                types::joint_state(),
+                &qos::data(),
+            )
+        })
+        .transpose()?;
     let io = Endpoints {
         state_pub: node
             .create_publisher::<CapsuleState>(&state_topic, None)
@@ -124,6 +141,10 @@ pub async fn run<S: PlantSim + Send + 'static>(
         force_sub: node
             .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
             .context("force subscription")?,
+        joint_sub: joint_topic
+            .map(|t| node.create_subscription::<JointState>(&t, Some(qos::data_reader())))
+            .transpose()
+            .context("joint command subscription")?,
         graph: graph.clone(),
         views: crate::views::Views::create(
             &mut node,
@@ -196,6 +217,13 @@ pub async fn run<S: PlantSim + Send + 'static>(
         settings.resolve_name(topics::FORCE),
         settings.resolve_name(topics::CLOCK),
     );
+    if opts.joint_commands {
+        info!(
+            "taking JointState commands on {} (effort of {} = actuator force [N])",
+            settings.resolve_name(topics::JOINT_COMMANDS),
+            crate::joint_commands::JOINT
+        );
+    }
 
     if opts.wait_subscribers > 0 {
         let writer = io.state_pub.guid();

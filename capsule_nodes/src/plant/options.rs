@@ -31,4 +31,7 @@ pub struct PlantOptions {
     pub record: Option<InPlantRecordOptions>,
     /// The ROS parameters served (see [`crate::plant_params`]).
     pub params: crate::params::ParamTable,
+    /// Also take commands as JointState on [`capsule_msgs::names::topics::JOINT_COMMANDS`] (real-time pacing; see
+    /// [`crate::joint_commands`]).
+    pub joint_commands: bool,
 }

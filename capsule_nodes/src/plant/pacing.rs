@@ -1,5 +1,6 @@
 //! The two pacings: real time on one thread, and lock-step.
 
+use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
@@ -32,6 +33,45 @@ pub(super) fn outgoing<S: PlantSim>(
     Ok((state, clock))
 }
 
+/// Takes every JointState command received (see [`crate::joint_commands`]): each answers the
+/// current sample and goes through [`PlantCore::on_command`] as a force command does.
+fn take_joint_commands<S: PlantSim>(
+    core: &mut PlantCore<S>,
+    sub: &ros2_client::Subscription<JointState>,
+    at: impl Fn(&ros2_client::MessageInfo) -> f64,
+    refused_logged: &mut Throttle,
+    bad: &mut Throttle,
+) {
+    loop {
+        match sub.take() {
+            Ok(Some((js, info))) => {
+                match crate::joint_commands::to_force(&js, core.seq(), core.stamp(), &core.frame_id)
+                {
+                    Ok(cmd) => match core.on_command(&cmd, at(&info), false) {
+                        CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
+                        refused => log_refused(refused, &cmd, refused_logged, core.rejected()),
+                    },
+                    Err(e) => {
+                        if bad.tick() {
+                            warn!("JointState command not taken ({} so far): {e}", bad.seen());
+                        }
+                    }
+                }
+            }
+            Ok(None) => break,
+            Err(e) => {
+                if bad.tick() {
+                    warn!(
+                        "undecodable JointState command ({} so far): {e:?}",
+                        bad.seen()
+                    );
+                }
+                break;
+            }
+        }
+    }
+}
+
 /// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
 /// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
 /// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
@@ -52,6 +92,7 @@ pub(super) fn realtime_loop<S: PlantSim>(
     let now = || (capsule_record::writer::now_ns() as i64 - wall0) as f64 * 1e-9;
     let mut refused_logged = Throttle::default();
     let mut undecodable = Throttle::default();
+    let mut joint_bad = Throttle::default();
     loop {
         let stamp = core.stamp();
         let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
@@ -93,6 +134,13 @@ pub(super) fn realtime_loop<S: PlantSim>(
                     break;
                 }
             }
+        }
+        if let Some(sub) = &io.joint_sub {
+            let at = |info: &ros2_client::MessageInfo| {
+                info.received_timestamp()
+                    .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9)
+            };
+            take_joint_commands(core, sub, at, &mut refused_logged, &mut joint_bad);
         }
         if core.check_watchdog(now()) {
             warn!(

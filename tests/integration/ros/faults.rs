@@ -224,7 +224,7 @@ fn namespaces_remaps_and_help_work_end_to_end() {
     let run = netns(
         90,
         r#"
-        for b in capsule_plant capsule_controller capsule_ros; do $B/$b --help > /dev/null || exit 1; done
+        for b in capsule_plant capsule_controller capsule_ros capsule_foxglove; do $B/$b --help > /dev/null || exit 1; done
         echo "help ok"
         NS="--namespace robot1 -r capsule/state:=/robot1/sim_state"
         $B/capsule_controller --scene "$SCENE" --mode forward $NS &

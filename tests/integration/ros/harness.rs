@@ -16,7 +16,12 @@ pub fn bin_dir() -> PathBuf {
     let dir = std::env::var_os("CAPSULE_BIN")
         .map(PathBuf::from)
         .unwrap_or_else(|| root().join("target/debug"));
-    for b in ["capsule_plant", "capsule_controller", "capsule_ros"] {
+    for b in [
+        "capsule_plant",
+        "capsule_controller",
+        "capsule_ros",
+        "capsule_foxglove",
+    ] {
         assert!(
             dir.join(b).is_file(),
             "{} missing: run `cargo build --workspace` first",

@@ -87,3 +87,63 @@ fn views_switched_off_stay_silent() {
     assert!(json_number(out, "state").unwrap_or(0.0) > 10.0, "{out}");
     assert_eq!(json_number(out, "joint_states"), Some(0.0), "{out}");
 }
+
+#[test]
+fn the_controller_reports_on_diagnostics() {
+    let py = peer();
+    let run = netns(
+        150,
+        &format!(
+            r#"
+            $B/capsule_controller --scene "$SCENE" --mode forward &
+            C=$!
+            python3 {py} diagnostics --name capsule_controller --seconds 1.5 || exit 1
+            $B/capsule_plant --scene "$SCENE" --until-s 90 --no-diagnostics &
+            P=$!
+            sleep 2
+            python3 {py} diagnostics --name capsule_controller --seconds 2.5 || exit 1
+            kill -TERM $P; wait $P
+            sleep 1.5
+            python3 {py} diagnostics --name capsule_controller --seconds 2.5 || exit 1
+            kill -TERM $C; wait $C"#
+        ),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    let lines: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("{\"capsule_controller\""))
+        .collect();
+    assert_eq!(lines.len(), 3, "{}", run.all());
+    for l in &lines {
+        assert!(l.contains("\"capsule_controller: control\""), "{l}");
+        assert!(l.contains("\"mode\": \"FORWARD\""), "{l}");
+    }
+    // no plant yet: WARN, not seen
+    assert_eq!(json_number(lines[0], "level"), Some(1.0), "{}", lines[0]);
+    assert!(
+        lines[0].contains("\"plant\": \"not seen yet\""),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        lines[0].contains("\"commands_sent\": \"0\""),
+        "{}",
+        lines[0]
+    );
+    // the plant running: commands went out in the last second, the plant is seen
+    let live = lines[1];
+    assert!(live.contains("\"plant\": \"seen\""), "{live}");
+    assert!(!live.contains("\"commands_last_s\": \"0\""), "{live}");
+    assert!(
+        live.contains("\"plant_takes_commands\": \"true\""),
+        "{live}"
+    );
+    // the plant gone: the watchdog fired, ERROR
+    let gone = lines[2];
+    assert_eq!(json_number(gone, "level"), Some(2.0), "{gone}");
+    assert!(
+        gone.contains("\"plant\": \"lost (watchdog fired)\""),
+        "{gone}"
+    );
+}

@@ -1,0 +1,75 @@
+//! `capsule_foxglove`: the capsule graph live in Foxglove, without ROS installed.
+
+use std::io::Write as _;
+
+use anyhow::Result;
+use capsule_nodes::{
+    foxglove_bridge::{self, BridgeOptions},
+    ranges,
+    ros::{self, RosArgs, RosEnv, RosSettings},
+};
+use clap::Parser;
+
+/// Serves the plant's state, the controller's commands and status, and the capsule's frame on
+/// a Foxglove WebSocket (foxglove.sdk.v1, Foxglove's v1 protocol) on 127.0.0.1: in Foxglove,
+/// "Open connection", Foxglove WebSocket, ws://127.0.0.1:PORT, then the layout
+/// docs/foxglove/capsule_layout.json. A node of its own that reads the DDS topics: the plant's
+/// loop is untouched.
+#[derive(Debug, Parser)]
+#[command(name = "capsule_foxglove", version)]
+struct Cli {
+    /// Port to serve on (0: any free port; the bound one is printed), 0 to 65535
+    #[arg(long, default_value_t = 8765)]
+    port: u16,
+    /// Address to bind: 127.0.0.1 (or localhost) only; anything else is refused
+    #[arg(long, default_value = "127.0.0.1")]
+    host: String,
+    /// Controller node name (its status topic is private to it)
+    #[arg(long, default_value = "capsule_controller")]
+    controller_node: String,
+    /// Most state, frame and command messages per second, each by its stamps (0: all),
+    /// [0, 1e6]
+    #[arg(long, default_value_t = 200.0, value_parser = ranges::non_negative(1e6))]
+    max_rate_hz: f64,
+    /// Check the flags, print what would be served, and exit (no DDS, no server)
+    #[arg(long)]
+    check: bool,
+    #[command(flatten)]
+    ros: RosArgs,
+}
+
+fn build(cli: &Cli) -> Result<(RosSettings, BridgeOptions)> {
+    foxglove_bridge::check_host(&cli.host)?;
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_foxglove")?;
+    Ok((
+        settings,
+        BridgeOptions {
+            port: cli.port,
+            controller_node: cli.controller_node.clone(),
+            max_rate_hz: cli.max_rate_hz,
+        },
+    ))
+}
+
+fn main() -> std::process::ExitCode {
+    ros::init_logging();
+    let cli = Cli::parse();
+    let result = build(&cli).and_then(|(settings, opts)| {
+        if cli.check {
+            println!(
+                "capsule_foxglove: ok: {}, would serve ws://127.0.0.1:{}",
+                settings.describe(),
+                opts.port
+            );
+            return Ok(());
+        }
+        ros::block_on(
+            settings.cpu_affinity.clone().as_ref(),
+            foxglove_bridge::run(settings, opts, |port| {
+                println!("capsule_foxglove: serving ws://127.0.0.1:{port}");
+                let _ = std::io::stdout().flush();
+            }),
+        )
+    });
+    ros::exit_code("capsule_foxglove", result)
+}

@@ -1,0 +1,417 @@
+//! A live view without ROS installed: the capsule graph's topics served on a Foxglove
+//! WebSocket on loopback (the `foxglove` SDK crate; Foxglove's v1 WebSocket protocol under the
+//! SDK's subprotocol name `foxglove.sdk.v1`).
+//!
+//! The bridge is its own node (`capsule_foxglove`): it subscribes to the plant's state and the
+//! controller's status over DDS like any other reader, so the plant's 1 kHz loop does not know
+//! it exists. It serves three JSON channels, each with a JSON schema:
+//!
+//! - the state topic (`/capsule/state`): `t`, `x1`, `x2`, `y1`, `y2`, `x1_minus_x2`,
+//!   `y1_minus_y2`, `force`, ... in SI (what the paper's plots show, in metres and seconds);
+//! - the controller's status (`/capsule_controller/status`): mode, gain, commands sent,
+//!   progression per period, mean speed;
+//! - the force commands (`/capsule/actuator_force`): `t` (the stamp of the sample answered),
+//!   `state_seq`, `force` [N] as commanded (the state's `force` is the one applied);
+//! - [`FRAME_TOPIC`]: a `foxglove.FrameTransform` of the capsule body in `odom` (the 3D panel).
+//!
+//! State, frame and commands are thinned by their stamps to at most `--max-rate-hz`, and nothing is
+//! encoded while no client subscribes. The server binds 127.0.0.1 only ([`check_host`]).
+
+use capsule_msgs::names::topics;
+use std::{net::Ipv4Addr, sync::Arc};
+
+use anyhow::{bail, Context as _, Result};
+use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
+use foxglove::{ChannelBuilder, RawChannel, Schema};
+use futures::StreamExt;
+use serde_json::json;
+use tracing::{info, warn};
+
+use crate::{
+    ros::{qos, types, RosSettings},
+    views::BODY_FRAME,
+};
+
+/// Foxglove channel of the capsule body's transform (the 3D panel's frame).
+pub const FRAME_TOPIC: &str = "/capsule/frame";
+/// The WebSocket subprotocol the SDK's server requires: Foxglove's v1 protocol (the messages of
+/// `foxglove.websocket.v1`) under the SDK's name; the Foxglove app offers it.
+pub const SUBPROTOCOL: &str = "foxglove.sdk.v1";
+
+/// How the bridge is set up (besides the ROS settings).
+#[derive(Debug, Clone)]
+pub struct BridgeOptions {
+    /// Port to serve on (0: any free one, printed).
+    pub port: u16,
+    /// The controller node whose `~/status` is served.
+    pub controller_node: String,
+    /// Most state, frame and command messages per second (by their stamps); 0: every one.
+    pub max_rate_hz: f64,
+}
+
+/// Refuses any bind address but loopback: the live view is for this machine (forward the
+/// port, e.g. `ssh -L`, to look from another one).
+pub fn check_host(host: &str) -> Result<Ipv4Addr> {
+    match host.trim() {
+        "127.0.0.1" | "localhost" => Ok(Ipv4Addr::LOCALHOST),
+        other => bail!(
+            "--host {other:?}: the Foxglove server binds 127.0.0.1 only (loopback); to view from another machine forward the port (ssh -L)"
+        ),
+    }
+}
+
+/// JSON schema of the state channel.
+pub const STATE_SCHEMA: &str = r#"{
+  "title": "capsule.State",
+  "description": "One plant sample in SI: x1 inner mass, x2 capsule (positions [m] in odom), y1, y2 their velocities [m/s]",
+  "type": "object",
+  "properties": {
+    "t": {"type": "number", "description": "sample time [s] (sim time)"},
+    "seq": {"type": "integer"},
+    "x1": {"type": "number"}, "x2": {"type": "number"},
+    "y1": {"type": "number"}, "y2": {"type": "number"},
+    "x1_minus_x2": {"type": "number"}, "y1_minus_y2": {"type": "number"},
+    "force": {"type": "number", "description": "actuator force applied [N]"},
+    "friction": {"type": "number", "description": "friction force on the capsule [N]"},
+    "contact_force": {"type": "number"},
+    "in_contact": {"type": "boolean"}, "stuck": {"type": "boolean"},
+    "command_stale": {"type": "boolean"}, "rejected_commands": {"type": "integer"}
+  }
+}"#;
+
+/// JSON schema of the force command channel.
+pub const FORCE_SCHEMA: &str = r#"{
+  "title": "capsule.ActuatorForce",
+  "description": "A force command as the controller sent it",
+  "type": "object",
+  "properties": {
+    "t": {"type": "number", "description": "stamp of the state sample it answers [s]"},
+    "state_seq": {"type": "integer"},
+    "force": {"type": "number", "description": "commanded force [N]"}
+  }
+}"#;
+
+/// JSON schema of the controller status channel.
+pub const STATUS_SCHEMA: &str = r#"{
+  "title": "capsule.ControllerStatus",
+  "type": "object",
+  "properties": {
+    "t": {"type": "number", "description": "status time [s] (the controller's ROS time)"},
+    "mode": {"type": "integer"}, "mode_name": {"type": "string"},
+    "gain": {"type": "number"}, "commanding": {"type": "boolean"},
+    "commands_sent": {"type": "integer"}, "periods": {"type": "integer"},
+    "progression_per_period": {"type": "number", "description": "non-dimensional"},
+    "progression_per_period_m": {"type": "number"},
+    "mean_speed": {"type": "number", "description": "[m/s]"},
+    "efficiency": {"type": "number"},
+    "drive_amplitude_si": {"type": "number"}, "drive_frequency_hz": {"type": "number"}
+  }
+}"#;
+
+/// JSON schema of `foxglove.FrameTransform` (Foxglove's well-known schema, JSON encoding).
+pub const FRAME_SCHEMA: &str = r#"{
+  "title": "foxglove.FrameTransform",
+  "type": "object",
+  "properties": {
+    "timestamp": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
+    "parent_frame_id": {"type": "string"},
+    "child_frame_id": {"type": "string"},
+    "translation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}}},
+    "rotation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}, "w": {"type": "number"}}}
+  }
+}"#;
+
+/// The state sample as the state channel's JSON.
+pub fn state_json(s: &CapsuleState) -> serde_json::Value {
+    json!({
+        "t": s.header.stamp.as_secs_f64(),
+        "seq": s.seq,
+        "x1": s.mass_position,
+        "x2": s.capsule_position,
+        "y1": s.mass_velocity,
+        "y2": s.capsule_velocity,
+        "x1_minus_x2": s.mass_position - s.capsule_position,
+        "y1_minus_y2": s.mass_velocity - s.capsule_velocity,
+        "force": s.actuator_force,
+        "friction": s.friction_force,
+        "contact_force": s.contact_force,
+        "in_contact": s.in_contact,
+        "stuck": s.stuck,
+        "command_stale": s.command_stale,
+        "rejected_commands": s.rejected_commands,
+    })
+}
+
+/// The force command as the force channel's JSON.
+pub fn force_json(c: &ActuatorForce) -> serde_json::Value {
+    json!({
+        "t": c.header.stamp.as_secs_f64(),
+        "state_seq": c.state_seq,
+        "force": c.force,
+    })
+}
+
+/// The controller status as the status channel's JSON.
+pub fn status_json(s: &ControllerStatus) -> serde_json::Value {
+    json!({
+        "t": s.header.stamp.as_secs_f64(),
+        "mode": s.mode,
+        "mode_name": s.mode_name,
+        "gain": s.gain,
+        "commanding": s.commanding,
+        "commands_sent": s.commands_sent,
+        "periods": s.periods,
+        "progression_per_period": s.progression_per_period,
+        "progression_per_period_m": s.progression_per_period_m,
+        "mean_speed": s.mean_speed,
+        "efficiency": s.efficiency,
+        "drive_amplitude_si": s.drive_amplitude_si,
+        "drive_frequency_hz": s.drive_frequency_hz,
+    })
+}
+
+fn stamp_json(t: Time) -> serde_json::Value {
+    let n = t.to_nanos();
+    json!({"sec": n.div_euclid(1_000_000_000), "nsec": n.rem_euclid(1_000_000_000)})
+}
+
+/// The capsule body in the sample's frame (`odom`) as a `foxglove.FrameTransform`.
+pub fn frame_json(s: &CapsuleState) -> serde_json::Value {
+    json!({
+        "timestamp": stamp_json(s.header.stamp),
+        "parent_frame_id": s.header.frame_id,
+        "child_frame_id": BODY_FRAME,
+        "translation": {"x": s.capsule_position, "y": 0.0, "z": 0.0},
+        "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+    })
+}
+
+/// Passes samples at most `max_rate_hz` apart by their stamps (0: all); a stamp going back
+/// (a restarted plant) starts afresh.
+#[derive(Debug, Clone)]
+pub struct StampThinner {
+    period_ns: i64,
+    last: Option<i64>,
+}
+
+impl StampThinner {
+    /// A thinner to at most `max_rate_hz` (>= 0, finite: the caller validates).
+    pub fn new(max_rate_hz: f64) -> Self {
+        let period_ns = if max_rate_hz > 0.0 {
+            (1e9 / max_rate_hz).round() as i64
+        } else {
+            0
+        };
+        StampThinner {
+            period_ns,
+            last: None,
+        }
+    }
+
+    /// True if the sample stamped `t` goes out.
+    pub fn pass(&mut self, t: Time) -> bool {
+        let n = t.to_nanos();
+        match self.last {
+            Some(last) if n >= last && n - last < self.period_ns => false,
+            _ => {
+                self.last = Some(n);
+                true
+            }
+        }
+    }
+}
+
+fn channel(topic: &str, schema: &'static str) -> Result<Arc<RawChannel>> {
+    let title = serde_json::from_str::<serde_json::Value>(schema)
+        .ok()
+        .and_then(|v| v["title"].as_str().map(str::to_string))
+        .with_context(|| format!("schema of {topic} has no title"))?;
+    ChannelBuilder::new(topic)
+        .message_encoding("json")
+        .schema(Schema::new(title, "jsonschema", schema.as_bytes()))
+        .build_raw()
+        .with_context(|| format!("Foxglove channel {topic}"))
+}
+
+fn log(ch: &RawChannel, value: serde_json::Value) {
+    match serde_json::to_vec(&value) {
+        Ok(bytes) => ch.log(&bytes),
+        Err(e) => warn!("{}: not encoded: {e}", ch.topic()),
+    }
+}
+
+/// Runs the bridge until SIGINT/SIGTERM; `ready` gets the bound port once the server listens.
+pub async fn run(
+    settings: RosSettings,
+    opts: BridgeOptions,
+    ready: impl FnOnce(u16),
+) -> Result<()> {
+    let context = settings.context()?;
+    let (mut node, _graph) = settings.loop_node(&context)?;
+    let controller = RosSettings {
+        node_name: opts.controller_node.clone(),
+        ..settings.clone()
+    };
+    let state_name = settings.resolve_name(topics::STATE);
+    let status_name = controller.resolve_name(topics::STATUS);
+    let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
+    let status_topic = node
+        .create_topic(
+            &controller.ros_name(topics::STATUS)?,
+            types::status(),
+            &qos::data(),
+        )
+        .with_context(|| format!("topic {status_name}"))?;
+    let force_name = settings.resolve_name(topics::FORCE);
+    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
+    let force_sub = node
+        .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
+        .context("force subscription")?;
+    let state_sub = node
+        .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
+        .context("state subscription")?;
+    let status_sub = node
+        .create_subscription::<ControllerStatus>(&status_topic, Some(qos::data_reader()))
+        .context("status subscription")?;
+
+    let state_ch = channel(&state_name, STATE_SCHEMA)?;
+    let status_ch = channel(&status_name, STATUS_SCHEMA)?;
+    let frame_ch = channel(FRAME_TOPIC, FRAME_SCHEMA)?;
+    let force_ch = channel(&force_name, FORCE_SCHEMA)?;
+    let server = foxglove::WebSocketServer::new()
+        .name("capsule_foxglove")
+        .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
+        .start()
+        .await
+        .with_context(|| format!("cannot serve on 127.0.0.1:{}", opts.port))?;
+    let port = server.port();
+    info!(
+        "{}: ws://127.0.0.1:{port} ({SUBPROTOCOL}) serves {state_name}, {status_name}, {force_name}, {FRAME_TOPIC}",
+        settings.describe()
+    );
+    ready(port);
+
+    let states = state_sub.async_stream();
+    let statuses = status_sub.async_stream();
+    tokio::pin!(states);
+    let forces = force_sub.async_stream();
+    tokio::pin!(statuses);
+    tokio::pin!(forces);
+    let mut thin = StampThinner::new(opts.max_rate_hz);
+    let mut thin_force = StampThinner::new(opts.max_rate_hz);
+    let shutdown = crate::ros::shutdown_signal();
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            sig = &mut shutdown => {
+                info!("{}: shutting down", sig?);
+                break;
+            }
+            msg = states.select_next_some() => match msg {
+                Ok((s, _)) => {
+                    let wanted = state_ch.has_sinks() || frame_ch.has_sinks();
+                    if wanted && thin.pass(s.header.stamp) {
+                        if state_ch.has_sinks() {
+                            log(&state_ch, state_json(&s));
+                        }
+                        if frame_ch.has_sinks() {
+                            log(&frame_ch, frame_json(&s));
+                        }
+                    }
+                }
+                Err(e) => warn!("bad state sample: {e:?}"),
+            },
+            msg = forces.select_next_some() => match msg {
+                Ok((c, _)) => {
+                    if force_ch.has_sinks() && thin_force.pass(c.header.stamp) {
+                        log(&force_ch, force_json(&c));
+                    }
+                }
+                Err(e) => warn!("bad force command: {e:?}"),
+            },
+            msg = statuses.select_next_some() => match msg {
+                Ok((s, _)) => {
+                    if status_ch.has_sinks() {
+                        log(&status_ch, status_json(&s));
+                    }
+                }
+                Err(e) => warn!("bad status: {e:?}"),
+            },
+        }
+    }
+    // close the clients' connections before leaving
+    server.stop().wait().await;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use capsule_msgs::Header;
+
+    #[test]
+    fn only_loopback_is_served() {
+        assert_eq!(check_host("127.0.0.1").ok(), Some(Ipv4Addr::LOCALHOST));
+        assert_eq!(check_host("localhost").ok(), Some(Ipv4Addr::LOCALHOST));
+        for bad in ["0.0.0.0", "192.168.1.2", "::", "example.org", ""] {
+            let e = check_host(bad).map(|_| ()).unwrap_err().to_string();
+            assert!(e.contains("--host") && e.contains("127.0.0.1"), "{e}");
+        }
+    }
+
+    #[test]
+    fn json_maps_the_sample() {
+        let s = CapsuleState {
+            header: Header {
+                stamp: Time::from_secs_f64(2.25),
+                frame_id: "odom".into(),
+            },
+            seq: 7,
+            mass_position: 0.003,
+            mass_velocity: 0.02,
+            capsule_position: 0.001,
+            capsule_velocity: 0.005,
+            actuator_force: 0.15,
+            ..CapsuleState::default()
+        };
+        let j = state_json(&s);
+        assert_eq!(j["t"], 2.25);
+        assert_eq!(j["x1"], 0.003);
+        assert_eq!(j["x1_minus_x2"], 0.003 - 0.001);
+        assert_eq!(j["y1_minus_y2"], 0.02 - 0.005);
+        assert_eq!(j["force"], 0.15);
+        let f = frame_json(&s);
+        assert_eq!(f["timestamp"]["sec"], 2);
+        assert_eq!(f["timestamp"]["nsec"], 250_000_000);
+        assert_eq!(f["parent_frame_id"], "odom");
+        assert_eq!(f["child_frame_id"], BODY_FRAME);
+        assert_eq!(f["translation"]["x"], 0.001);
+        let c = ActuatorForce {
+            header: s.header.clone(),
+            state_seq: 7,
+            force: -0.5,
+        };
+        let j = force_json(&c);
+        assert_eq!(
+            (j["t"].as_f64(), j["state_seq"].as_u64()),
+            (Some(2.25), Some(7))
+        );
+        assert_eq!(j["force"], -0.5);
+        for schema in [STATE_SCHEMA, STATUS_SCHEMA, FRAME_SCHEMA, FORCE_SCHEMA] {
+            let v: serde_json::Value = serde_json::from_str(schema).unwrap_or_default();
+            assert!(v["title"].is_string(), "{schema}");
+        }
+    }
+
+    #[test]
+    fn thinning_follows_the_stamps() {
+        let mut t = StampThinner::new(100.0);
+        let ms = |k: i64| Time::from_nanos(k * 1_000_000);
+        let passed: Vec<i64> = (0..35).filter(|&k| t.pass(ms(k))).collect();
+        assert_eq!(passed, [0, 10, 20, 30]);
+        // a restarted plant (time going back) starts afresh
+        assert!(t.pass(ms(1)));
+        let mut all = StampThinner::new(0.0);
+        assert!((0..5).all(|k| all.pass(ms(k))));
+    }
+}

@@ -1,0 +1,202 @@
+//! The live view without ROS (`capsule_foxglove`): a WebSocket client that is not ours
+//! (PyPI `websockets`, tests/peers/foxglove_ws_client.py) speaks Foxglove's v1 WebSocket
+//! protocol (subprotocol foxglove.sdk.v1) to the bridge serving a running plant and controller,
+//! subscribes, and decodes the samples; a bind address other than loopback is refused before
+//! anything starts; the layout in docs/foxglove plots only fields the bridge serves.
+
+use super::harness::{json_number, json_raw, netns, root};
+
+const STATE: &str = "/capsule/state";
+const STATUS: &str = "/capsule_controller/status";
+const FRAME: &str = "/capsule/frame";
+const FORCE: &str = "/capsule/actuator_force";
+
+/// The part of the client's summary about `topic` (up to the next topic's key).
+fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
+    let key = format!("\"{topic}\":");
+    let Some(at) = summary.find(&key) else {
+        return "";
+    };
+    let rest = &summary[at + key.len()..];
+    let end = [STATE, STATUS, FRAME, FORCE]
+        .iter()
+        .filter_map(|t| rest.find(&format!("\"{t}\":")))
+        .min()
+        .unwrap_or(rest.len());
+    &rest[..end]
+}
+
+/// Through the launcher (`--foxglove-port 0`), as a user starts it.
+#[test]
+fn a_foxglove_websocket_client_decodes_the_live_graph() {
+    let client = root().join("tests/peers/foxglove_ws_client.py");
+    let run = netns(
+        150,
+        &format!(
+            r#"
+            $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --no-record \
+                --foxglove-port 0 > $TMP/fox.out &
+            L=$!
+            for i in $(seq 300); do grep -q serving $TMP/fox.out && break; sleep 0.2; done
+            URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
+            echo "url $URL"
+            python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} \
+                --seconds 3 --min 5 --timeout 90 || exit 1
+            KIDS=$(pgrep -P $L)
+            kill -TERM $L; wait $L || exit 1
+            # the launcher stopped every node, the bridge too
+            for k in $KIDS; do kill -0 $k 2>/dev/null && {{ echo "left running: $k"; exit 1; }}; done
+            exit 0"#,
+            client = client.display()
+        ),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.all());
+    assert!(
+        run.stdout.contains("url ws://127.0.0.1:"),
+        "bound on loopback, port printed: {}",
+        run.all()
+    );
+    let summary = run
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("{\"server\""))
+        .unwrap_or("");
+    assert!(summary.contains("\"capsule_foxglove\""), "{summary}");
+    let state = section(summary, STATE);
+    let status = section(summary, STATUS);
+    let frame = section(summary, FRAME);
+    let force = section(summary, FORCE);
+    // thinned to at most 200 per second of sim time, but at least the client's minimum
+    for (name, s) in [
+        ("state", state),
+        ("status", status),
+        ("frame", frame),
+        ("force", force),
+    ] {
+        assert!(json_number(s, "count").unwrap_or(0.0) >= 5.0, "{name}: {s}");
+    }
+    assert_eq!(json_raw(state, "schema"), Some("\"capsule.State\""));
+    assert_eq!(
+        json_raw(status, "schema"),
+        Some("\"capsule.ControllerStatus\"")
+    );
+    assert_eq!(
+        json_raw(frame, "schema"),
+        Some("\"foxglove.FrameTransform\"")
+    );
+    // the plant was driven: sim time advanced and a force was applied; the phase-plane fields
+    // are those of the sample
+    let (t0, t1) = (
+        json_number(state, "first_t").unwrap_or(f64::NAN),
+        json_number(state, "last_t").unwrap_or(f64::NAN),
+    );
+    assert!(t1 > t0 && t1 - t0 >= 0.02, "{state}");
+    let x1 = json_number(state, "x1").unwrap_or(f64::NAN);
+    let x2 = json_number(state, "x2").unwrap_or(f64::NAN);
+    let rel = json_number(state, "x1_minus_x2").unwrap_or(f64::NAN);
+    assert!(
+        (x1 - x2 - rel).abs() <= 1e-12 * (1.0 + rel.abs()),
+        "{state}"
+    );
+    assert!(json_number(state, "force").is_some(), "{state}");
+    assert_eq!(
+        json_raw(status, "mode_name"),
+        Some("\"FORWARD\""),
+        "{status}"
+    );
+    assert!(frame.contains("\"child_frame_id\": \"capsule\""), "{frame}");
+    assert_eq!(json_raw(force, "schema"), Some("\"capsule.ActuatorForce\""));
+    assert!(
+        json_number(force, "force").is_some_and(f64::is_finite),
+        "{force}"
+    );
+    assert!(frame.contains("\"parent_frame_id\": \"odom\""), "{frame}");
+}
+
+#[test]
+fn the_foxglove_bridge_refuses_a_non_loopback_bind() {
+    // in the namespace all the same: were the check gone, nothing would reach a network
+    for host in ["0.0.0.0", "192.0.2.1"] {
+        let run = netns(
+            30,
+            &format!("$B/capsule_foxglove --host {host} --port 0; echo \"rc=$?\""),
+        );
+        assert_eq!(run.code, Some(0), "{}", run.all());
+        assert!(run.stdout.contains("rc=2"), "{host}: {}", run.all());
+        assert!(
+            run.stderr.contains(&format!("--host \"{host}\""))
+                && run.stderr.contains("127.0.0.1 only"),
+            "{host}: {}",
+            run.all()
+        );
+        assert!(!run.stdout.contains("serving"), "nothing served for {host}");
+    }
+}
+
+/// Every `topic.field` path a panel of `value` plots.
+fn plot_paths(value: &serde_json::Value, out: &mut Vec<String>) {
+    match value {
+        serde_json::Value::Object(m) => {
+            for (k, v) in m {
+                match (k.as_str(), v) {
+                    ("value" | "topicPath", serde_json::Value::String(s)) => out.push(s.clone()),
+                    _ => plot_paths(v, out),
+                }
+            }
+        }
+        serde_json::Value::Array(a) => a.iter().for_each(|v| plot_paths(v, out)),
+        _ => {}
+    }
+}
+
+#[test]
+fn the_foxglove_layout_plots_fields_the_bridge_serves() {
+    use capsule_nodes::foxglove_bridge::{
+        FORCE_SCHEMA, FRAME_SCHEMA, FRAME_TOPIC, STATE_SCHEMA, STATUS_SCHEMA,
+    };
+    let path = root().join("docs/foxglove/capsule_layout.json");
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let layout: serde_json::Value =
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let schema = |s: &str| -> serde_json::Value { serde_json::from_str(s).unwrap_or_default() };
+    let served = [
+        (STATE, schema(STATE_SCHEMA)),
+        (STATUS, schema(STATUS_SCHEMA)),
+        (FRAME_TOPIC, schema(FRAME_SCHEMA)),
+        (FORCE, schema(FORCE_SCHEMA)),
+    ];
+    let mut paths = Vec::new();
+    plot_paths(&layout["configById"], &mut paths);
+    assert!(paths.len() >= 6, "{paths:?}");
+    for p in &paths {
+        let (topic, field) = p.split_once('.').unwrap_or((p.as_str(), ""));
+        let Some((_, s)) = served.iter().find(|(t, _)| *t == topic) else {
+            panic!("{p}: {topic} is not served");
+        };
+        assert!(
+            field.is_empty() || s["properties"].get(field).is_some(),
+            "{p}: no field {field} in {}",
+            s["title"]
+        );
+    }
+    // the paper's plots are there: x1, x2, the phase plane with its custom x axis, force,
+    // progression, and a 3D panel
+    let config = &layout["configById"];
+    let phase = config
+        .as_object()
+        .and_then(|m| {
+            m.values()
+                .find(|c| c["xAxisPath"]["value"] == format!("{STATE}.x1_minus_x2"))
+        })
+        .unwrap_or_else(|| panic!("no phase-plane plot in {}", path.display()));
+    assert_eq!(phase["xAxisVal"], "custom");
+    assert_eq!(phase["paths"][0]["value"], format!("{STATE}.y1_minus_y2"));
+    for needle in ["x1", "x2", "force"] {
+        assert!(paths.contains(&format!("{STATE}.{needle}")), "{needle}");
+    }
+    assert!(paths.contains(&format!("{STATUS}.progression_per_period_m")));
+    assert!(config
+        .as_object()
+        .is_some_and(|m| m.keys().any(|k| k.starts_with("3D!"))));
+}
