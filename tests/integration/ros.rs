@@ -13,4 +13,5 @@ mod faults;
 mod interop;
 mod lockstep;
 mod params;
+mod switch;
 mod views;
