@@ -288,6 +288,9 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
         .map(|m| cdr::decode::<ControllerStatus>(&m.data))
         .transpose()?;
     let (mode, kp) = match &first_status {
+        Some(s) if s.mode == Mode::SwitchAttractor.code() => anyhow::bail!(
+            "{file}: the recording starts during an attractor switch (first status SWITCH_ATTRACTOR): its state before the recording is unknown, so the controller cannot be re-driven"
+        ),
         Some(s) => (
             Mode::from_code(s.mode)
                 .with_context(|| format!("{file}: first status has unknown mode {}", s.mode))?,

@@ -5,5 +5,6 @@
 
 pub mod law;
 pub mod mode;
+pub mod switch;
 
 pub use law::FeedbackLaw;

@@ -16,16 +16,20 @@ pub enum Mode {
     ChaosControl,
     /// Any finite gain within the configured limit.
     Custom,
+    /// The attractor-switching action (see [`crate::switch`]): shown while it runs; not
+    /// selectable with [`ModeConfig::select`], it takes the pulse fields of the request.
+    SwitchAttractor,
 }
 
 impl Mode {
     /// Every mode in code order.
-    pub const ALL: [Mode; 5] = [
+    pub const ALL: [Mode; 6] = [
         Mode::Off,
         Mode::Forward,
         Mode::Backward,
         Mode::ChaosControl,
         Mode::Custom,
+        Mode::SwitchAttractor,
     ];
 
     /// The wire code (`SetMode.OFF` = 0, ...).
@@ -36,6 +40,7 @@ impl Mode {
             Mode::Backward => 2,
             Mode::ChaosControl => 3,
             Mode::Custom => 4,
+            Mode::SwitchAttractor => 5,
         }
     }
 
@@ -52,6 +57,7 @@ impl Mode {
             Mode::Backward => "BACKWARD",
             Mode::ChaosControl => "CHAOS_CONTROL",
             Mode::Custom => "CUSTOM",
+            Mode::SwitchAttractor => "SWITCH_ATTRACTOR",
         }
     }
 
@@ -74,8 +80,11 @@ impl fmt::Display for Mode {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModeError {
     /// The code is none of the `SetMode` constants.
-    #[error("unknown mode {0} (expected OFF=0, FORWARD=1, BACKWARD=2, CHAOS_CONTROL=3, CUSTOM=4)")]
+    #[error("unknown mode {0} (expected OFF=0, FORWARD=1, BACKWARD=2, CHAOS_CONTROL=3, CUSTOM=4, SWITCH_ATTRACTOR=5)")]
     UnknownMode(u8),
+    /// SWITCH_ATTRACTOR where a mode is wanted (a ROS parameter, a schedule).
+    #[error("SWITCH_ATTRACTOR is an action with pulse fields, not a mode to stay in: request it through set_mode")]
+    NotAMode,
     /// NaN or infinite gain.
     #[error("gain {0} is not finite")]
     NonFiniteGain(f64),
@@ -189,6 +198,7 @@ impl ModeConfig {
             Mode::Backward => -or_default(self.direction_gain).abs(),
             Mode::ChaosControl => or_default(self.chaos_gain),
             Mode::Custom => gain,
+            Mode::SwitchAttractor => return Err(ModeError::NotAMode),
         };
         if kp.abs() > self.gain_limit {
             return Err(ModeError::BeyondLimit {
@@ -403,7 +413,11 @@ mod tests {
         }
         assert_eq!(Mode::parse_name("chaos-control"), Some(Mode::ChaosControl));
         assert_eq!(Mode::parse_name("sideways"), None);
-        assert_eq!(Mode::from_code(5), None);
+        assert_eq!(Mode::from_code(6), None);
+        assert_eq!(
+            ModeConfig::default().select(5, 0.3),
+            Err(ModeError::NotAMode)
+        );
     }
 
     #[test]

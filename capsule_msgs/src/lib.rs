@@ -143,6 +143,51 @@ pub struct ControllerStatus {
     pub mean_speed: f64,
     /// Running control efficiency (paper eq. 4).
     pub efficiency: f64,
+    /// State of the last attractor switch (a `SWITCH_*` constant).
+    pub switch_state: u8,
+    /// Orbit period the switch wants.
+    pub switch_target_period: i32,
+    /// Pulses applied so far.
+    pub switch_tries: i32,
+    /// Most pulses the switch may apply.
+    pub switch_max_tries: i32,
+    /// `k_p` during the pulses.
+    pub switch_pulse_gain: f64,
+    /// Pulse length [drive periods].
+    pub switch_pulse_periods: i32,
+    /// Stamp of the sample the last pulse started at (zero: none yet).
+    pub switch_pulse_start: Time,
+    /// Stamp of the sample the last pulse ended at (zero: none yet, or still on).
+    pub switch_pulse_end: Time,
+    /// Period of the orbit on the Poincaré section (0: not periodic or not known).
+    pub orbit_period: i32,
+}
+
+impl ControllerStatus {
+    /// No switch requested yet.
+    pub const SWITCH_NONE: u8 = 0;
+    /// Watching the section until the orbit's period is known.
+    pub const SWITCH_OBSERVING: u8 = 1;
+    /// A pulse is on.
+    pub const SWITCH_PULSING: u8 = 2;
+    /// Released, waiting to judge the orbit.
+    pub const SWITCH_SETTLING: u8 = 3;
+    /// On the wanted orbit, gain released.
+    pub const SWITCH_SUCCEEDED: u8 = 4;
+    /// Tries used up, gain released.
+    pub const SWITCH_FAILED: u8 = 5;
+    /// Another mode was requested first.
+    pub const SWITCH_CANCELLED: u8 = 6;
+    /// Every constant of the `.msg` file, by name.
+    pub const CONSTANTS: [(&'static str, u8); 7] = [
+        ("SWITCH_NONE", Self::SWITCH_NONE),
+        ("SWITCH_OBSERVING", Self::SWITCH_OBSERVING),
+        ("SWITCH_PULSING", Self::SWITCH_PULSING),
+        ("SWITCH_SETTLING", Self::SWITCH_SETTLING),
+        ("SWITCH_SUCCEEDED", Self::SWITCH_SUCCEEDED),
+        ("SWITCH_FAILED", Self::SWITCH_FAILED),
+        ("SWITCH_CANCELLED", Self::SWITCH_CANCELLED),
+    ];
 }
 
 /// `capsule_msgs/srv/SetMode` request.
@@ -154,6 +199,12 @@ pub struct SetModeRequest {
     pub gain: f64,
     /// Apply from the first sample stamped at or after this time; zero = next sample.
     pub effective_from: Time,
+    /// `SWITCH_ATTRACTOR`: pulse length [drive periods].
+    pub pulse_periods: i32,
+    /// `SWITCH_ATTRACTOR`: period of the orbit wanted [drive periods].
+    pub target_period: i32,
+    /// `SWITCH_ATTRACTOR`: most pulses to apply.
+    pub max_tries: i32,
 }
 
 impl SetModeRequest {
@@ -167,13 +218,16 @@ impl SetModeRequest {
     pub const CHAOS_CONTROL: u8 = 3;
     /// Any finite gain within limits.
     pub const CUSTOM: u8 = 4;
+    /// The attractor-switching action.
+    pub const SWITCH_ATTRACTOR: u8 = 5;
     /// Every constant of the `.srv` file, by name.
-    pub const CONSTANTS: [(&'static str, u8); 5] = [
+    pub const CONSTANTS: [(&'static str, u8); 6] = [
         ("OFF", Self::OFF),
         ("FORWARD", Self::FORWARD),
         ("BACKWARD", Self::BACKWARD),
         ("CHAOS_CONTROL", Self::CHAOS_CONTROL),
         ("CUSTOM", Self::CUSTOM),
+        ("SWITCH_ATTRACTOR", Self::SWITCH_ATTRACTOR),
     ];
 }
 
@@ -233,6 +287,7 @@ mod tests {
             mode_name(SetModeRequest::CHAOS_CONTROL),
             Some("CHAOS_CONTROL")
         );
-        assert_eq!(mode_name(5), None);
+        assert_eq!(mode_name(5), Some("SWITCH_ATTRACTOR"));
+        assert_eq!(mode_name(6), None);
     }
 }

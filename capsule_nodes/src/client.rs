@@ -159,6 +159,22 @@ pub fn state_subscription(
         .context("state subscription")
 }
 
+/// A subscription to the status topic of the controller whose mode service is `service`
+/// (`/ns/node/set_mode` -> `/ns/node/status`: the controller's `~/status`).
+pub fn status_subscription(
+    node: &mut Node,
+    settings: &RosSettings,
+    service: &str,
+) -> Result<ros2_client::Subscription<capsule_msgs::ControllerStatus>> {
+    let (controller, _) = service
+        .rsplit_once('/')
+        .with_context(|| format!("service {service:?}: expected .../NODE/set_mode"))?;
+    let name = format!("{controller}/status");
+    let topic = settings.topic(node, &name, types::status(), &qos::data())?;
+    node.create_subscription::<capsule_msgs::ControllerStatus>(&topic, Some(qos::data_reader()))
+        .context("status subscription")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

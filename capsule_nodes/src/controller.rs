@@ -16,6 +16,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context as _, Result};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
+    switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
     FeedbackLaw,
 };
 use capsule_msgs::{
@@ -49,6 +50,12 @@ pub struct ControllerCore {
     commands_sent: u64,
     ignored_samples: u64,
     feedback: CommandFeedback,
+    switch_settings: SwitchSettings,
+    watch: OrbitWatch,
+    /// The last attractor switch, and the mode and gain it returns to.
+    switch: Option<(AttractorSwitch, Mode)>,
+    /// The switch changed phase or started a pulse since the last [`ControllerCore::take_switch_event`].
+    switch_event: bool,
 }
 
 impl ControllerCore {
@@ -77,7 +84,30 @@ impl ControllerCore {
             commands_sent: 0,
             ignored_samples: 0,
             feedback: CommandFeedback::default(),
+            switch_settings: SwitchSettings::DEFAULT,
+            watch: OrbitWatch::new(law.period(), &SwitchSettings::DEFAULT),
+            switch: None,
+            switch_event: false,
         }
+    }
+
+    /// The switch in progress, if one is.
+    fn running_switch(&self) -> Option<&(AttractorSwitch, Mode)> {
+        self.switch.as_ref().filter(|(sw, _)| !sw.phase().is_done())
+    }
+
+    /// The mode and gain the controller settles in: the current ones, or during an attractor
+    /// switch the ones it returns to (what the `mode` / `gain` parameters show).
+    pub fn settled_mode(&self) -> (Mode, f64) {
+        match self.running_switch() {
+            Some((sw, mode)) => (*mode, sw.base_gain()),
+            None => (self.mode, self.law.kp),
+        }
+    }
+
+    /// The last attractor switch (running or ended), if any.
+    pub fn attractor_switch(&self) -> Option<&AttractorSwitch> {
+        self.switch.as_ref().map(|(sw, _)| sw)
     }
 
     /// Starts afresh with a new plant (restarted or replaced): its samples start again from
@@ -88,6 +118,11 @@ impl ControllerCore {
         self.last_command = None;
         self.meter.reset();
         self.feedback.reset();
+        self.watch.reset();
+        // an attractor switch was about the last plant's orbit
+        if let Some((mode, kp)) = self.running_switch().map(|_| self.settled_mode()) {
+            self.switch(mode, kp);
+        }
     }
 
     /// True while the plant's state says it refuses our commands (see [`CommandFeedback`]).
@@ -119,12 +154,15 @@ impl ControllerCore {
     /// mode or gain acts now, as an immediate `set_mode`; a changed drive restarts the meter.
     pub fn reconfigure(&mut self, mode: Mode, kp: f64, alpha: f64, omega: f64, config: ModeConfig) {
         self.config = config;
-        if (alpha, omega) != (self.law.alpha, self.law.omega) {
+        let drive_changed = (alpha, omega) != (self.law.alpha, self.law.omega);
+        if drive_changed {
             self.law.alpha = alpha;
             self.law.omega = omega;
             self.meter = ProgressMeter::new(self.law.period());
+            self.watch = OrbitWatch::new(self.law.period(), &self.switch_settings);
         }
-        if (mode, kp) != (self.mode, self.law.kp) {
+        // a new drive ends an attractor switch (its orbits are gone) as a new mode does
+        if (mode, kp) != self.settled_mode() || (drive_changed && self.running_switch().is_some()) {
             self.pending.clear();
             self.switch(mode, kp);
         }
@@ -135,15 +173,61 @@ impl ControllerCore {
         self.ignored_samples
     }
 
+    /// Goes to `mode` with `kp` (ending an attractor switch in progress: cancelled).
     fn switch(&mut self, mode: Mode, kp: f64) {
+        if let Some((sw, _)) = &mut self.switch {
+            sw.cancel();
+        }
         self.mode = mode;
         self.law.kp = kp;
         self.meter.reset();
     }
 
+    /// Starts an attractor switch (`SWITCH_ATTRACTOR`), or refuses it with the reason.
+    fn start_switch(&mut self, req: &SetModeRequest) -> SetModeResponse {
+        let request = SwitchRequest {
+            gain: req.gain,
+            pulse_periods: req.pulse_periods,
+            target_period: req.target_period,
+            max_tries: req.max_tries,
+        };
+        let refused = |reason: String| SetModeResponse {
+            accepted: false,
+            mode: self.mode.code(),
+            gain: self.law.kp,
+            reason,
+        };
+        if let Err(e) = request.validate(&self.switch_settings, self.config.gain_limit) {
+            return refused(format!("SWITCH_ATTRACTOR: {e}"));
+        }
+        if !req.effective_from.is_zero() {
+            return refused(
+                "SWITCH_ATTRACTOR: effective_from must be zero (the pulses start at section crossings)"
+                    .to_string(),
+            );
+        }
+        let (mode, kp) = self.settled_mode();
+        self.pending.clear();
+        self.switch(Mode::SwitchAttractor, kp);
+        let sw = AttractorSwitch::new(request, self.switch_settings, kp, self.law.period());
+        self.switch = Some((sw, mode));
+        SetModeResponse {
+            accepted: true,
+            mode: Mode::SwitchAttractor.code(),
+            gain: req.gain,
+            reason: format!(
+                "SWITCH_ATTRACTOR: pulses of k_p = {} for {} period(s) until the orbit has period {} (at most {} tries), then back to {mode} with k_p = {kp}",
+                req.gain, req.pulse_periods, req.target_period, req.max_tries
+            ),
+        }
+    }
+
     /// Handles a `set_mode` request: refused (mode unchanged) with the reason, applied now, or
-    /// scheduled for `effective_from`.
+    /// scheduled for `effective_from`; `SWITCH_ATTRACTOR` starts an attractor switch.
     pub fn set_mode(&mut self, req: &SetModeRequest) -> SetModeResponse {
+        if req.mode == SetModeRequest::SWITCH_ATTRACTOR {
+            return self.start_switch(req);
+        }
         match self.config.select(req.mode, req.gain) {
             Err(e) => SetModeResponse {
                 accepted: false,
@@ -218,6 +302,21 @@ impl ControllerCore {
         let tau = s.header.stamp.as_secs_f64() / self.scale.time_s();
         let x1 = s.mass_position / self.scale.length_m();
         let x2 = s.capsule_position / self.scale.length_m();
+        let v = self.scale.velocity_m_per_s();
+        let nd = [x1, s.mass_velocity / v, x2, s.capsule_velocity / v];
+        self.watch.sample(tau, nd);
+        if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.phase().is_done()) {
+            let was = (sw.phase(), sw.tries());
+            self.law.kp = sw.sample(tau, nd);
+            self.switch_event |= (sw.phase(), sw.tries()) != was;
+            if sw.phase().is_done() {
+                let back = *back;
+                let kp = sw.base_gain();
+                self.mode = back;
+                self.law.kp = kp;
+                self.meter.reset();
+            }
+        }
         let f = self.law.force(tau, x1, x2);
         if !f.is_finite() {
             self.ignored_samples += 1;
@@ -235,6 +334,12 @@ impl ControllerCore {
         self.last_command = Some(cmd.clone());
         self.commands_sent += 1;
         Some(cmd)
+    }
+
+    /// True once after each change of the attractor switch's phase (a pulse started, released,
+    /// judged): the node publishes a status then, so that every pulse shows on the topic.
+    pub fn take_switch_event(&mut self) -> bool {
+        std::mem::take(&mut self.switch_event)
     }
 
     /// Checks the state watchdog at steady time `now`; returns true when it just went stale.
@@ -278,6 +383,34 @@ impl ControllerCore {
             progression_per_period_m: prog_m,
             mean_speed: if periods > 0 { prog_m / period_s } else { 0.0 },
             efficiency: self.meter.efficiency(),
+            ..self.switch_status()
+        }
+    }
+
+    /// The `switch_*` and `orbit_period` fields of the status.
+    fn switch_status(&self) -> ControllerStatus {
+        let stamp = |tau: Option<f64>| {
+            tau.map(|t| Time::from_secs_f64(t * self.scale.time_s()))
+                .unwrap_or(Time::ZERO)
+        };
+        let orbit_period = self.watch.period().map_or(0, |p| p as i32);
+        match self.attractor_switch() {
+            None => ControllerStatus {
+                orbit_period,
+                ..ControllerStatus::default()
+            },
+            Some(sw) => ControllerStatus {
+                switch_state: sw.phase().code(),
+                switch_target_period: sw.request().target_period,
+                switch_tries: sw.tries(),
+                switch_max_tries: sw.request().max_tries,
+                switch_pulse_gain: sw.request().gain,
+                switch_pulse_periods: sw.request().pulse_periods,
+                switch_pulse_start: stamp(sw.pulse_start()),
+                switch_pulse_end: stamp(sw.pulse_end()),
+                orbit_period,
+                ..ControllerStatus::default()
+            },
         }
     }
 }
@@ -463,6 +596,18 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                         if let Err(e) = force_pub.async_publish(cmd).await {
                             warn!("force command not sent: {e:?}");
                         }
+                        if core.take_switch_event() {
+                            let st = core.status(clock.now());
+                            info!(
+                                "attractor switch: {} (try {}, orbit period {}, k_p {})",
+                                core.attractor_switch().map_or("?", |s| s.phase().name()),
+                                st.switch_tries, st.orbit_period, st.gain
+                            );
+                            params.push(&core);
+                            if let Err(e) = status_pub.async_publish(st).await {
+                                warn!("status not sent: {e:?}");
+                            }
+                        }
                     }
                 }
                 Err(e) => warn!("bad state sample: {e:?}"),
@@ -607,6 +752,7 @@ mod tests {
             mode: SetModeRequest::OFF,
             gain: 0.0,
             effective_from: Time::from_secs_f64(0.02),
+            ..SetModeRequest::default()
         });
         assert!(r.accepted);
         assert_eq!(c.mode(), Mode::Forward);
@@ -677,6 +823,80 @@ mod tests {
             c.on_state(&s, 0.0);
         }
         assert!(c.status(Time::ZERO).commanding, "taken again");
+    }
+
+    fn switch_request(
+        gain: f64,
+        pulse_periods: i32,
+        target_period: i32,
+        max_tries: i32,
+    ) -> SetModeRequest {
+        SetModeRequest {
+            mode: SetModeRequest::SWITCH_ATTRACTOR,
+            gain,
+            pulse_periods,
+            target_period,
+            max_tries,
+            ..SetModeRequest::default()
+        }
+    }
+
+    #[test]
+    fn attractor_switch_requests_are_checked_and_a_mode_request_cancels_one() {
+        let mut c = core(Mode::Forward, 0.2);
+        for bad in [
+            switch_request(f64::NAN, 1, 1, 3),
+            switch_request(5.0, 1, 1, 3),
+            switch_request(0.3, 11, 1, 3),
+            switch_request(0.3, 0, 1, 3),
+            switch_request(0.3, -1, 1, 3),
+            switch_request(0.3, 1, 0, 3),
+            switch_request(0.3, 1, 1, 0),
+            SetModeRequest {
+                effective_from: Time::from_secs_f64(1.0),
+                ..switch_request(0.3, 1, 1, 3)
+            },
+        ] {
+            let r = c.set_mode(&bad);
+            assert!(
+                !r.accepted && r.reason.starts_with("SWITCH_ATTRACTOR: "),
+                "{bad:?}: {r:?}"
+            );
+            assert_eq!((c.mode(), c.law().kp), (Mode::Forward, 0.2));
+            assert_eq!(
+                c.status(Time::ZERO).switch_state,
+                ControllerStatus::SWITCH_NONE
+            );
+        }
+        let r = c.set_mode(&switch_request(0.3, 1, 1, 3));
+        assert!(r.accepted, "{r:?}");
+        assert_eq!(c.mode(), Mode::SwitchAttractor);
+        assert_eq!(
+            c.settled_mode(),
+            (Mode::Forward, 0.2),
+            "what the parameters show"
+        );
+        let st = c.status(Time::ZERO);
+        assert_eq!(
+            (
+                st.switch_state,
+                st.switch_target_period,
+                st.switch_max_tries,
+                st.switch_tries
+            ),
+            (ControllerStatus::SWITCH_OBSERVING, 1, 3, 0)
+        );
+        assert_eq!(st.gain, 0.2, "no pulse before the orbit is known");
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::OFF,
+            ..SetModeRequest::default()
+        });
+        assert!(r.accepted);
+        assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
+        assert_eq!(
+            c.status(Time::ZERO).switch_state,
+            ControllerStatus::SWITCH_CANCELLED
+        );
     }
 
     #[test]

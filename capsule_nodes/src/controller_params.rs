@@ -179,10 +179,12 @@ pub fn apply(t: &ParamTable, core: &mut ControllerCore) {
 }
 
 /// The values `core` may change by itself (a `set_mode` call, a scheduled switch).
+/// During an attractor switch: the mode and gain it returns to (the pulses don't show).
 pub fn live_values(core: &ControllerCore) -> [(&'static str, V); 2] {
+    let (mode, kp) = core.settled_mode();
     [
-        (MODE, V::String(core.mode().name().to_string())),
-        (GAIN, V::Double(core.law().kp)),
+        (MODE, V::String(mode.name().to_string())),
+        (GAIN, V::Double(kp)),
     ]
 }
 

@@ -79,6 +79,7 @@ mod tests {
                 mode: 1,
                 gain: 0.5,
                 effective_from: Time::ZERO,
+                ..SetModeRequest::default()
             }],
             response: vec![],
         };

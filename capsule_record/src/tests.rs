@@ -96,6 +96,7 @@ fn write_with(
                     mode: SetModeRequest::FORWARD,
                     gain: 0.7,
                     effective_from: Time::ZERO,
+                    ..SetModeRequest::default()
                 }],
                 response: vec![SetModeResponse {
                     accepted: true,

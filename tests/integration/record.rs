@@ -125,6 +125,7 @@ fn event(kind: u8, seq: i64, mode: u8, gain: f64, accepted: Option<bool>) -> Set
             mode,
             gain,
             effective_from: Time::ZERO,
+            ..SetModeRequest::default()
         }],
         response: accepted
             .map(|a| SetModeResponse {

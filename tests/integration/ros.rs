@@ -15,4 +15,5 @@ mod interop;
 mod joint_commands;
 mod lockstep;
 mod params;
+mod switch;
 mod views;

@@ -8,7 +8,8 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   cyclone_peer.py force     --force F       command the plant (no controller running) and check
                                             that it applies F, refuses NaN, and falls back to zero
   cyclone_peer.py status    [--periods N]   read the controller status once N periods are done
-  cyclone_peer.py set-mode  MODE GAIN       call /capsule_controller/set_mode, print the answer
+  cyclone_peer.py set-mode  MODE GAIN [--pulse-periods N --target-period P --max-tries T]
+                                           call /capsule_controller/set_mode, print the answer
   cyclone_peer.py inject    --force F[,F..] fault injection: answer the newest state with force F
                             [--seconds S] [--hz R] [--stamp-sec SEC]   for S seconds at R Hz
                                             (default 1 kHz), stamped SEC if given; per force a
@@ -115,6 +116,15 @@ class ControllerStatus(IdlStruct, typename="capsule_msgs::msg::dds_::ControllerS
     progression_per_period_m: float64
     mean_speed: float64
     efficiency: float64
+    switch_state: uint8
+    switch_target_period: int32
+    switch_tries: int32
+    switch_max_tries: int32
+    switch_pulse_gain: float64
+    switch_pulse_periods: int32
+    switch_pulse_start: Time
+    switch_pulse_end: Time
+    orbit_period: int32
 
 
 # rmw_cyclonedds puts a 16-byte header (client GUID half, sequence number) before the request
@@ -127,6 +137,9 @@ class SetModeRequest(IdlStruct, typename="capsule_msgs::srv::dds_::SetMode_Reque
     mode: uint8
     gain: float64
     effective_from: Time
+    pulse_periods: int32
+    target_period: int32
+    max_tries: int32
 
 
 @dataclass
@@ -531,7 +544,7 @@ def cmd_status(args):
             print(json.dumps({k: getattr(last, k) for k in (
                 "mode", "mode_name", "gain", "drive_amplitude", "drive_frequency", "commanding",
                 "commands_sent", "periods", "progression_per_period", "progression_per_period_m",
-                "mean_speed", "efficiency")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
+                "mean_speed", "efficiency", "switch_state", "switch_tries", "orbit_period")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
             return
         time.sleep(0.01)
     fail(f"no status with {args.periods} periods within {args.timeout} s (last: {last})")
@@ -547,7 +560,9 @@ def cmd_set_mode(args):
     deadline = time.time() + args.timeout
     while time.time() < deadline:
         writer.write(SetModeRequest(client_guid=guid, sequence=seq, mode=args.mode, gain=args.gain,
-                                    effective_from=Time(sec=0, nanosec=0)))
+                                    effective_from=Time(sec=0, nanosec=0),
+                                    pulse_periods=args.pulse_periods, target_period=args.target_period,
+                                    max_tries=args.max_tries))
         end = min(deadline, time.time() + 0.5)
         while time.time() < end:
             for r in reader.take(N=16):
@@ -882,6 +897,9 @@ def main():
     a = sub.add_parser("set-mode")
     a.add_argument("mode", type=int)
     a.add_argument("gain", type=float)
+    a.add_argument("--pulse-periods", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
+    a.add_argument("--target-period", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
+    a.add_argument("--max-tries", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
     a.add_argument("--service", default="/capsule_controller/set_mode")
     a.add_argument("--timeout", type=float, default=15.0)
     a = sub.add_parser("inject")

@@ -273,6 +273,16 @@ fn service_constants_match_the_rust_constants() {
         .map(|(n, v)| (n.to_string(), *v))
         .collect();
     assert_eq!(from_file, from_rust);
+    let from_file: Vec<(String, u8)> = parse_definition(ControllerStatus::definition())
+        .constants
+        .iter()
+        .map(|c| (c.name.clone(), c.value.parse().unwrap_or(u8::MAX)))
+        .collect();
+    let from_rust: Vec<(String, u8)> = ControllerStatus::CONSTANTS
+        .iter()
+        .map(|(n, v)| (n.to_string(), *v))
+        .collect();
+    assert_eq!(from_file, from_rust);
     assert!(parse_definition(SetModeResponse::definition())
         .constants
         .is_empty());

@@ -4,7 +4,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _, Result};
 use capsule_controller::mode::Mode;
-use capsule_msgs::{SetModeRequest, Time};
+use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_nodes::{
     client::{state_subscription, ModeClient, SegmentMeter},
     ranges,
@@ -43,6 +43,33 @@ enum Cmd {
         /// Give up after this long [s], (0, 1e6]
         #[arg(long, default_value_t = 10.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
         timeout_s: f64,
+        #[command(flatten)]
+        pulse: PulseArgs,
+    },
+    /// Attractor switch, watched: wait until the plant's state shows a periodic orbit, request
+    /// SWITCH_ATTRACTOR, follow the controller's status to the end of the switch, watch the
+    /// state for more periods, and print the orbit's period before and after (from the state)
+    /// with the status's tries and pulse stamps; exit status 3 when refused, 4 when the switch
+    /// did not reach the target
+    #[command(allow_negative_numbers = true)]
+    SwitchAttractor {
+        /// Scene (for the drive period and the physical scale)
+        #[arg(long)]
+        scene: String,
+        /// Pulse gain k_p (within the controller's limit)
+        #[arg(long, default_value_t = 0.3, value_parser = ranges::finite())]
+        gain: f64,
+        #[command(flatten)]
+        pulse: PulseArgs,
+        /// Drive periods of the state to watch before asking (the orbit must be periodic by then)
+        #[arg(long, default_value_t = 30.0, value_parser = ranges::positive(1e9))]
+        before_periods: f64,
+        /// Drive periods of the state to watch after the switch ended
+        #[arg(long, default_value_t = 30.0, value_parser = ranges::positive(1e9))]
+        after_periods: f64,
+        /// Give up after this long [s of wall time], (0, 1e6]
+        #[arg(long, default_value_t = 600.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
+        timeout_s: f64,
     },
     /// Print the sim time [s] that PERIODS drive periods of a scene take (plus 10 ms of margin)
     #[command(allow_negative_numbers = true)]
@@ -77,6 +104,20 @@ enum Cmd {
     },
 }
 
+/// The SWITCH_ATTRACTOR fields of a request (sent as given: the controller checks them).
+#[derive(Debug, Clone, Copy, clap::Args)]
+struct PulseArgs {
+    /// SWITCH_ATTRACTOR: pulse length [drive periods]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pulse_periods: i32,
+    /// SWITCH_ATTRACTOR: period of the orbit wanted [drive periods]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    target_period: i32,
+    /// SWITCH_ATTRACTOR: most pulses
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+    max_tries: i32,
+}
+
 fn parse_mode(s: &str) -> Result<u8> {
     if let Ok(code) = s.parse::<u8>() {
         return Ok(code);
@@ -94,11 +135,15 @@ async fn run(cli: Cli) -> Result<()> {
             gain,
             at_s,
             timeout_s,
+            pulse,
         } => {
             let req = SetModeRequest {
                 mode: parse_mode(&mode)?,
                 gain,
                 effective_from: capsule_nodes::client::effective_from(at_s)?,
+                pulse_periods: pulse.pulse_periods,
+                target_period: pulse.target_period,
+                max_tries: pulse.max_tries,
             };
             let context = settings.context()?;
             let mut node = settings.node(&context)?;
@@ -117,6 +162,34 @@ async fn run(cli: Cli) -> Result<()> {
                 std::process::exit(3);
             }
             Ok(())
+        }
+        Cmd::SwitchAttractor {
+            scene,
+            gain,
+            pulse,
+            before_periods,
+            after_periods,
+            timeout_s,
+        } => {
+            let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
+            let req = SetModeRequest {
+                mode: SetModeRequest::SWITCH_ATTRACTOR,
+                gain,
+                effective_from: Time::ZERO,
+                pulse_periods: pulse.pulse_periods,
+                target_period: pulse.target_period,
+                max_tries: pulse.max_tries,
+            };
+            switch_attractor(
+                &settings,
+                &cli.service,
+                &sc,
+                req,
+                before_periods,
+                after_periods,
+                timeout_s,
+            )
+            .await
         }
         Cmd::Period { scene, periods } => {
             let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
@@ -160,6 +233,7 @@ async fn run(cli: Cli) -> Result<()> {
                     mode: mode.code(),
                     gain: 0.0,
                     effective_from: Time::from_secs_f64(*from),
+                    ..SetModeRequest::default()
                 };
                 let resp = client.call(&node, req, timeout).await?;
                 if !resp.accepted {
@@ -219,6 +293,128 @@ async fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `switch-attractor` subcommand (see its help).
+async fn switch_attractor(
+    settings: &RosSettings,
+    service: &str,
+    sc: &capsule_plant::scene::Scene,
+    req: SetModeRequest,
+    before_periods: f64,
+    after_periods: f64,
+    timeout_s: f64,
+) -> Result<()> {
+    use capsule_controller::switch::{OrbitWatch, SwitchSettings};
+    let scale = sc.physical;
+    let period = sc.drive.period();
+    let period_s = period * scale.time_s();
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let client = ModeClient::new(&mut node, settings, service)?;
+    let state_sub = state_subscription(&mut node, settings)?;
+    let status_sub = capsule_nodes::client::status_subscription(&mut node, settings, service)?;
+    let states = state_sub.async_stream();
+    tokio::pin!(states);
+    let statuses = status_sub.async_stream();
+    tokio::pin!(statuses);
+    // the orbit as the plant's state shows it (the controller's status reports its own)
+    let mut watch = OrbitWatch::new(period, &SwitchSettings::DEFAULT);
+    let timeout = Duration::from_secs_f64(timeout_s);
+    let started = Instant::now();
+    let (v, l) = (scale.velocity_m_per_s(), scale.length_m());
+    let mut first: Option<f64> = None;
+    let mut t = 0.0;
+    // phase 0: watch; 1: switching; 2: watching after the end
+    let mut phase = 0;
+    let mut until = f64::INFINITY;
+    let mut before = None;
+    let mut last_status: Option<capsule_msgs::ControllerStatus> = None;
+    let mut shown = (u8::MAX, -1);
+    loop {
+        let left = timeout.saturating_sub(started.elapsed());
+        if left.is_zero() {
+            bail!("switch-attractor timed out after {timeout_s} s (sim time {t:.3} s)");
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(left) => continue,
+            s = states.next() => match s {
+                None => bail!("state stream ended"),
+                Some(Err(e)) => tracing::warn!("bad state sample: {e:?}"),
+                Some(Ok((s, _))) => {
+                    t = s.header.stamp.as_secs_f64();
+                    let t0 = *first.get_or_insert(t);
+                    let x = [s.mass_position / l, s.mass_velocity / v, s.capsule_position / l, s.capsule_velocity / v];
+                    watch.sample(t / scale.time_s(), x);
+                    if phase == 0 && t - t0 >= before_periods * period_s {
+                        let Some(p) = watch.period() else {
+                            bail!("the state shows no periodic orbit after {before_periods} periods: nothing to switch from");
+                        };
+                        before = Some(p);
+                        println!("before: orbit period {p} (state, t = {t:.3} s)");
+                        let resp = client.call(&node, req.clone(), Duration::from_secs(10)).await?;
+                        println!("accepted={} mode={} gain={} reason={}", resp.accepted,
+                            capsule_msgs::mode_name(resp.mode).unwrap_or("?"), resp.gain, resp.reason);
+                        if !resp.accepted {
+                            std::process::exit(3);
+                        }
+                        phase = 1;
+                    }
+                    if phase == 2 && t >= until {
+                        break;
+                    }
+                }
+            },
+            st = statuses.next() => match st {
+                None => bail!("status stream ended"),
+                Some(Err(e)) => tracing::warn!("bad status: {e:?}"),
+                Some(Ok((st, _))) => {
+                    if phase == 1 && st.switch_state != ControllerStatus::SWITCH_NONE
+                        && (st.switch_state, st.switch_tries) != shown {
+                        shown = (st.switch_state, st.switch_tries);
+                        println!("status: switch {} tries {} orbit period {} k_p {} pulse {:.4}..{:.4} s (t = {:.3} s)",
+                            switch_name(st.switch_state), st.switch_tries, st.orbit_period, st.gain,
+                            st.switch_pulse_start.as_secs_f64(), st.switch_pulse_end.as_secs_f64(), st.header.stamp.as_secs_f64());
+                        if st.switch_state >= ControllerStatus::SWITCH_SUCCEEDED {
+                            phase = 2;
+                            until = t + after_periods * period_s;
+                        }
+                    }
+                    last_status = Some(st);
+                }
+            },
+        }
+    }
+    let Some(st) = last_status else {
+        bail!("no controller status received");
+    };
+    let after = watch.period();
+    println!(
+        "SWITCH result={} tries={} max_tries={} target={} before={} after={} status_orbit_period={} mode={} gain={} pulse_start_s={:.6} pulse_end_s={:.6} t={t:.3}",
+        switch_name(st.switch_state),
+        st.switch_tries,
+        st.switch_max_tries,
+        st.switch_target_period,
+        before.map_or(0, |p| p as i32),
+        after.map_or(0, |p| p as i32),
+        st.orbit_period,
+        st.mode_name,
+        st.gain,
+        st.switch_pulse_start.as_secs_f64(),
+        st.switch_pulse_end.as_secs_f64(),
+    );
+    if st.switch_state != ControllerStatus::SWITCH_SUCCEEDED {
+        std::process::exit(4);
+    }
+    Ok(())
+}
+
+/// The name of a `ControllerStatus.SWITCH_*` value.
+fn switch_name(state: u8) -> &'static str {
+    ControllerStatus::CONSTANTS
+        .iter()
+        .find(|(_, v)| *v == state)
+        .map_or("?", |(n, _)| n.trim_start_matches("SWITCH_"))
 }
 
 fn main() -> std::process::ExitCode {
