@@ -264,6 +264,51 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         ("capsule_controller", plant(&["--gain", "inf"]), "finite"),
         (
             "capsule_controller",
+            plant(&["--direction-gain", "nan"]),
+            "'--direction-gain <DIRECTION_GAIN>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--direction-gain", "-1"]),
+            "'--direction-gain <DIRECTION_GAIN>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "inf"]),
+            "'--chaos-gain <CHAOS_GAIN>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "-1e308"]),
+            "'--chaos-gain <CHAOS_GAIN>': must be in [-1e12, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--gain-limit", "1e308"]),
+            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--gain-limit", "-1"]),
+            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--direction-gain", "3"]),
+            "--direction-gain 3: beyond gain_limit (--gain-limit 2)",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "-5", "--gain-limit", "4"]),
+            "--chaos-gain -5: beyond gain_limit (--gain-limit 4)",
+        ),
+        (
+            "capsule",
+            vec!["replay", &rec, "--gain-limit", "nan"],
+            "'--gain-limit <GAIN_LIMIT>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
             plant(&["--omega", "0"]),
             "must be > 0",
         ),
@@ -333,6 +378,41 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         );
         assert!(!err.contains("panicked"), "{name} {args:?} panicked: {err}");
     }
+}
+
+#[test]
+fn the_controller_gain_flags_state_their_range_in_help() {
+    let o = run("capsule_controller", &["--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    for (flag, range) in [
+        ("--direction-gain", "[0, 1e12] and at most --gain-limit"),
+        (
+            "--chaos-gain",
+            "[-1e12, 1e12] and |k_p| at most --gain-limit",
+        ),
+        ("--gain-limit", "[0, 1e12]"),
+    ] {
+        let at = help
+            .find(&format!("{flag} <"))
+            .unwrap_or_else(|| panic!("--help lacks {flag}:\n{help}"));
+        let entry: String = help[at..].lines().take(3).collect::<Vec<_>>().join(" ");
+        assert!(entry.contains(range), "{flag}: `{entry}` lacks `{range}`");
+    }
+    // within the ranges, the defaults go
+    let o = run(
+        "capsule_controller",
+        &[
+            "--scene",
+            "scenes/control_point.toml",
+            "--check",
+            "--direction-gain",
+            "0.5",
+            "--chaos-gain",
+            "-1.5",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
@@ -570,6 +650,78 @@ fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
     assert!(err.contains("interrupted:"), "{err}");
     let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
     assert!(csv.lines().count() > 1, "nothing written: {err}");
+}
+
+#[test]
+fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
+    let csv = tmp("interrupted_sim.csv");
+    let _ = std::fs::remove_file(&csv);
+    let csv_s = csv.display().to_string();
+    // a million periods: minutes even in release, so the signal finds it running
+    let mut child = Command::new(bin("capsule"))
+        .args([
+            "simulate",
+            "--periods",
+            "1000000",
+            "--samples-per-period",
+            "1",
+            "--csv",
+            &csv_s,
+        ])
+        .current_dir(root())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{e}"));
+    std::thread::sleep(Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .map(|s| s.success());
+    assert_eq!(killed.ok(), Some(true));
+    let t0 = Instant::now();
+    while child.try_wait().ok().flatten().is_none() {
+        if t0.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("simulate still running 60 s after SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.contains("interrupted:"))
+        .unwrap_or_else(|| panic!("no `interrupted:` in `{err}`"));
+    assert!(
+        line.contains("of 1000000 periods done") && line.contains(&csv_s),
+        "{line}"
+    );
+    assert!(o.stdout.is_empty(), "printed a summary of a partial run");
+    // the CSV is whole: the header, then complete rows in time order, fewer than a full run's
+    let text = std::fs::read_to_string(&csv).unwrap_or_else(|e| panic!("{csv_s}: {e}"));
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("tau,x1,y1,x2,y2,stuck,contact,friction_force,contact_force,actuator_force")
+    );
+    let mut last = f64::NEG_INFINITY;
+    let mut rows = 0usize;
+    for l in lines {
+        let v: Vec<f64> = l
+            .split(',')
+            .map(|x| x.parse().unwrap_or_else(|_| panic!("row `{l}`")))
+            .collect();
+        assert_eq!(v.len(), 10, "row `{l}`");
+        assert!(v[0] > last, "tau not increasing at `{l}`");
+        last = v[0];
+        rows += 1;
+    }
+    assert!(rows > 1 && rows < 1_000_001, "{rows} rows");
+    assert!(line.contains(&format!("({rows} rows)")), "{line}");
 }
 
 #[test]
