@@ -167,7 +167,7 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         ("capsule", sim(&["--step=-1e-3"]), "must be > 0"),
         (
             "capsule",
-            sim(&["--samples-per-period", "100000000"]),
+            sim(&["--samples-per-period", "100000000", "--csv", "never.csv"]),
             "from 1 to 1000000",
         ),
         ("capsule", sim(&["--x0", "1,2,3"]), "four comma-separated"),
@@ -346,6 +346,16 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
             "capsule_recorder",
             vec!["--check", "--poll-ms", "0"],
             "from 1 to 60000",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--queue-depth", "0"],
+            "from 1 to 1000000",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--queue-depth", "18446744073709551616"],
+            "from 1 to 1000000",
         ),
         (
             "capsule_ros",
@@ -585,6 +595,34 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
     assert!(text.contains("1 of 3 values failed"), "{text}");
     let o = run("capsule", &[&args[..], &["--allow-failures"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
+    // a value out of the parameter's range among good ones, and a range from +max to -max
+    for (param, from, to, named) in [
+        ("omega", "0", "1", "omega = 0: drive.omega: must be > 0"),
+        ("gamma", "-1", "3", "gamma = -1: capsule.gamma: must be > 0"),
+    ] {
+        let o = run(
+            "capsule",
+            &[
+                "sweep",
+                "--param",
+                param,
+                "--from",
+                from,
+                "--to",
+                to,
+                "--steps",
+                "3",
+                "--periods",
+                "3",
+                "--out",
+                &out,
+            ],
+        );
+        let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{text}");
+        assert!(text.contains(named), "{param}: {text}");
+        assert!(text.contains("1 of 3 values failed"), "{param}: {text}");
+    }
     // --out DIR/ writes into the directory
     let dir = tmp("outdir");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
@@ -749,6 +787,26 @@ fn partial_scenes_take_the_defaults_and_say_which() {
     ] {
         assert!(text.contains(line), "--print-scene lacks `{line}`:\n{text}");
     }
+    // an empty scene file is all defaults, for every binary that takes a scene
+    let empty = tmp("empty.toml");
+    std::fs::write(&empty, "").unwrap_or_else(|e| panic!("{e}"));
+    let empty_s = empty.display().to_string();
+    let rec_dir = tmp("empty_rec").display().to_string();
+    for (name, args) in [
+        (
+            "capsule",
+            vec!["simulate", "--scene", &empty_s, "--print-scene"],
+        ),
+        ("capsule_plant", vec!["--scene", &empty_s, "--check"]),
+        ("capsule_controller", vec!["--scene", &empty_s, "--check"]),
+        (
+            "capsule_recorder",
+            vec!["--scene", &empty_s, "--check", "--record-dir", &rec_dir],
+        ),
+    ] {
+        let o = run(name, &args);
+        assert!(o.status.success(), "{name} {args:?}: {}", stderr(&o));
+    }
     // what --print-scene prints is a scene that reads back the same
     let back = capsule_plant::scene::Scene::from_toml_str(&text, "printed")
         .unwrap_or_else(|e| panic!("{e}"));
@@ -768,6 +826,10 @@ fn one_rule_for_periods_and_transient_with_and_without_a_scene() {
         )
     };
     assert_eq!(measured(&["--periods", "30"]), (Some(20), Some(10)));
+    assert_eq!(
+        measured(&["--scene", "scenes/control_point.toml", "--periods", "50"]),
+        measured(&["--periods", "50"])
+    );
     assert_eq!(
         measured(&["--scene", "scenes/control_point.toml", "--periods", "30"]),
         (Some(20), Some(10))
