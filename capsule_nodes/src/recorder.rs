@@ -108,6 +108,10 @@ pub struct RecorderOptions {
 /// to stall for longer than depth / rate: 2 s covers a slow flush to disk.
 pub const DEFAULT_QUEUE_DEPTH: usize = 20_000;
 
+/// History depth of the readers of the controller's status and service events (at most
+/// `--queue-depth`): 2 s at the fastest status period (1 ms), 200 s at the default (100 ms).
+pub const SLOW_QUEUE_DEPTH: usize = 2_000;
+
 /// `capsule_<scene>_<UTC YYYYmmddTHHMMSS.mmmZ>.mcap`, scene reduced to `[A-Za-z0-9_-]`.
 pub fn run_file_name(scene: &str, now_ns: u64) -> String {
     let clean: String = scene
@@ -413,17 +417,22 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast {
         depth: opts.queue_depth,
     });
+    // the controller's status (10 Hz by default, 1 kHz at the fastest) and its service events:
+    // the same depth would be memory that fills over hours (20,000 statuses: 33 min, 10 MB)
+    let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
+        depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
+    });
     let force_sub = node
         .create_subscription::<ActuatorForce>(&topics[1], Some(reader_qos.clone()))
         .context("force subscription")?;
     let status_sub = node
-        .create_subscription::<ControllerStatus>(&topics[2], Some(reader_qos.clone()))
+        .create_subscription::<ControllerStatus>(&topics[2], Some(slow_qos.clone()))
         .context("status subscription")?;
     let clock_sub = node
         .create_subscription::<Clock>(&topics[3], Some(reader_qos.clone()))
         .context("clock subscription")?;
     let event_sub = node
-        .create_subscription::<SetModeEvent>(&topics[4], Some(reader_qos.clone()))
+        .create_subscription::<SetModeEvent>(&topics[4], Some(slow_qos))
         .context("service-event subscription")?;
     if !graph
         .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)
