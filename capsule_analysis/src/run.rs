@@ -92,6 +92,21 @@ pub fn run_scheduled(
     samples_per_period: u32,
     sample: &mut dyn FnMut(&Snapshot),
 ) -> Result<RunReport, SimError> {
+    let report = run_scheduled_until(scene, schedule, samples_per_period, sample, &mut |_| true)?;
+    // `go_on` never says stop
+    Ok(report.unwrap_or_else(|| unreachable!("a run without a stop ran to its end")))
+}
+
+/// [`run_scheduled`] that asks `go_on(n)` before each drive period `n` (for progress and a
+/// stop on request) and returns `None` if it said stop; what was sampled until then is
+/// handed to `sample` as usual.
+pub fn run_scheduled_until(
+    scene: &Scene,
+    schedule: &GainSchedule,
+    samples_per_period: u32,
+    sample: &mut dyn FnMut(&Snapshot),
+    go_on: &mut dyn FnMut(u32) -> bool,
+) -> Result<Option<RunReport>, SimError> {
     let period = scene.drive.period();
     let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
     let periods = scene.horizon.periods;
@@ -104,6 +119,9 @@ pub fn run_scheduled(
         sample(&sim.snapshot());
     }
     for n in 0..periods {
+        if !go_on(n) {
+            return Ok(None);
+        }
         let law = schedule.law(scene, n);
         let measuring = n >= transient;
         if n == transient {
@@ -145,7 +163,7 @@ pub fn run_scheduled(
     let s = sim.state();
     let progression = s.x2 - x2_start;
     let work = sim.actuator_work();
-    Ok(RunReport {
+    Ok(Some(RunReport {
         avg_progression: progression / m,
         period: detect_period(&poincare, PERIOD_TOL),
         impacts_per_period: impacts as f64 / m,
@@ -156,7 +174,7 @@ pub fn run_scheduled(
         final_state: s,
         measured_periods: measured,
         work: sim.work(),
-    })
+    }))
 }
 
 /// Smallest `k <= MAX_PERIOD` with `|P[n] - P[n-k]| <= tol` for every `n >= k`, if the section

@@ -1,4 +1,6 @@
-//! `capsule simulate`: one run, a summary, optionally JSON and a CSV time history.
+//! `capsule simulate`: one run, a summary, optionally JSON and a CSV time history. A run that
+//! lasts shows its progress on stderr; Ctrl-C stops it, writes the time history sampled so far
+//! and exits non-zero saying so.
 
 use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
@@ -6,12 +8,13 @@ use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
 use capsule_analysis::floquet::{floquet, Floquet};
 use capsule_analysis::lyapunov::{lyapunov, Lyapunov};
-use capsule_analysis::{run_scheduled, GainSchedule, Pulse, RunReport};
+use capsule_analysis::{run_scheduled_until, GainSchedule, Pulse, RunReport};
 use capsule_nodes::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 /// Simulate one scene.
@@ -140,18 +143,44 @@ pub fn main(args: Args) -> Result<()> {
         work::check_parent(path)?;
     }
     let t0 = std::time::Instant::now();
-    let report = run_scheduled(&scene, &schedule, samples, &mut |s| rows.push(*s))
-        .with_context(|| format!("simulating {}", scene.name))?;
+    let mut progress = Progress::new(scene.horizon.periods);
+    work::catch_ctrl_c();
+    let report = run_scheduled_until(
+        &scene,
+        &schedule,
+        samples,
+        &mut |s| rows.push(*s),
+        &mut |n| progress.go_on(n),
+    );
+    // from here on Ctrl-C ends the process as usual (the stability analysis below)
+    work::release_ctrl_c();
+    progress.finish();
+    let report = report.with_context(|| format!("simulating {}", scene.name))?;
     let wall = t0.elapsed().as_secs_f64();
+    let mut written = Vec::new();
     if let Some(path) = &args.csv {
         write_csv(path, &rows).with_context(|| format!("writing {}", path.display()))?;
+        written.push(format!("{} ({} rows)", path.display(), rows.len()));
     }
     if let Some(path) = &args.record {
         let n = record::write(path, &scene, args.scene.scene_text(&scene), &rows, storage)?;
-        if !args.json {
+        if report.is_some() && !args.json {
             println!("recording      {} ({n} messages)", path.display());
         }
+        written.push(format!("{} ({n} messages)", path.display()));
     }
+    let Some(report) = report else {
+        let done = progress.done;
+        let what = if written.is_empty() {
+            "nothing written (no --csv or --record)".to_string()
+        } else {
+            format!("the time history so far is in {}", written.join(" and "))
+        };
+        bail!(
+            "interrupted: {done} of {} periods done after {wall:.1} s, no summary; {what}",
+            scene.horizon.periods
+        );
+    };
     let (floquet, lyapunov, stability_note) = if schedule.pulse.is_none()
         && schedule.after == scene.control.kp
     {
@@ -227,6 +256,72 @@ pub fn main(args: Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Progress of one run: a bar on a terminal once the run has lasted a second, a line every
+/// ten seconds when stderr is not a terminal (a log), nothing for a short run; and the stop
+/// asked by Ctrl-C.
+struct Progress {
+    periods: u32,
+    done: u32,
+    start: std::time::Instant,
+    bar: Option<ProgressBar>,
+    terminal: bool,
+    next_line_s: f64,
+}
+
+impl Progress {
+    /// Seconds a run lasts before its progress shows.
+    const QUIET_S: f64 = 1.0;
+    /// Seconds between two progress lines when stderr is not a terminal.
+    const LINE_EVERY_S: f64 = 10.0;
+
+    fn new(periods: u32) -> Self {
+        Progress {
+            periods,
+            done: 0,
+            start: std::time::Instant::now(),
+            bar: None,
+            terminal: std::io::stderr().is_terminal(),
+            next_line_s: Self::LINE_EVERY_S,
+        }
+    }
+
+    /// Called before period `n`: shows the progress, and says whether to go on (no Ctrl-C).
+    fn go_on(&mut self, n: u32) -> bool {
+        self.done = n;
+        let elapsed = self.start.elapsed().as_secs_f64();
+        if let Some(bar) = &self.bar {
+            bar.set_position(n.into());
+        } else if self.terminal && elapsed >= Self::QUIET_S {
+            let bar = ProgressBar::with_draw_target(
+                Some(self.periods.into()),
+                ProgressDrawTarget::stderr(),
+            );
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} periods, {elapsed} elapsed, eta {eta} (Ctrl-C stops and writes what is done)",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar.set_position(n.into());
+            self.bar = Some(bar);
+        } else if !self.terminal && elapsed >= self.next_line_s {
+            eprintln!(
+                "simulate: period {n} of {} ({:.1} %), {elapsed:.0} s elapsed",
+                self.periods,
+                100.0 * f64::from(n) / f64::from(self.periods)
+            );
+            self.next_line_s += Self::LINE_EVERY_S;
+        }
+        !work::interrupted()
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 fn print_summary(scene: &Scene, r: &RunReport, wall: f64) {

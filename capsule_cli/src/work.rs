@@ -110,6 +110,14 @@ pub fn catch_ctrl_c() {
     }
 }
 
+/// Gives Ctrl-C its default action back (it ends the process) after [`catch_ctrl_c`].
+pub fn release_ctrl_c() {
+    // SAFETY: restoring the default action of one signal.
+    unsafe {
+        libc::signal(libc::SIGINT, libc::SIG_DFL);
+    }
+}
+
 /// Whether Ctrl-C was pressed since [`catch_ctrl_c`]; restores the default action, so that a
 /// second Ctrl-C ends the process at once.
 pub fn interrupted() -> bool {

@@ -29,6 +29,7 @@ use crate::{
     command_feedback::CommandFeedback,
     conflicts::TopicRule,
     plant_identity::{PlantIdentity, Source},
+    ranges,
     ros::{qos, types, RosSettings, Wire},
     scale::Scale,
     throttle::Throttle,
@@ -430,16 +431,21 @@ pub struct ControllerOptions {
 
 /// The controller's gain settings on the command line (the node's and `capsule replay
 /// --check-controller`'s, so that a check re-drives the controller as it was configured).
+/// Each flag's range is checked by clap at parse time; that the defaults lie within
+/// `--gain-limit` (a rule between flags) is checked by [`GainArgs::config`].
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct GainArgs {
-    /// |k_p| of FORWARD / BACKWARD when a request gives 0
-    #[arg(long, default_value_t = ModeConfig::DEFAULT.direction_gain)]
+    /// |k_p| of FORWARD / BACKWARD when a request gives 0, [0, 1e12] and at most --gain-limit
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.direction_gain,
+          value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub direction_gain: f64,
-    /// k_p of CHAOS_CONTROL when a request gives 0
-    #[arg(long, default_value_t = ModeConfig::DEFAULT.chaos_gain, allow_negative_numbers = true)]
+    /// k_p of CHAOS_CONTROL when a request gives 0, [-1e12, 1e12] and |k_p| at most --gain-limit
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.chaos_gain, allow_negative_numbers = true,
+          value_parser = ranges::finite())]
     pub chaos_gain: f64,
-    /// Largest |k_p| any mode accepts
-    #[arg(long, default_value_t = ModeConfig::DEFAULT.gain_limit)]
+    /// Largest |k_p| any mode accepts, [0, 1e12]
+    #[arg(long, default_value_t = ModeConfig::DEFAULT.gain_limit,
+          value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub gain_limit: f64,
 }
 
@@ -451,7 +457,15 @@ impl GainArgs {
             chaos_gain: self.chaos_gain,
             gain_limit: self.gain_limit,
         };
-        config.validate().context("gain flags")?;
+        config.validate().map_err(|e| {
+            anyhow::anyhow!(
+                "--{} {}: {} (--gain-limit {})",
+                e.name.replace('_', "-"),
+                e.value,
+                e.reason,
+                self.gain_limit
+            )
+        })?;
         Ok(config)
     }
 }

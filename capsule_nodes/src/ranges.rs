@@ -33,6 +33,15 @@ fn number(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A bound as the help text writes it: `0`, `100`, `1e12`, `1e-3`.
+fn short(v: f64) -> String {
+    if v == v.trunc() && v.abs() < 1e6 {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// A finite number in `[min, max]`.
 pub fn within(min: f64, max: f64) -> impl FlagParser<f64> {
     move |text: &str| {
@@ -40,7 +49,11 @@ pub fn within(min: f64, max: f64) -> impl FlagParser<f64> {
         if (min..=max).contains(&v) {
             Ok(v)
         } else {
-            Err(format!("must be in [{min:e}, {max:e}] (got {text})"))
+            Err(format!(
+                "must be in [{}, {}] (got {text})",
+                short(min),
+                short(max)
+            ))
         }
     }
 }

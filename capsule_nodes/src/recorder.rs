@@ -98,7 +98,21 @@ pub struct RecorderOptions {
     pub controller_node: String,
     /// Stop by itself after this long without any message (None: only on a signal).
     pub idle_stop: Option<Duration>,
+    /// History depth of each reader, in samples (see [`DEFAULT_QUEUE_DEPTH`]).
+    pub queue_depth: usize,
 }
+
+/// Default history depth of the recorder's readers: 2 s of samples at 10 kHz, the fastest
+/// rate benchmarked (`capsule_record/bench/record_node.sh`). RustDDS keeps the last `depth`
+/// samples of each topic in memory whether or not they were taken, so the depth is memory
+/// held for the whole run (about 1.1 kB per sample per 1 kHz topic; 100,000 cost 110 MB at
+/// 1 kHz, docs/recording.md), while losing a sample needs the drain loop (every `--poll-ms`)
+/// to stall for longer than depth / rate: 2 s covers a slow flush to disk.
+pub const DEFAULT_QUEUE_DEPTH: usize = 20_000;
+
+/// History depth of the readers of the controller's status and service events (at most
+/// `--queue-depth`): 2 s at the fastest status period (1 ms), 200 s at the default (100 ms).
+pub const SLOW_QUEUE_DEPTH: usize = 2_000;
 
 /// `capsule_<scene>_<UTC YYYYmmddTHHMMSS.mmmZ>.mcap`, scene reduced to `[A-Za-z0-9_-]`.
 pub fn run_file_name(scene: &str, now_ns: u64) -> String {
@@ -397,22 +411,30 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
             .with_context(|| format!("topic {}", settings.resolve_name(&name)))?;
         topics.push(topic);
     }
-    // Deep reader queues: a slow disk moment must not drop samples. Reliable readers: with
+    // Reader queues deep enough that a slow disk moment does not drop samples, and no deeper:
+    // DDS holds them in memory all run (DEFAULT_QUEUE_DEPTH). Reliable readers: with
     // best-effort ones RustDDS's writers sent only part of the samples at 10 kHz (a third of
     // /clock went missing before it reached the kernel), although they spare the
     // acknowledgement each reliable reader sends back per sample.
-    let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 100_000 });
+    let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast {
+        depth: opts.queue_depth,
+    });
+    // the controller's status (10 Hz by default, 1 kHz at the fastest) and its service events:
+    // the same depth would be memory that fills over hours (20,000 statuses: 33 min, 10 MB)
+    let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
+        depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
+    });
     let force_sub = node
         .create_subscription::<ActuatorForce>(&topics[1], Some(reader_qos.clone()))
         .context("force subscription")?;
     let status_sub = node
-        .create_subscription::<ControllerStatus>(&topics[2], Some(reader_qos.clone()))
+        .create_subscription::<ControllerStatus>(&topics[2], Some(slow_qos.clone()))
         .context("status subscription")?;
     let clock_sub = node
         .create_subscription::<Clock>(&topics[3], Some(reader_qos.clone()))
         .context("clock subscription")?;
     let event_sub = node
-        .create_subscription::<SetModeEvent>(&topics[4], Some(reader_qos.clone()))
+        .create_subscription::<SetModeEvent>(&topics[4], Some(slow_qos))
         .context("service-event subscription")?;
     if !graph
         .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)

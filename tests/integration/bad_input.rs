@@ -167,7 +167,7 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         ("capsule", sim(&["--step=-1e-3"]), "must be > 0"),
         (
             "capsule",
-            sim(&["--samples-per-period", "100000000"]),
+            sim(&["--samples-per-period", "100000000", "--csv", "never.csv"]),
             "from 1 to 1000000",
         ),
         ("capsule", sim(&["--x0", "1,2,3"]), "four comma-separated"),
@@ -264,6 +264,51 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         ("capsule_controller", plant(&["--gain", "inf"]), "finite"),
         (
             "capsule_controller",
+            plant(&["--direction-gain", "nan"]),
+            "'--direction-gain <DIRECTION_GAIN>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--direction-gain", "-1"]),
+            "'--direction-gain <DIRECTION_GAIN>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "inf"]),
+            "'--chaos-gain <CHAOS_GAIN>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "-1e308"]),
+            "'--chaos-gain <CHAOS_GAIN>': must be in [-1e12, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--gain-limit", "1e308"]),
+            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--gain-limit", "-1"]),
+            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--direction-gain", "3"]),
+            "--direction-gain 3: beyond gain_limit (--gain-limit 2)",
+        ),
+        (
+            "capsule_controller",
+            plant(&["--chaos-gain", "-5", "--gain-limit", "4"]),
+            "--chaos-gain -5: beyond gain_limit (--gain-limit 4)",
+        ),
+        (
+            "capsule",
+            vec!["replay", &rec, "--gain-limit", "nan"],
+            "'--gain-limit <GAIN_LIMIT>': must be a finite number",
+        ),
+        (
+            "capsule_controller",
             plant(&["--omega", "0"]),
             "must be > 0",
         ),
@@ -318,6 +363,16 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
             "127.0.0.1 only",
         ),
         (
+            "capsule_recorder",
+            vec!["--check", "--queue-depth", "0"],
+            "from 1 to 1000000",
+        ),
+        (
+            "capsule_recorder",
+            vec!["--check", "--queue-depth", "18446744073709551616"],
+            "from 1 to 1000000",
+        ),
+        (
             "capsule_ros",
             vec!["period", "--scene", scene, "--periods", "-5"],
             "must be > 0",
@@ -348,6 +403,41 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         );
         assert!(!err.contains("panicked"), "{name} {args:?} panicked: {err}");
     }
+}
+
+#[test]
+fn the_controller_gain_flags_state_their_range_in_help() {
+    let o = run("capsule_controller", &["--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    for (flag, range) in [
+        ("--direction-gain", "[0, 1e12] and at most --gain-limit"),
+        (
+            "--chaos-gain",
+            "[-1e12, 1e12] and |k_p| at most --gain-limit",
+        ),
+        ("--gain-limit", "[0, 1e12]"),
+    ] {
+        let at = help
+            .find(&format!("{flag} <"))
+            .unwrap_or_else(|| panic!("--help lacks {flag}:\n{help}"));
+        let entry: String = help[at..].lines().take(3).collect::<Vec<_>>().join(" ");
+        assert!(entry.contains(range), "{flag}: `{entry}` lacks `{range}`");
+    }
+    // within the ranges, the defaults go
+    let o = run(
+        "capsule_controller",
+        &[
+            "--scene",
+            "scenes/control_point.toml",
+            "--check",
+            "--direction-gain",
+            "0.5",
+            "--chaos-gain",
+            "-1.5",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
@@ -520,6 +610,34 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
     assert!(text.contains("1 of 3 values failed"), "{text}");
     let o = run("capsule", &[&args[..], &["--allow-failures"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
+    // a value out of the parameter's range among good ones, and a range from +max to -max
+    for (param, from, to, named) in [
+        ("omega", "0", "1", "omega = 0: drive.omega: must be > 0"),
+        ("gamma", "-1", "3", "gamma = -1: capsule.gamma: must be > 0"),
+    ] {
+        let o = run(
+            "capsule",
+            &[
+                "sweep",
+                "--param",
+                param,
+                "--from",
+                from,
+                "--to",
+                to,
+                "--steps",
+                "3",
+                "--periods",
+                "3",
+                "--out",
+                &out,
+            ],
+        );
+        let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{text}");
+        assert!(text.contains(named), "{param}: {text}");
+        assert!(text.contains("1 of 3 values failed"), "{param}: {text}");
+    }
     // --out DIR/ writes into the directory
     let dir = tmp("outdir");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
@@ -588,6 +706,78 @@ fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
 }
 
 #[test]
+fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
+    let csv = tmp("interrupted_sim.csv");
+    let _ = std::fs::remove_file(&csv);
+    let csv_s = csv.display().to_string();
+    // a million periods: minutes even in release, so the signal finds it running
+    let mut child = Command::new(bin("capsule"))
+        .args([
+            "simulate",
+            "--periods",
+            "1000000",
+            "--samples-per-period",
+            "1",
+            "--csv",
+            &csv_s,
+        ])
+        .current_dir(root())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{e}"));
+    std::thread::sleep(Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .map(|s| s.success());
+    assert_eq!(killed.ok(), Some(true));
+    let t0 = Instant::now();
+    while child.try_wait().ok().flatten().is_none() {
+        if t0.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("simulate still running 60 s after SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.contains("interrupted:"))
+        .unwrap_or_else(|| panic!("no `interrupted:` in `{err}`"));
+    assert!(
+        line.contains("of 1000000 periods done") && line.contains(&csv_s),
+        "{line}"
+    );
+    assert!(o.stdout.is_empty(), "printed a summary of a partial run");
+    // the CSV is whole: the header, then complete rows in time order, fewer than a full run's
+    let text = std::fs::read_to_string(&csv).unwrap_or_else(|e| panic!("{csv_s}: {e}"));
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("tau,x1,y1,x2,y2,stuck,contact,friction_force,contact_force,actuator_force")
+    );
+    let mut last = f64::NEG_INFINITY;
+    let mut rows = 0usize;
+    for l in lines {
+        let v: Vec<f64> = l
+            .split(',')
+            .map(|x| x.parse().unwrap_or_else(|_| panic!("row `{l}`")))
+            .collect();
+        assert_eq!(v.len(), 10, "row `{l}`");
+        assert!(v[0] > last, "tau not increasing at `{l}`");
+        last = v[0];
+        rows += 1;
+    }
+    assert!(rows > 1 && rows < 1_000_001, "{rows} rows");
+    assert!(line.contains(&format!("({rows} rows)")), "{line}");
+}
+
+#[test]
 fn partial_scenes_take_the_defaults_and_say_which() {
     let f = tmp("partial.toml");
     std::fs::write(&f, "[capsule]\ngamma = 0.5\n").unwrap_or_else(|e| panic!("{e}"));
@@ -612,6 +802,26 @@ fn partial_scenes_take_the_defaults_and_say_which() {
     ] {
         assert!(text.contains(line), "--print-scene lacks `{line}`:\n{text}");
     }
+    // an empty scene file is all defaults, for every binary that takes a scene
+    let empty = tmp("empty.toml");
+    std::fs::write(&empty, "").unwrap_or_else(|e| panic!("{e}"));
+    let empty_s = empty.display().to_string();
+    let rec_dir = tmp("empty_rec").display().to_string();
+    for (name, args) in [
+        (
+            "capsule",
+            vec!["simulate", "--scene", &empty_s, "--print-scene"],
+        ),
+        ("capsule_plant", vec!["--scene", &empty_s, "--check"]),
+        ("capsule_controller", vec!["--scene", &empty_s, "--check"]),
+        (
+            "capsule_recorder",
+            vec!["--scene", &empty_s, "--check", "--record-dir", &rec_dir],
+        ),
+    ] {
+        let o = run(name, &args);
+        assert!(o.status.success(), "{name} {args:?}: {}", stderr(&o));
+    }
     // what --print-scene prints is a scene that reads back the same
     let back = capsule_plant::scene::Scene::from_toml_str(&text, "printed")
         .unwrap_or_else(|e| panic!("{e}"));
@@ -631,6 +841,10 @@ fn one_rule_for_periods_and_transient_with_and_without_a_scene() {
         )
     };
     assert_eq!(measured(&["--periods", "30"]), (Some(20), Some(10)));
+    assert_eq!(
+        measured(&["--scene", "scenes/control_point.toml", "--periods", "50"]),
+        measured(&["--periods", "50"])
+    );
     assert_eq!(
         measured(&["--scene", "scenes/control_point.toml", "--periods", "30"]),
         (Some(20), Some(10))

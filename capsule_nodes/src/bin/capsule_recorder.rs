@@ -33,6 +33,12 @@ struct Cli {
     /// Drain the DDS readers this often [ms], 1 to 60000
     #[arg(long, default_value_t = 2, value_parser = ranges::millis())]
     poll_ms: u64,
+    /// Samples each DDS reader keeps (the DDS history depth, held in memory all run): enough for
+    /// the drain loop to stall depth / rate seconds without losing any (the default is 2 s at
+    /// 10 kHz), 1 to 1000000
+    #[arg(long, default_value_t = recorder::DEFAULT_QUEUE_DEPTH,
+          value_parser = ranges::count_usize(1, 1_000_000))]
+    queue_depth: usize,
     /// Seconds to wait for the controller's publishers before subscribing to the state,
     /// [0, 1e6]
     #[arg(long, default_value_t = 10.0, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
@@ -71,6 +77,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
             wait_publishers: Duration::from_secs_f64(cli.wait_publishers_s),
             controller_node: cli.controller_node.clone(),
             idle_stop: (cli.idle_stop_s > 0.0).then(|| Duration::from_secs_f64(cli.idle_stop_s)),
+            queue_depth: cli.queue_depth,
         },
     ))
 }
