@@ -22,7 +22,7 @@
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
-//! - [`sim`]: [`plant::PlantSim`] for the exact simulator of `capsule_plant`
+//! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method)
 
 #![warn(missing_docs)]
 

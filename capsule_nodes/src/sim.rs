@@ -1,4 +1,5 @@
-//! [`PlantSim`] for the exact simulator of `capsule_plant`.
+//! [`PlantSim`] for the simulator of `capsule_plant` (whichever method the scene chooses: exact,
+//! adaptive or fixed-step).
 
 use anyhow::{Context as _, Result};
 use capsule_plant::{ConstantForce, Simulator};
@@ -6,9 +7,9 @@ use capsule_plant::{ConstantForce, Simulator};
 use crate::plant::{PlantSample, PlantSim};
 
 /// The simulator of `capsule_plant` behind the plant node.
-pub struct ExactSim(pub Simulator);
+pub struct SimulatedPlant(pub Simulator);
 
-impl PlantSim for ExactSim {
+impl PlantSim for SimulatedPlant {
     fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
         self.0
             .advance(&ConstantForce(force), tau_end)

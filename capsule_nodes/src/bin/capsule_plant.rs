@@ -9,7 +9,7 @@ use capsule_nodes::{
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args,
     scene_file::SceneFile,
-    sim::ExactSim,
+    sim::SimulatedPlant,
     views,
 };
 use capsule_plant::{Method, Simulator};
@@ -120,7 +120,7 @@ fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOp
 fn build(
     cli: &Cli,
     overrides: &[ros_args::Override],
-) -> Result<(RosSettings, PlantCore<ExactSim>, PlantOptions)> {
+) -> Result<(RosSettings, PlantCore<SimulatedPlant>, PlantOptions)> {
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
     // both in range: the scene's validation and the flags' parsers check the same bounds
@@ -166,7 +166,7 @@ fn build(
     }
     let (rate, timeout, clock_every) =
         plant_params::overridable(&params, &started_with).map_err(anyhow::Error::msg)?;
-    let mut core = PlantCore::new(ExactSim(sim), scene.physical, rate, timeout);
+    let mut core = PlantCore::new(SimulatedPlant(sim), scene.physical, rate, timeout);
     if let Some(f) = cli.max_force_n {
         core = core.with_max_force_n(f);
     }
