@@ -19,7 +19,7 @@
 //! section, perturbations live on `y2 = 0` only and the `y2` column of the Jacobian is zeroed.
 
 use crate::run::PaperLaw;
-use capsule_plant::equations::{expm, mat_mul, Core, Drive, Equations, Mat4, IDENTITY};
+use capsule_plant::equations::{expm, mat_mul, Core, Equations, Mat4, IDENTITY};
 use capsule_plant::scene::Scene;
 use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
@@ -73,7 +73,9 @@ pub fn equations_of(scene: &Scene) -> Result<Equations, StabilityError> {
         return Err(StabilityError::UnsupportedLaw(f.name()));
     }
     let shape = capsule_plant::ActuatorLaw::shape(&PaperLaw::of(scene));
-    let drive = Drive::of(shape).ok_or(StabilityError::UnsupportedLaw(f.name()))?;
+    let capsule_plant::LawShape::PiecewiseAffine(drive) = shape else {
+        return Err(StabilityError::UnsupportedLaw(f.name()));
+    };
     Ok(Equations::new(scene.model, drive))
 }
 

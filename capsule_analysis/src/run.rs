@@ -2,7 +2,9 @@
 
 use capsule_controller::FeedbackLaw;
 use capsule_plant::scene::Scene;
-use capsule_plant::{ActuatorLaw, EventKind, LawShape, SimError, Simulator, Snapshot, State, Work};
+use capsule_plant::{
+    ActuatorLaw, AffineLaw, EventKind, LawShape, SimError, Simulator, Snapshot, State, Work,
+};
 use serde::Serialize;
 
 use crate::schedule::GainSchedule;
@@ -18,12 +20,12 @@ impl ActuatorLaw for PaperLaw {
 
     fn shape(&self) -> LawShape {
         let FeedbackLaw { alpha, omega, kp } = self.0;
-        LawShape::PiecewiseAffine {
+        LawShape::PiecewiseAffine(AffineLaw {
             alpha,
             omega,
             bias: 0.0,
             kp,
-        }
+        })
     }
 }
 
@@ -213,12 +215,12 @@ mod tests {
             omega: 0.95,
             kp: -0.4,
         });
-        let LawShape::PiecewiseAffine {
+        let LawShape::PiecewiseAffine(AffineLaw {
             alpha,
             omega,
             bias,
             kp,
-        } = law.shape()
+        }) = law.shape()
         else {
             panic!("paper law must be piecewise affine");
         };

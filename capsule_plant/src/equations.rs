@@ -24,7 +24,7 @@
 //! pinned to zero; that projection comes out of the saltation formula by itself (Leine and
 //! Nijmeijer 2004, eq. 7.9): `S = I + (f+ - f-) c^T / (c . f-)`.
 
-use crate::law::LawShape;
+use crate::law::AffineLaw;
 use crate::model::Model;
 use crate::solver::{EventKind, Phase, Regime};
 
@@ -42,45 +42,6 @@ pub const IDENTITY: Mat4 = [
     [0.0, 0.0, 1.0, 0.0],
     [0.0, 0.0, 0.0, 1.0],
 ];
-
-/// Piecewise-affine actuator law `alpha cos(omega tau) + bias + kp |x2 - x1|` (the paper's eq. 2-3).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Drive {
-    /// Harmonic amplitude.
-    pub alpha: f64,
-    /// Harmonic frequency.
-    pub omega: f64,
-    /// Constant part.
-    pub bias: f64,
-    /// Gain on `|x2 - x1|`.
-    pub kp: f64,
-}
-
-impl Drive {
-    /// The drive of a law of known structure, `None` for a general law.
-    pub fn of(shape: LawShape) -> Option<Self> {
-        match shape {
-            LawShape::PiecewiseAffine {
-                alpha,
-                omega,
-                bias,
-                kp,
-            } => Some(Drive {
-                alpha,
-                omega,
-                bias,
-                kp,
-            }),
-            LawShape::General => None,
-        }
-    }
-
-    /// The actuator force at `tau` for relative displacement `z` on side `sigma` of the kink.
-    #[inline]
-    pub fn force(&self, tau: f64, z: f64, sigma: f64) -> f64 {
-        self.alpha * (self.omega * tau).cos() + self.bias + self.kp * sigma * z
-    }
-}
 
 /// A linear event function `c . [z, y1, y2, p] + c0`: the regime is valid while it is `<= 0`; its
 /// gradient is `c`.
@@ -231,12 +192,12 @@ pub struct Equations {
     /// Capsule and friction law.
     pub model: Model,
     /// Actuator law.
-    pub drive: Drive,
+    pub drive: AffineLaw,
 }
 
 impl Equations {
     /// The equations of `model` under `drive`.
-    pub fn new(model: Model, drive: Drive) -> Self {
+    pub fn new(model: Model, drive: AffineLaw) -> Self {
         Equations { model, drive }
     }
 
@@ -419,7 +380,7 @@ mod tests {
         }
     }
 
-    const DRIVE: Drive = Drive {
+    const DRIVE: AffineLaw = AffineLaw {
         alpha: 1.6,
         omega: 1.1,
         bias: 0.1,

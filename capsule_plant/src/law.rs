@@ -11,18 +11,32 @@ use crate::model::State;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LawShape {
     /// `alpha cos(omega tau) + bias + kp |x2 - x1|`.
-    PiecewiseAffine {
-        /// Harmonic amplitude.
-        alpha: f64,
-        /// Harmonic frequency.
-        omega: f64,
-        /// Constant part.
-        bias: f64,
-        /// Gain on `|x2 - x1|`.
-        kp: f64,
-    },
+    PiecewiseAffine(AffineLaw),
     /// Anything else: evaluated through [`ActuatorLaw::force`] only.
     General,
+}
+
+/// Piecewise-affine actuator law `alpha cos(omega tau) + bias + kp |x2 - x1|` (the paper's
+/// eq. 2-3; a held command is `bias` alone): the one form in which solvers, the equations and
+/// the analyses take it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AffineLaw {
+    /// Harmonic amplitude.
+    pub alpha: f64,
+    /// Harmonic frequency.
+    pub omega: f64,
+    /// Constant part.
+    pub bias: f64,
+    /// Gain on `|x2 - x1|`.
+    pub kp: f64,
+}
+
+impl AffineLaw {
+    /// The actuator force at `tau` for relative displacement `z` on side `sigma` of the kink.
+    #[inline]
+    pub fn force(&self, tau: f64, z: f64, sigma: f64) -> f64 {
+        self.alpha * (self.omega * tau).cos() + self.bias + self.kp * sigma * z
+    }
 }
 
 /// A force law acting on the inner mass.
@@ -46,12 +60,12 @@ impl ActuatorLaw for ConstantForce {
     }
 
     fn shape(&self) -> LawShape {
-        LawShape::PiecewiseAffine {
+        LawShape::PiecewiseAffine(AffineLaw {
             alpha: 0.0,
             omega: 0.0,
             bias: self.0,
             kp: 0.0,
-        }
+        })
     }
 }
 

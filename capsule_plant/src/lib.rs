@@ -11,7 +11,7 @@ mod roots;
 pub mod scene;
 pub mod solver;
 
-pub use law::{ActuatorLaw, ConstantForce, LawShape};
+pub use law::{ActuatorLaw, AffineLaw, ConstantForce, LawShape};
 pub use model::{Capsule, Friction, Model, State};
 pub use solver::{
     Event, EventKind, Method, Phase, Regime, SimError, Simulator, Snapshot, SolverConfig,

@@ -4,6 +4,7 @@
 
 use anyhow::Result;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
+use capsule_plant::Snapshot;
 use tracing::info;
 
 use super::LoopStats;
@@ -12,37 +13,12 @@ use crate::{
     scale::Scale,
 };
 
-/// A non-dimensional sample of the simulated plant (the simulator's snapshot, SI-free).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct PlantSample {
-    /// Non-dimensional time.
-    pub tau: f64,
-    /// Mass position.
-    pub x1: f64,
-    /// Mass velocity.
-    pub y1: f64,
-    /// Capsule position.
-    pub x2: f64,
-    /// Capsule velocity.
-    pub y2: f64,
-    /// Capsule sticks.
-    pub stuck: bool,
-    /// Mass touches the secondary spring.
-    pub contact: bool,
-    /// Friction force on the capsule.
-    pub friction_force: f64,
-    /// Contact force.
-    pub contact_force: f64,
-    /// Actuator force applied over the last step.
-    pub actuator_force: f64,
-}
-
 /// What the node needs from a simulator: hold a force until a time, and report a sample.
 pub trait PlantSim {
     /// Integrates to `tau_end` holding the non-dimensional actuator force `force`.
     fn advance(&mut self, force: f64, tau_end: f64) -> Result<()>;
     /// The current sample.
-    fn sample(&self) -> PlantSample;
+    fn sample(&self) -> Snapshot;
 }
 
 /// Why a command was not taken.
@@ -166,10 +142,10 @@ impl<S: PlantSim> PlantCore<S> {
                 frame_id: self.frame_id.clone(),
             },
             seq: self.step,
-            mass_position: s.x1 * l,
-            mass_velocity: s.y1 * v,
-            capsule_position: s.x2 * l,
-            capsule_velocity: s.y2 * v,
+            mass_position: s.state.x1 * l,
+            mass_velocity: s.state.y1 * v,
+            capsule_position: s.state.x2 * l,
+            capsule_velocity: s.state.y2 * v,
             in_contact: s.contact,
             stuck: s.stuck,
             friction_force: s.friction_force * f,
@@ -274,18 +250,18 @@ mod tests {
 
     /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
     /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
-    struct FreeMass(PlantSample);
+    struct FreeMass(Snapshot);
 
     impl PlantSim for FreeMass {
         fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
             let h = tau_end - self.0.tau;
-            self.0.x1 += self.0.y1 * h + 0.5 * force * h * h;
-            self.0.y1 += force * h;
+            self.0.state.x1 += self.0.state.y1 * h + 0.5 * force * h * h;
+            self.0.state.y1 += force * h;
             self.0.tau = tau_end;
             self.0.actuator_force = force;
             Ok(())
         }
-        fn sample(&self) -> PlantSample {
+        fn sample(&self) -> Snapshot {
             self.0
         }
     }
@@ -299,7 +275,20 @@ mod tests {
     }
 
     fn plant() -> PlantCore<FreeMass> {
-        PlantCore::new(FreeMass(PlantSample::default()), scale(), 100.0, 0.05)
+        PlantCore::new(
+            FreeMass(Snapshot {
+                tau: 0.0,
+                state: Default::default(),
+                stuck: false,
+                contact: false,
+                friction_force: 0.0,
+                contact_force: 0.0,
+                actuator_force: 0.0,
+            }),
+            scale(),
+            100.0,
+            0.05,
+        )
     }
 
     fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {

@@ -12,7 +12,8 @@
 //! `sum (c . V_k) t^k`, whose first crossing is located to rounding.
 
 use super::{EventKind, Phase, Regime, SimError, Simulator, Transition};
-use crate::equations::{Core, Drive, EventFn};
+use crate::equations::{Core, EventFn};
+use crate::law::AffineLaw;
 use crate::roots::first_crossing;
 
 /// Series terms kept per step.
@@ -46,7 +47,7 @@ struct Linear {
 }
 
 impl Linear {
-    fn new(sim: &Simulator, regime: &Regime, drive: &Drive) -> Self {
+    fn new(sim: &Simulator, regime: &Regime, drive: &AffineLaw) -> Self {
         let cap = &sim.model.capsule;
         let h3 = if regime.contact { cap.beta } else { 0.0 };
         let xi2 = 2.0 * cap.xi;
@@ -112,7 +113,7 @@ fn horner2(g: &[f64], t: f64) -> (f64, f64) {
 impl Simulator {
     pub(super) fn advance_exact(
         &mut self,
-        drive: &Drive,
+        drive: &AffineLaw,
         tau_end: f64,
         on_event: &mut impl FnMut(&Transition),
     ) -> Result<(), SimError> {
@@ -238,7 +239,7 @@ impl Simulator {
     /// `integral_0^t f_a y1` over a step from the series of `z`, `y1` and the drive: the product
     /// of two degree-`K` series, integrated term by term (all `2K` degrees kept: the product
     /// varies twice as fast as its factors).
-    fn step_work(&self, series: &[[f64; 5]], forcing: &[f64], drive: &Drive, t: f64) -> f64 {
+    fn step_work(&self, series: &[[f64; 5]], forcing: &[f64], drive: &AffineLaw, t: f64) -> f64 {
         let ks = drive.kp * self.regime.sigma;
         let n = series.len() - 1;
         let mut fa = [0.0f64; K + 1];

@@ -18,7 +18,7 @@ pub(crate) mod friction;
 mod history;
 mod rk;
 
-use crate::equations::{self, Core, Drive, EventFn};
+use crate::equations::{self, Core, EventFn};
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::{Model, State};
 use serde::{Deserialize, Serialize};
@@ -473,10 +473,7 @@ impl Simulator {
         }
         let result = match self.config.method {
             Method::Exact => match law.shape() {
-                shape @ LawShape::PiecewiseAffine { .. } => match Drive::of(shape) {
-                    Some(drive) => self.advance_exact(&drive, tau_end, on_event),
-                    None => Err(SimError::ExactNeedsAffineLaw),
-                },
+                LawShape::PiecewiseAffine(drive) => self.advance_exact(&drive, tau_end, on_event),
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
             Method::Adaptive => friction::with_friction!(self.model.friction, f => {
@@ -498,7 +495,7 @@ impl Simulator {
     /// The feedback gain if the law has a kink that must be located.
     fn kink_gain(law: &impl ActuatorLaw) -> f64 {
         match law.shape() {
-            LawShape::PiecewiseAffine { kp, .. } => kp,
+            LawShape::PiecewiseAffine(drive) => drive.kp,
             LawShape::General => 0.0,
         }
     }

@@ -112,12 +112,7 @@ impl Simulator {
             )
         };
         let fa = match ctx.shape {
-            LawShape::PiecewiseAffine {
-                alpha,
-                omega,
-                bias,
-                kp,
-            } => alpha * (omega * tau).cos() + bias + kp * sigma * z,
+            LawShape::PiecewiseAffine(drive) => drive.force(tau, z, sigma),
             LawShape::General => {
                 let x2 = ctx.x2_base + dx2;
                 ctx.law.force(
