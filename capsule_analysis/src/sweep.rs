@@ -27,18 +27,20 @@ pub enum Param {
 }
 
 impl Param {
-    /// Parse a parameter name (`alpha`, `omega`, `gamma`, `beta`, `delta`, `xi`, `kp`).
+    /// Every parameter: the one list the command line's choices come from.
+    pub const ALL: [Param; 7] = [
+        Param::Alpha,
+        Param::Omega,
+        Param::Gamma,
+        Param::Beta,
+        Param::Delta,
+        Param::Xi,
+        Param::Kp,
+    ];
+
+    /// The parameter called `name` (see [`Param::name`]).
     pub fn parse(name: &str) -> Option<Self> {
-        Some(match name {
-            "alpha" => Param::Alpha,
-            "omega" => Param::Omega,
-            "gamma" => Param::Gamma,
-            "beta" => Param::Beta,
-            "delta" => Param::Delta,
-            "xi" => Param::Xi,
-            "kp" => Param::Kp,
-            _ => return None,
-        })
+        Param::ALL.into_iter().find(|p| p.name() == name)
     }
 
     /// The parameter's name (as [`Param::parse`] reads it).

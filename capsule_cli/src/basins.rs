@@ -43,9 +43,9 @@ pub struct Args {
     /// initial state (default: the relative displacement and velocity, capsule at rest).
     #[arg(long, value_name = "A,B", default_value = "x1-x2,y1-y2")]
     plane: String,
-    /// Sweep: one map per value of this parameter (alpha, omega, gamma, beta, delta, xi, kp).
-    #[arg(long, requires = "values")]
-    sweep: Option<String>,
+    /// Sweep: one map per value of this parameter.
+    #[arg(long, requires = "values", value_parser = crate::scene_args::param())]
+    sweep: Option<Param>,
     /// The sweep's values, comma-separated.
     #[arg(
         long,
@@ -282,12 +282,8 @@ pub fn main(args: Args) -> Result<()> {
     }
     let scene = args.scene.scene()?;
     let scenes: Vec<(Option<f64>, Scene)> = match (&args.sweep, &args.values) {
-        (Some(name), Some(values)) => {
-            let Some(param) = Param::parse(name) else {
-                bail!(
-                    "--sweep `{name}`: not a parameter (alpha, omega, gamma, beta, delta, xi, kp)"
-                );
-            };
+        (Some(param), Some(values)) => {
+            let (param, name) = (*param, param.name());
             let mut out = Vec::new();
             for v in values.split(',').map(str::trim) {
                 let v: f64 = v
@@ -316,7 +312,7 @@ pub fn main(args: Args) -> Result<()> {
     }
     let cancel = cancel_on_ctrl_c();
     let maps = compute(&scenes, &grid, args.known_tol, cancel);
-    let name = args.sweep.as_deref().unwrap_or("");
+    let name = args.sweep.map_or("", Param::name);
     let written = write_all(&args.out, name, &maps)?;
     let cfgs: Vec<SettleConfig> = maps
         .iter()

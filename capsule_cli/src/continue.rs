@@ -18,10 +18,10 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Parameter to continue in: alpha, omega, gamma, beta, delta, xi or kp. The start is the
-    /// scene's own value of it (set it with the scene flags, e.g. --alpha 2.0).
-    #[arg(long)]
-    param: String,
+    /// Parameter to continue in. The start is the scene's own value of it (set it with the scene
+    /// flags, e.g. --alpha 2.0).
+    #[arg(long, value_parser = crate::scene_args::param())]
+    param: Param,
     /// Continue towards this value (stops past it), finite, |value| <= 1e12.
     #[arg(long, value_parser = ranges::within(-ranges::MAX_MAGNITUDE, ranges::MAX_MAGNITUDE))]
     to: f64,
@@ -48,12 +48,7 @@ pub struct Args {
 }
 
 pub fn main(args: Args) -> Result<()> {
-    let Some(param) = Param::parse(&args.param) else {
-        bail!(
-            "--param `{}`: not a parameter of the scene (alpha, omega, gamma, beta, delta, xi, kp)",
-            args.param
-        );
-    };
+    let param = args.param;
     if !args.to.is_finite() {
         bail!("--to must be a finite number");
     }

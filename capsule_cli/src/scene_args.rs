@@ -3,6 +3,7 @@
 
 use crate::Refused;
 use anyhow::{bail, Result};
+use capsule_analysis::Param;
 use capsule_nodes::{ranges, scene_file::SceneFile};
 use capsule_plant::model::{K_S, MU_V, TAU_D, V_S};
 use capsule_plant::scene::Scene;
@@ -16,6 +17,13 @@ fn friction_law() -> impl TypedValueParser<Value = Friction> {
     PossibleValuesParser::new(Friction::LAWS.map(|l| l.name()))
         // every possible value is a law's name
         .map(|name| Friction::by_name(&name).unwrap_or(Friction::Coulomb))
+}
+
+/// A scene parameter to sweep or continue in: the names of [`Param::ALL`].
+pub fn param() -> impl TypedValueParser<Value = Param> {
+    PossibleValuesParser::new(Param::ALL.map(Param::name))
+        // every possible value is a parameter's name
+        .map(|name| Param::parse(&name).unwrap_or(Param::Alpha))
 }
 
 /// `--method`: the names of [`Method::ALL`].

@@ -5,7 +5,6 @@
 use crate::scene_args::SceneArgs;
 use crate::svg;
 use crate::work::{self, WorkArgs};
-use crate::Refused;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::lyapunov::{lyapunov_sweep, Lyapunov};
 use capsule_analysis::{sweep, sweep_following, Param, SweepPoint};
@@ -24,9 +23,9 @@ pub const MAX_THREADS: usize = 1024;
 pub struct Args {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Parameter to sweep: alpha, omega, gamma, beta, delta, xi or kp.
-    #[arg(long)]
-    param: String,
+    /// Parameter to sweep.
+    #[arg(long, value_parser = crate::scene_args::param())]
+    param: Param,
     /// First value, [-1e12, 1e12].
     #[arg(long, value_parser = ranges::finite())]
     from: f64,
@@ -71,15 +70,10 @@ fn prefix(out: &Path, param: &str) -> PathBuf {
 }
 
 pub fn main(args: Args) -> Result<()> {
-    let Some(param) = Param::parse(&args.param) else {
-        bail!(Refused(format!(
-            "--param `{}`: not a sweepable parameter (alpha, omega, gamma, beta, delta, xi, kp)",
-            args.param
-        )));
-    };
+    let param = args.param;
     let scene = args.scene.scene()?;
     args.work.check(&scene, args.steps)?;
-    let prefix = prefix(&args.out, &args.param);
+    let prefix = prefix(&args.out, args.param.name());
     work::check_parent(&prefix)?;
     let values: Vec<f64> = (0..args.steps)
         .map(|i| {
@@ -133,7 +127,7 @@ pub fn main(args: Args) -> Result<()> {
     let csv = prefix.with_extension("csv");
     let json = prefix.with_extension("json");
     let svg_path = prefix.with_extension("svg");
-    write_csv(&csv, &args.param, &points, spectra.as_deref())
+    write_csv(&csv, args.param.name(), &points, spectra.as_deref())
         .with_context(|| format!("writing {}", csv.display()))?;
     let json_text = match &spectra {
         None => serde_json::to_string(&points)?,
@@ -163,11 +157,11 @@ pub fn main(args: Args) -> Result<()> {
     let title = format!(
         "{} friction: y1 at drive phase 0 and progression vs {}",
         scene.model.friction.name(),
-        args.param
+        args.param.name()
     );
     std::fs::write(
         &svg_path,
-        svg::bifurcation(&title, &args.param, &points, largest.as_deref()),
+        svg::bifurcation(&title, args.param.name(), &points, largest.as_deref()),
     )
     .with_context(|| format!("writing {}", svg_path.display()))?;
     let failed: Vec<(f64, &String)> = points
@@ -177,7 +171,7 @@ pub fn main(args: Args) -> Result<()> {
     println!(
         "{} values of {} in {:.2} s ({} failed); wrote {}, {}, {}",
         points.len(),
-        args.param,
+        args.param.name(),
         wall,
         failed.len(),
         csv.display(),
@@ -185,7 +179,7 @@ pub fn main(args: Args) -> Result<()> {
         svg_path.display()
     );
     for (v, e) in failed.iter().take(5) {
-        println!("  {} = {v}: {e}", args.param);
+        println!("  {} = {v}: {e}", args.param.name());
     }
     if failed.len() > 5 {
         println!(

@@ -110,7 +110,7 @@ fn bad_flags_and_files_fail_with_a_clear_message() {
         ),
         (
             &["sweep", "--param", "zeta", "--from", "0", "--to", "1"],
-            "not a sweepable parameter",
+            "possible values: alpha, omega, gamma, beta, delta, xi, kp",
         ),
     ];
     for (args, words) in cases {

@@ -541,7 +541,7 @@ fn continue_command_writes_the_branch_and_refuses_bad_input() {
     for (extra, says) in [
         (
             &["--param", "mu", "--to", "1"][..],
-            "--param `mu`: not a parameter",
+            "invalid value 'mu' for '--param <PARAM>'",
         ),
         (
             &[
