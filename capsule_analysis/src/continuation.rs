@@ -579,4 +579,24 @@ mod tests {
         s[3] = s[2];
         assert!(solve4(s, b).is_none());
     }
+
+    #[test]
+    fn a_step_that_never_converges_stops_with_where_and_keeps_the_branch_so_far() {
+        // Coulomb, section-3 set at alpha 1.6 (period 1), continued in gamma (5) downwards in
+        // steps of 10 and 5: the predictor lands at a mass ratio of about -5 and 0, where there
+        // is no orbit to correct to, and the smallest step allowed (3) is passed at once
+        let mut scene = Scene::default();
+        scene.drive.alpha = 1.6;
+        let settings = Settings {
+            step: 10.0,
+            max_step: 10.0,
+            min_step: 3.0,
+            ..Settings::new(Param::Gamma, -100.0)
+        };
+        let branch = continue_branch(&scene, &settings).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(branch.points.len(), 1, "{:?}", branch.stopped);
+        let why = branch.stopped.unwrap_or_default();
+        assert!(why.starts_with("gamma = 5"), "{why}");
+        assert!(why.contains("step below 3e0"), "{why}");
+    }
 }
