@@ -2,7 +2,8 @@
 //!
 //! [`ControllerCore`] is the whole decision logic without DDS (unit-tested here); [`run`] wires
 //! it to ROS. The controller sees only what a capsule driver publishes (the state topic) and
-//! converts SI back to the paper's units with the [`Scale`] it is given.
+//! converts SI back to the paper's units with the scene's physical scale it is given
+//! ([`PhysicalScale`]).
 //!
 //! Time: the drive phase is taken from the state sample's stamp (`tau = Omega0 t_stamp`), so a
 //! command depends only on the sample it answers (deterministic in lock-step); the command
@@ -11,6 +12,7 @@
 //! because sim time stops when the plant does.
 
 use capsule_msgs::names::topics;
+use capsule_plant::scene::PhysicalScale;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
@@ -31,14 +33,13 @@ use crate::{
     plant_identity::{PlantIdentity, Source},
     ranges,
     ros::{qos, types, RosSettings, Wire},
-    scale::Scale,
     throttle::Throttle,
 };
 
 /// Everything the controller decides, fed with samples, requests and clock readings.
 #[derive(Debug, Clone)]
 pub struct ControllerCore {
-    scale: Scale,
+    scale: PhysicalScale,
     law: FeedbackLaw,
     config: ModeConfig,
     mode: Mode,
@@ -62,7 +63,7 @@ pub struct ControllerCore {
 impl ControllerCore {
     /// A controller in `mode` with gain `kp`, drive `alpha`, `omega`, and the stale timeout [s].
     pub fn new(
-        scale: Scale,
+        scale: PhysicalScale,
         alpha: f64,
         omega: f64,
         mode: Mode,
@@ -147,7 +148,7 @@ impl ControllerCore {
     }
 
     /// The physical scale.
-    pub fn scale(&self) -> Scale {
+    pub fn scale(&self) -> PhysicalScale {
         self.scale
     }
 
@@ -690,8 +691,8 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
 mod tests {
     use super::*;
 
-    fn scale() -> Scale {
-        Scale {
+    fn scale() -> PhysicalScale {
+        PhysicalScale {
             m1_kg: 0.04,
             k1_n_per_m: 100.0,
             pf_n: 2.0,

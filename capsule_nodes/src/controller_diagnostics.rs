@@ -93,12 +93,12 @@ impl ControllerDiag {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scale::Scale;
     use capsule_controller::mode::{Mode, ModeConfig};
     use capsule_msgs::{CapsuleState, Header};
+    use capsule_plant::scene::PhysicalScale;
 
     fn core() -> ControllerCore {
-        let scale = Scale {
+        let scale = PhysicalScale {
             m1_kg: 0.04,
             k1_n_per_m: 100.0,
             pf_n: 2.0,

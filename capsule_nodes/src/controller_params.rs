@@ -155,7 +155,7 @@ pub fn rules(t: &mut ParamTable) -> Result<(), String> {
 /// A controller configured as the table says (the table passed [`rules`]); for the start,
 /// after `-p` / `--params-file` overrides.
 pub fn core_from(t: &ParamTable) -> ControllerCore {
-    let scale = crate::scale::Scale {
+    let scale = capsule_plant::scene::PhysicalScale {
         m1_kg: t.double(M1_KG),
         k1_n_per_m: t.double(K1_N_PER_M),
         pf_n: t.double(PF_N),
@@ -223,11 +223,11 @@ impl LiveSync {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scale::Scale;
     use capsule_msgs::SetModeRequest;
+    use capsule_plant::scene::PhysicalScale;
 
     fn core(mode: Mode, kp: f64) -> ControllerCore {
-        let scale = Scale {
+        let scale = PhysicalScale {
             m1_kg: 0.05,
             k1_n_per_m: 200.0,
             pf_n: 0.1,

@@ -4,7 +4,6 @@
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps)
 //! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
-//! - [`scale`]: SI <-> non-dimensional conversion (the scene's physical scale)
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
 //! - [`latency`]: loop latency percentiles in constant memory
@@ -47,7 +46,6 @@ pub mod ranges;
 pub mod recorder;
 pub mod ros;
 pub mod ros_args;
-pub mod scale;
 pub mod scene_file;
 pub mod sim;
 pub mod throttle;

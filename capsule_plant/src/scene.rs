@@ -1058,6 +1058,20 @@ mod tests {
     }
 
     #[test]
+    fn conversions_follow_the_papers_nondimensionalisation() {
+        // Omega0 = sqrt(k1/m1), t = tau / Omega0, X = x P_f / k1, V = y Omega0 P_f / k1
+        let s = PhysicalScale {
+            m1_kg: 0.04,
+            k1_n_per_m: 100.0,
+            pf_n: 2.0,
+        };
+        assert!((s.omega0() - 50.0).abs() < 1e-12);
+        assert!((s.length_m() - 0.02).abs() < 1e-15);
+        assert!((s.velocity_m_per_s() - 1.0).abs() < 1e-12);
+        assert!((s.time_s() - 0.02).abs() < 1e-15);
+    }
+
+    #[test]
     fn physical_scale_round_trips() {
         let p = PhysicalScale::default();
         assert!((p.omega0() - 63.245553203367585).abs() < 1e-12);

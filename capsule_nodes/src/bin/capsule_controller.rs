@@ -1,5 +1,7 @@
 //! `capsule_controller`: the ROS 2 controller node of the vibro-impact capsule.
 
+use capsule_msgs::names::nodes;
+use capsule_plant::scene::PhysicalScale;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
@@ -9,7 +11,6 @@ use capsule_nodes::{
     controller_params, ranges,
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args,
-    scale::Scale,
     scene_file::SceneFile,
 };
 use clap::Parser;
@@ -82,7 +83,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
             .with_context(|| format!("--{name} is needed (or a --scene that has it)"))
     };
     // every value is in range: the flags' parsers and the scene's validation checked it
-    let scale = Scale {
+    let scale = PhysicalScale {
         m1_kg: pick(cli.m1_kg, view.map(|v| v.physical.m1_kg), "m1-kg")?,
         k1_n_per_m: pick(
             cli.k1_n_per_m,
@@ -114,7 +115,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
     let (mode, kp) = config
         .select(mode.code(), gain)
         .map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_controller")?;
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
     let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s);
     // ROS parameters: the flags' values, then -p / --params-file over them
     let mut params = controller_params::table(&core, settings.use_sim_time, cli.state_timeout_s);
@@ -138,7 +139,7 @@ fn main() -> std::process::ExitCode {
         Err(e) => return ros::exit_code("capsule_controller", Err(e)),
     };
     let mut cli = Cli::parse_from(argv);
-    let overrides = ros_cli.apply_to(&mut cli.ros, "capsule_controller");
+    let overrides = ros_cli.apply_to(&mut cli.ros, nodes::CONTROLLER);
     let result = overrides
         .and_then(|o| build(&cli, &o))
         .and_then(|(settings, opts)| {

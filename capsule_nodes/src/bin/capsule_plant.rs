@@ -1,5 +1,6 @@
 //! `capsule_plant`: the ROS 2 plant node, a simulated vibro-impact capsule.
 
+use capsule_msgs::names::nodes;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
@@ -66,7 +67,7 @@ struct Cli {
     #[arg(long, value_name = "FILE", conflicts_with = "record_dir")]
     record_output: Option<std::path::PathBuf>,
     /// Controller node whose status and service events the in-process recording takes
-    #[arg(long, default_value = "capsule_controller")]
+    #[arg(long, default_value = nodes::CONTROLLER)]
     controller_node: String,
     /// In-process recording: close the open chunk at least this often [ms], 1 to 60000
     #[arg(long, default_value_t = 250, value_parser = ranges::millis())]
@@ -141,7 +142,7 @@ fn build(
     }
     let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
         .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_plant")?;
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
     // ROS parameters: the flags' and scene's values, then -p / --params-file over them
     let started_with = plant_params::PlantSettings {
         scene: cli.scene.clone(),
@@ -191,7 +192,7 @@ fn main() -> std::process::ExitCode {
         Err(e) => return ros::exit_code("capsule_plant", Err(e)),
     };
     let mut cli = Cli::parse_from(argv);
-    let overrides = ros_cli.apply_to(&mut cli.ros, "capsule_plant");
+    let overrides = ros_cli.apply_to(&mut cli.ros, nodes::PLANT);
     let result = overrides
         .and_then(|o| build(&cli, &o))
         .and_then(|(settings, core, opts)| {

@@ -1,5 +1,6 @@
 //! `capsule_recorder`: records the capsule graph to one MCAP file per run (ROS 2 profile).
 
+use capsule_msgs::names::nodes;
 use std::{path::PathBuf, time::Duration};
 
 use anyhow::Result;
@@ -44,7 +45,7 @@ struct Cli {
     #[arg(long, default_value_t = 10.0, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
     wait_publishers_s: f64,
     /// Controller node name (its status and service-event topics are private to it)
-    #[arg(long, default_value = "capsule_controller")]
+    #[arg(long, default_value = nodes::CONTROLLER)]
     controller_node: String,
     /// Finish by itself after this many seconds without a message (0: only on a signal),
     /// [0, 1e6]
@@ -65,7 +66,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
         None => None,
     };
     let output = recorder::output_path(&cli.record_dir, cli.output.as_deref(), scene.as_ref())?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_recorder")?;
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::RECORDER)?;
     Ok((
         settings,
         RecorderOptions {

@@ -4,7 +4,8 @@
 //! sampling at a fixed rate, the zero-order hold of the last accepted command, command
 //! validation (non-finite refused and counted, older-than-accepted refused: a late command
 //! never rewinds time), the stale-command watchdog (zero force after the timeout, said in the
-//! log and in `CapsuleState.command_stale`), SI conversion through the scene's [`Scale`], and
+//! log and in `CapsuleState.command_stale`), SI conversion through the scene's physical scale
+//! ([`PhysicalScale`](capsule_plant::scene::PhysicalScale)), and
 //! loop statistics (command latency, steps without an answer). [`run`] wires it to ROS in one of
 //! two pacings:
 //!

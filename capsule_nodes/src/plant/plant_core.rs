@@ -4,14 +4,12 @@
 
 use anyhow::Result;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
+use capsule_plant::scene::PhysicalScale;
 use capsule_plant::Snapshot;
 use tracing::info;
 
 use super::LoopStats;
-use crate::{
-    command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF},
-    scale::Scale,
-};
+use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
 
 /// What the node needs from a simulator: hold a force until a time, and report a sample.
 pub trait PlantSim {
@@ -40,7 +38,7 @@ pub enum CommandOutcome {
 /// The plant node's logic around a simulator.
 pub struct PlantCore<S: PlantSim> {
     pub(super) sim: S,
-    pub(super) scale: Scale,
+    pub(super) scale: PhysicalScale,
     pub(super) rate_hz: f64,
     pub(super) command_timeout: f64,
     pub(super) frame_id: String,
@@ -59,7 +57,7 @@ pub struct PlantCore<S: PlantSim> {
 
 impl<S: PlantSim> PlantCore<S> {
     /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` [s].
-    pub fn new(sim: S, scale: Scale, rate_hz: f64, command_timeout: f64) -> Self {
+    pub fn new(sim: S, scale: PhysicalScale, rate_hz: f64, command_timeout: f64) -> Self {
         PlantCore {
             sim,
             scale,
@@ -266,8 +264,8 @@ mod tests {
         }
     }
 
-    fn scale() -> Scale {
-        Scale {
+    fn scale() -> PhysicalScale {
+        PhysicalScale {
             m1_kg: 0.04,
             k1_n_per_m: 100.0,
             pf_n: 2.0,
