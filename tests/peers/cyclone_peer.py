@@ -614,6 +614,7 @@ def cmd_inject(args):
         end = start + args.seconds
         next_at = start
         cmd = None
+        start_refused = latest.rejected_commands
         # a phase lasts --seconds and, on a loaded host, until --min-states states have come back
         # (bounded by --timeout): what it reports must be answers to its own commands
         while sent == 0 or time.time() < end or (
@@ -640,6 +641,23 @@ def cmd_inject(args):
             elif ahead > 0:
                 while time.time() < next_at:
                     pass
+        # --until-refused: a single write can still be lost on a loaded host (the plant's reader
+        # may not know our writer yet when we exit); resend every 0.5 s until a state shows it
+        # refused, so the plant counts one refusal per delivered command, usually one in all
+        if args.until_refused:
+            refused_before = start_refused
+            resend_at = time.time() + 0.5
+            while latest.rejected_commands <= refused_before and time.time() < start + args.timeout:
+                for s in reader.take(N=64):
+                    received += 1
+                    latest = s
+                if time.time() >= resend_at:
+                    writer.write(cmd)
+                    sent += 1
+                    resend_at = time.time() + 0.5
+                time.sleep(0.002)
+            if latest.rejected_commands <= refused_before:
+                fail("the plant never reported the command refused")
         took = time.time() - start
         print(json.dumps({"force": force if math.isfinite(force) else str(force), "sent": sent,
                           "rate_hz": sent / took, "received": received, "gaps": gaps,
@@ -908,6 +926,8 @@ def main():
     a.add_argument("--hz", type=float, default=1000.0)
     a.add_argument("--stamp-sec", type=int, default=None)
     a.add_argument("--min-states", type=int, default=0, help="per phase, states received at least")
+    a.add_argument("--until-refused", action="store_true",
+                   help="resend until a state shows the plant refused the command")
     a.add_argument("--timeout", type=float, default=15.0)
     a = sub.add_parser("foreign")
     a.add_argument("--kind", choices=["type", "layout"], required=True)

@@ -160,7 +160,7 @@ fn a_command_stamped_in_the_far_future_blocks_nothing() {
         C=$!
         $B/capsule_plant --scene "$SCENE" --until-s 300 $LAX --summary-json $TMP/p.json 2>/dev/null &
         P=$!
-        $PEER inject --force 0.05 --seconds 0 --stamp-sec 2147483647 >/dev/null
+        $PEER inject --force 0.05 --seconds 0 --stamp-sec 2147483647 --until-refused >/dev/null
         sleep 1
         kill -TERM $P; wait $P; echo "plant rc=$?"
         kill -TERM $C; wait $C
