@@ -12,10 +12,9 @@
 
 use crate::floquet::{advance_linearized, equations_of, StabilityError};
 use crate::run::PaperLaw;
-use crate::sweep::Param;
+use crate::sweep::{at_each_value, Param};
 use capsule_plant::scene::Scene;
 use capsule_plant::{Phase, Simulator, State};
-use rayon::prelude::*;
 use serde::Serialize;
 
 /// Below this (relative to the largest stretching in the period) a tangent vector counts as
@@ -136,15 +135,20 @@ fn complement(basis: &[[f64; 3]]) -> [f64; 3] {
     best
 }
 
+/// The scene's run at the end of its transient, with the law that drives it.
+fn past_transient(scene: &Scene) -> Result<(PaperLaw, Simulator), StabilityError> {
+    let law = PaperLaw::of(scene);
+    let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
+    sim.advance(&law, scene.horizon.transient as f64 * scene.drive.period())?;
+    Ok((law, sim))
+}
+
 /// The Lyapunov spectrum of `scene` over its measured periods (after the transient).
 pub fn lyapunov(scene: &Scene) -> Result<Lyapunov, StabilityError> {
     let eq = equations_of(scene)?;
-    let law = PaperLaw::of(scene);
+    let (law, mut sim) = past_transient(scene)?;
     let period = scene.drive.period();
-    let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
-    let transient = scene.horizon.transient;
-    let periods = scene.horizon.periods;
-    sim.advance(&law, transient as f64 * period)?;
+    let (transient, periods) = (scene.horizon.transient, scene.horizon.periods);
     let measured = periods - transient;
     let half = measured / 2;
     let mut frame = Frame::new();
@@ -192,30 +196,18 @@ pub fn lyapunov_sweep(
     values: &[f64],
     progress: &(dyn Fn() + Sync),
 ) -> Vec<Result<Lyapunov, String>> {
-    values
-        .par_iter()
-        .map(|&v| {
-            let s = param.apply(scene, v);
-            let r = s
-                .validate()
-                .map_err(|e| e.to_string())
-                .and_then(|()| lyapunov(&s).map_err(|e| e.to_string()));
-            progress();
-            r
-        })
-        .collect()
+    at_each_value(scene, param, values, progress, |s| {
+        lyapunov(s).map_err(|e| e.to_string())
+    })
 }
 
 /// The largest exponent estimated from two trajectories (Benettin et al.): a neighbour `d0` away
 /// in `z`, its distance in `[z, y1, y2]` measured and rescaled to `d0` after every period.
 /// Independent of the Jacobians: a check on them.
 pub fn largest_by_divergence(scene: &Scene, d0: f64) -> Result<f64, StabilityError> {
-    let law = PaperLaw::of(scene);
+    let (law, mut sim) = past_transient(scene)?;
     let period = scene.drive.period();
-    let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
-    let transient = scene.horizon.transient;
-    let periods = scene.horizon.periods;
-    sim.advance(&law, transient as f64 * period)?;
+    let (transient, periods) = (scene.horizon.transient, scene.horizon.periods);
     let mut offset = [d0, 0.0, 0.0];
     let mut sum = 0.0;
     for n in transient..periods {

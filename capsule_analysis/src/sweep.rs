@@ -130,16 +130,33 @@ pub fn sweep(
     values: &[f64],
     progress: &(dyn Fn() + Sync),
 ) -> Vec<SweepPoint> {
+    let results = at_each_value(scene, param, values, progress, |s| {
+        run(s).map_err(|e| e.to_string())
+    });
+    values
+        .iter()
+        .zip(results)
+        .map(|(&value, result)| SweepPoint { value, result })
+        .collect()
+}
+
+/// `f` of the scene at every value of `param` in `values`, in parallel, each from the scene's
+/// initial state; a value the scene refuses gives the reason; `progress` is called once per
+/// finished value (from worker threads).
+pub fn at_each_value<T: Send>(
+    scene: &Scene,
+    param: Param,
+    values: &[f64],
+    progress: &(dyn Fn() + Sync),
+    f: impl Fn(&Scene) -> Result<T, String> + Sync,
+) -> Vec<Result<T, String>> {
     values
         .par_iter()
         .map(|&v| {
             let s = param.apply(scene, v);
-            let result = s
-                .validate()
-                .map_err(|e| e.to_string())
-                .and_then(|()| run(&s).map_err(|e: SimError| e.to_string()));
+            let r = s.validate().map_err(|e| e.to_string()).and_then(|()| f(&s));
             progress();
-            SweepPoint { value: v, result }
+            r
         })
         .collect()
 }

@@ -418,11 +418,8 @@ pub fn write_all(prefix: &Path, param: &str, maps: &[Computed]) -> Result<String
             let [x1, y1, x2, y2] = s.initial.to_array();
             vec![
                 format!(
-                    "gamma {}, beta {}, delta {}, xi {}; {} x {} initial states; dots: the attractors' Poincaré points.",
-                    s.model.capsule.gamma,
-                    s.model.capsule.beta,
-                    s.model.capsule.delta,
-                    s.model.capsule.xi,
+                    "{}; {} x {} initial states; dots: the attractors' Poincaré points.",
+                    s.model.capsule,
                     g.nx,
                     g.ny,
                 ),

@@ -80,12 +80,7 @@ pub fn section5(kp: f64) -> Scene {
 /// The section-3 set with a friction law, at a drive amplitude where the motion is periodic.
 pub fn section3(friction: Friction, alpha: f64) -> Scene {
     let model = Model {
-        capsule: Capsule {
-            gamma: 5.0,
-            beta: 15.0,
-            delta: 0.02,
-            xi: 0.01,
-        },
+        capsule: Capsule::SECTION3,
         friction,
     };
     let mut s = Scene {
@@ -392,10 +387,8 @@ fn png_beside(svg: &std::path::Path) -> String {
 
 fn effects(args: &Args) -> Result<()> {
     let cap = |beta| Capsule {
-        gamma: 5.0,
         beta,
-        delta: 0.02,
-        xi: 0.01,
+        ..Capsule::SECTION3
     };
     let stribeck = Friction::Stribeck { v_s: 0.1 };
     // memory without pre-sliding: k_s = 0 (not a valid scene value, built here directly)

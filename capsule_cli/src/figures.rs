@@ -226,41 +226,39 @@ fn history(scene: &Scene, periods: usize) -> Result<(capsule_analysis::RunReport
 }
 
 fn phase_and_time(title: &str, rows: &[Snapshot], delta: f64) -> (Panel, Panel) {
-    let phase = Panel {
-        title: format!("{title}: phase plane"),
-        xlabel: "x1 - x2".into(),
-        ylabel: "y1 - y2".into(),
-        curves: vec![Curve {
-            name: String::new(),
-            colour: "black".into(),
-            style: Style::Line,
-            points: rows
-                .iter()
+    let phase = Panel::new(
+        format!("{title}: phase plane"),
+        "x1 - x2",
+        "y1 - y2",
+        vec![Curve::new(
+            "",
+            "black",
+            Style::Line,
+            rows.iter()
                 .map(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2))
                 .collect(),
-        }],
-        vlines: vec![(delta, "#2ca02c".into())],
-    };
-    let time = Panel {
-        title: format!("{title}: displacements"),
-        xlabel: "tau".into(),
-        ylabel: "x1 (solid), x2 (dashed)".into(),
-        curves: vec![
-            Curve {
-                name: String::new(),
-                colour: "black".into(),
-                style: Style::Line,
-                points: rows.iter().map(|s| (s.tau, s.state.x1)).collect(),
-            },
-            Curve {
-                name: String::new(),
-                colour: "#d62728".into(),
-                style: Style::Dashed,
-                points: rows.iter().map(|s| (s.tau, s.state.x2)).collect(),
-            },
+        )],
+    )
+    .with_vline(delta, "#2ca02c");
+    let time = Panel::new(
+        format!("{title}: displacements"),
+        "tau",
+        "x1 (solid), x2 (dashed)",
+        vec![
+            Curve::new(
+                "",
+                "black",
+                Style::Line,
+                rows.iter().map(|s| (s.tau, s.state.x1)).collect(),
+            ),
+            Curve::new(
+                "",
+                "#d62728",
+                Style::Dashed,
+                rows.iter().map(|s| (s.tau, s.state.x2)).collect(),
+            ),
         ],
-        vlines: vec![],
-    };
+    );
     (phase, time)
 }
 
@@ -477,42 +475,36 @@ fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
     };
     let xt = |h: &[Snapshot]| h.iter().map(|s| (s.tau, s.state.x2)).collect();
     let ft = |h: &[Snapshot]| h.iter().map(|s| (s.tau, s.actuator_force)).collect();
-    let curve = |name: &str, colour: &String, points| Curve {
-        name: name.into(),
-        colour: colour.clone(),
-        style: Style::Line,
-        points,
-    };
-    let a = Panel {
-        title: "(a) phase plane".into(),
-        xlabel: "x1 - x2".into(),
-        ylabel: "y1 - y2".into(),
-        curves: vec![
+    let curve =
+        |name: &str, colour: &String, points| Curve::new(name, colour.clone(), Style::Line, points);
+    let a = Panel::new(
+        "(a) phase plane",
+        "x1 - x2",
+        "y1 - y2",
+        vec![
             curve("k_p 0", &grey, pp(&h0)),
             curve("k_p 1", &red, pp(&h1)),
         ],
-        vlines: vec![(off.model.capsule.delta, "#2ca02c".into())],
-    };
-    let b = Panel {
-        title: "(b) capsule displacement".into(),
-        xlabel: "tau".into(),
-        ylabel: "x2".into(),
-        curves: vec![
+    )
+    .with_vline(off.model.capsule.delta, "#2ca02c");
+    let b = Panel::new(
+        "(b) capsule displacement",
+        "tau",
+        "x2",
+        vec![
             curve("k_p 0", &grey, xt(&h0)),
             curve("k_p 1", &red, xt(&h1)),
         ],
-        vlines: vec![],
-    };
-    let f = Panel {
-        title: "Fig 17(a) actuator force".into(),
-        xlabel: "tau".into(),
-        ylabel: "f_a".into(),
-        curves: vec![
+    );
+    let f = Panel::new(
+        "Fig 17(a) actuator force",
+        "tau",
+        "f_a",
+        vec![
             curve("k_p 0", &grey, ft(&h0)),
             curve("k_p 1", &red, ft(&h1)),
         ],
-        vlines: vec![],
-    };
+    );
     let cap = vec![format!(
         "Coulomb Stribeck (v_s {}), the last 10 of 300 periods from rest; {}",
         V_S.paper,

@@ -16,7 +16,7 @@ mod sweep;
 mod switch;
 mod work;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// An input refused before any work started (a flag, a scene, a limit): exit status 2, as for
 /// clap's own refusals, and as the node binaries do.
@@ -56,31 +56,22 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Simulate one scene and report progression, period, impacts, efficiency.
-    #[command(allow_negative_numbers = true)]
     Simulate(simulate::Args),
     /// Sweep one parameter over a range in parallel (the paper's bifurcation diagrams).
-    #[command(allow_negative_numbers = true)]
     Sweep(sweep::Args),
     /// Basins of attraction on a plane of initial states (the paper's Figs 11, 18, 19).
-    #[command(allow_negative_numbers = true)]
     Basins(basins::Args),
     /// Move between coexisting attractors with a gain pulse (the paper's Fig 20).
-    #[command(allow_negative_numbers = true)]
     Switch(switch::Args),
     /// Continue a periodic orbit in one parameter (pseudo-arclength, bifurcations located).
-    #[command(allow_negative_numbers = true)]
     Continue(continuation::Args),
     /// Regenerate the paper's figures the model covers (SVG, PNG, a Markdown page).
-    #[command(allow_negative_numbers = true)]
     Figures(figures::Args),
     /// Time the integrators on the paper's scenes and print the figures.
-    #[command(allow_negative_numbers = true)]
     Bench(bench::Args),
     /// Look into a recorded run (info) or complete a cut one (recover).
-    #[command(allow_negative_numbers = true)]
     Record(record::Args),
     /// Publish a recording back onto ROS 2 at its pace, or check the controller against it.
-    #[command(allow_negative_numbers = true)]
     Replay(replay::Args),
 }
 
@@ -98,7 +89,15 @@ fn main() -> std::process::ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    let result = match Cli::parse().command {
+    // every subcommand takes negative numbers as values (`--kp -0.1`)
+    let matches = Cli::command()
+        .mut_subcommands(|c| c.allow_negative_numbers(true))
+        .get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    let result = match cli.command {
         Command::Simulate(a) => simulate::main(a),
         Command::Sweep(a) => sweep::main(a),
         Command::Basins(a) => basins::main(a),

@@ -127,45 +127,30 @@ enum Pub {
     Event(ros2_client::Publisher<SetModeEvent>),
 }
 
+/// `$body` with `$p` bound to the publisher, whatever its message type.
+macro_rules! with_publisher {
+    ($pub:expr, $p:ident => $body:expr) => {
+        match $pub {
+            Pub::State($p) => $body,
+            Pub::Force($p) => $body,
+            Pub::Status($p) => $body,
+            Pub::Clock($p) => $body,
+            Pub::Event($p) => $body,
+        }
+    };
+}
+
 impl Pub {
     fn subscribers(&self, node: &ros2_client::Node) -> usize {
-        match self {
-            Pub::State(p) => p.get_subscription_count(node),
-            Pub::Force(p) => p.get_subscription_count(node),
-            Pub::Status(p) => p.get_subscription_count(node),
-            Pub::Clock(p) => p.get_subscription_count(node),
-            Pub::Event(p) => p.get_subscription_count(node),
-        }
+        with_publisher!(self, p => p.get_subscription_count(node))
     }
 
     async fn publish(&self, data: &[u8]) -> Result<()> {
-        let r = match self {
-            Pub::State(p) => p
-                .async_publish(cdr::decode(data)?)
-                .await
-                .err()
-                .map(|e| format!("{e:?}")),
-            Pub::Force(p) => p
-                .async_publish(cdr::decode(data)?)
-                .await
-                .err()
-                .map(|e| format!("{e:?}")),
-            Pub::Status(p) => p
-                .async_publish(cdr::decode(data)?)
-                .await
-                .err()
-                .map(|e| format!("{e:?}")),
-            Pub::Clock(p) => p
-                .async_publish(cdr::decode(data)?)
-                .await
-                .err()
-                .map(|e| format!("{e:?}")),
-            Pub::Event(p) => p
-                .async_publish(cdr::decode(data)?)
-                .await
-                .err()
-                .map(|e| format!("{e:?}")),
-        };
+        let r = with_publisher!(self, p => p
+            .async_publish(cdr::decode(data)?)
+            .await
+            .err()
+            .map(|e| format!("{e:?}")));
         match r {
             Some(e) => bail!("publish failed: {e}"),
             None => Ok(()),

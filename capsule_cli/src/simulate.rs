@@ -326,15 +326,11 @@ impl Progress {
 
 fn print_summary(scene: &Scene, r: &RunReport, wall: f64) {
     let m = &scene.model;
-    let c = &m.capsule;
     println!("scene          {}", scene.name);
     println!(
-        "model          {} friction, gamma {}, beta {}, delta {}, xi {}",
+        "model          {} friction, {}",
         m.friction.name(),
-        c.gamma,
-        c.beta,
-        c.delta,
-        c.xi
+        m.capsule
     );
     println!(
         "drive          alpha {}, omega {}, kp {}",

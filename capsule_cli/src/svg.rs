@@ -15,21 +15,35 @@ struct Axis {
 }
 
 impl Axis {
-    fn of(values: impl Iterator<Item = f64>) -> Axis {
+    /// The finite values' range, or the axis to draw when it is empty or a single value (a unit
+    /// range around it; `tiny` is what counts as a single value).
+    fn range_of(
+        values: impl Iterator<Item = f64>,
+        tiny: impl Fn(f64) -> f64,
+    ) -> Result<(f64, f64), Axis> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for v in values.filter(|v| v.is_finite()) {
             lo = lo.min(v);
             hi = hi.max(v);
         }
         if !lo.is_finite() {
-            return Axis { lo: 0.0, hi: 1.0 };
+            return Err(Axis { lo: 0.0, hi: 1.0 });
         }
-        if hi - lo < 1e-12 {
-            return Axis {
+        if hi - lo < tiny(lo) {
+            return Err(Axis {
                 lo: lo - 0.5,
                 hi: hi + 0.5,
-            };
+            });
         }
+        Ok((lo, hi))
+    }
+
+    /// An axis over `values` with 4 % of the range as margin.
+    fn of(values: impl Iterator<Item = f64>) -> Axis {
+        let (lo, hi) = match Axis::range_of(values, |_| 1e-12) {
+            Ok(r) => r,
+            Err(axis) => return axis,
+        };
         let pad = 0.04 * (hi - lo);
         Axis {
             lo: lo - pad,
@@ -59,28 +73,24 @@ pub fn bifurcation(
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
                 (a.min(p.value), b.max(p.value))
             });
-        let dots = |name: &str, colour: &str, keep: fn(f64) -> bool| Curve {
-            name: name.into(),
-            colour: colour.into(),
-            style: Style::Dots,
-            points: finite.iter().copied().filter(|p| keep(p.1)).collect(),
+        let dots = |name: &str, colour: &str, keep: fn(f64) -> bool| {
+            Curve::new(
+                name,
+                colour,
+                Style::Dots,
+                finite.iter().copied().filter(|p| keep(p.1)).collect(),
+            )
         };
-        all.push(Panel {
-            title: "largest Lyapunov exponent".into(),
-            xlabel: param.into(),
-            ylabel: "lambda_1".into(),
-            curves: vec![
-                Curve {
-                    name: String::new(),
-                    colour: "grey".into(),
-                    style: Style::Dashed,
-                    points: vec![(lo, 0.0), (hi, 0.0)],
-                },
+        all.push(Panel::new(
+            "largest Lyapunov exponent",
+            param,
+            "lambda_1",
+            vec![
+                Curve::new("", "grey", Style::Dashed, vec![(lo, 0.0), (hi, 0.0)]),
                 dots("positive (chaos)", "crimson", |l| l > 0.0),
                 dots("not positive", "black", |l| l <= 0.0),
             ],
-            vlines: vec![],
-        });
+        ));
     }
     panels(title, &[], 1, (820.0, 280.0), &all)
 }
@@ -95,21 +105,21 @@ pub fn continuation(
     sweep: Option<&[SweepPoint]>,
 ) -> String {
     use capsule_analysis::continuation::SpecialKind;
-    let mut curves = vec![Curve {
-        name: if sweep.is_some() {
+    let mut curves = vec![Curve::new(
+        if sweep.is_some() {
             "sweep (brute force)".into()
         } else {
             String::new()
         },
-        colour: "darkgrey".into(),
-        style: Style::Dots,
-        points: sweep
+        "darkgrey",
+        Style::Dots,
+        sweep
             .unwrap_or(&[])
             .iter()
             .filter_map(|p| p.result.as_ref().ok().map(|r| (p.value, r)))
             .flat_map(|(v, r)| r.poincare.iter().map(move |q| (v, q[2])))
             .collect(),
-    }];
+    )];
     // the branch in runs of equal stability: solid where stable, dashed where not
     // each branch in runs of equal stability: solid where stable, dashed where not; the first
     // branch black, period-doubled ones in colour
@@ -125,16 +135,16 @@ pub fn continuation(
             let stable = run[0].stable;
             let k = usize::from(!stable);
             let what = if stable { "stable" } else { "unstable" };
-            curves.push(Curve {
-                name: if std::mem::take(&mut first[k]) {
+            curves.push(Curve::new(
+                if std::mem::take(&mut first[k]) {
                     format!("period {} {what}", branch.period)
                 } else {
                     String::new()
                 },
-                colour: colour.into(),
-                style: if stable { Style::Line } else { Style::Dashed },
-                points: run.iter().map(|p| (p.value, p.x[1])).chain(next).collect(),
-            });
+                colour,
+                if stable { Style::Line } else { Style::Dashed },
+                run.iter().map(|p| (p.value, p.x[1])).chain(next).collect(),
+            ));
         }
     }
     for (kind, colour, name) in [
@@ -152,21 +162,10 @@ pub fn continuation(
             .map(|sp| (sp.value, sp.x[1]))
             .collect();
         if !pts.is_empty() {
-            curves.push(Curve {
-                name: name.into(),
-                colour: colour.into(),
-                style: Style::Dots,
-                points: pts,
-            });
+            curves.push(Curve::new(name, colour, Style::Dots, pts));
         }
     }
-    let panel = Panel {
-        title: "y1 at drive phase 0".into(),
-        xlabel: param.into(),
-        ylabel: "y1*".into(),
-        curves,
-        vlines: vec![],
-    };
+    let panel = Panel::new("y1 at drive phase 0", param, "y1*", curves);
     panels(title, &[], 1, (820.0, 360.0), &[panel])
 }
 
@@ -177,33 +176,30 @@ pub fn bifurcation_panels(param: &str, points: &[SweepPoint]) -> (Panel, Panel) 
         .iter()
         .filter_map(|p| p.result.as_ref().ok().map(|r| (p.value, r)))
         .collect();
-    let dots = Panel {
-        title: "Poincaré y1 (drive phase 0)".into(),
-        xlabel: param.into(),
-        ylabel: "y1*".into(),
-        curves: vec![Curve {
-            name: String::new(),
-            colour: "black".into(),
-            style: Style::Dots,
-            points: ok
-                .iter()
+    let dots = Panel::new(
+        "Poincaré y1 (drive phase 0)",
+        param,
+        "y1*",
+        vec![Curve::new(
+            "",
+            "black",
+            Style::Dots,
+            ok.iter()
                 .flat_map(|(v, r)| r.poincare.iter().map(move |q| (*v, q[2])))
                 .collect(),
-        }],
-        vlines: vec![],
-    };
-    let line = Panel {
-        title: "average progression per period".into(),
-        xlabel: param.into(),
-        ylabel: "progression / period".into(),
-        curves: vec![Curve {
-            name: String::new(),
-            colour: "steelblue".into(),
-            style: Style::Line,
-            points: ok.iter().map(|(v, r)| (*v, r.avg_progression)).collect(),
-        }],
-        vlines: vec![],
-    };
+        )],
+    );
+    let line = Panel::new(
+        "average progression per period",
+        param,
+        "progression / period",
+        vec![Curve::new(
+            "",
+            "steelblue",
+            Style::Line,
+            ok.iter().map(|(v, r)| (*v, r.avg_progression)).collect(),
+        )],
+    );
     (dots, line)
 }
 
@@ -359,21 +355,10 @@ fn tick_label(v: f64, step: f64) -> String {
 impl Axis {
     /// An axis over `values` widened to the nearest round tick values.
     fn nice(values: impl Iterator<Item = f64>) -> Axis {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for v in values.filter(|v| v.is_finite()) {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-        if !lo.is_finite() {
-            return Axis { lo: 0.0, hi: 1.0 };
-        }
-        if hi - lo < 1e-12 * (1.0 + lo.abs()) {
-            // a single value: a unit range around it
-            return Axis {
-                lo: lo - 0.5,
-                hi: hi + 0.5,
-            };
-        }
+        let (lo, hi) = match Axis::range_of(values, |lo| 1e-12 * (1.0 + lo.abs())) {
+            Ok(r) => r,
+            Err(axis) => return axis,
+        };
         let t = nice_ticks(lo, hi, 5);
         let step = if t.len() > 1 { t[1] - t[0] } else { hi - lo };
         Axis {
@@ -418,6 +403,47 @@ pub struct Panel {
     pub curves: Vec<Curve>,
     /// Vertical lines (e.g. the impact surface, an event), with colour.
     pub vlines: Vec<(f64, String)>,
+}
+
+impl Curve {
+    /// A series `name` (empty: not in the legend) drawn in `style` and `colour`.
+    pub fn new(
+        name: impl Into<String>,
+        colour: impl Into<String>,
+        style: Style,
+        points: Vec<(f64, f64)>,
+    ) -> Curve {
+        Curve {
+            name: name.into(),
+            colour: colour.into(),
+            style,
+            points,
+        }
+    }
+}
+
+impl Panel {
+    /// A panel titled `title`, axes labelled `xlabel` and `ylabel`, without vertical lines.
+    pub fn new(
+        title: impl Into<String>,
+        xlabel: impl Into<String>,
+        ylabel: impl Into<String>,
+        curves: Vec<Curve>,
+    ) -> Panel {
+        Panel {
+            title: title.into(),
+            xlabel: xlabel.into(),
+            ylabel: ylabel.into(),
+            curves,
+            vlines: Vec::new(),
+        }
+    }
+
+    /// The panel with a vertical line at `x` in `colour`.
+    pub fn with_vline(mut self, x: f64, colour: impl Into<String>) -> Panel {
+        self.vlines.push((x, colour.into()));
+        self
+    }
 }
 
 /// Plot area of a panel in [`panels`] by default (width, height).
@@ -500,18 +526,7 @@ pub fn panels(
     let ch = PT + ph + PB;
     let width = cw * cols as f64;
     let height = 40.0 + ch * rows as f64 + 16.0 * caption.len() as f64 + 10.0;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="24" font-size="15" text-anchor="middle">{}</text>"#,
-        width / 2.0,
-        escape(title)
-    );
+    let mut out = titled_page(width, height, title);
     for (k, p) in panels.iter().enumerate() {
         let (ox, oy) = (cw * (k % cols) as f64, 40.0 + ch * (k / cols) as f64);
         let all = || p.curves.iter().flat_map(|c| c.points.iter().copied());
@@ -588,6 +603,28 @@ pub fn panels(
             );
         }
     }
+    close_page(out, height, caption)
+}
+
+/// A white page of `width` x `height` with `title` centred on top.
+fn titled_page(width: f64, height: f64, title: &str) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">"#
+    );
+    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        out,
+        r#"<text x="{:.1}" y="24" font-size="15" text-anchor="middle">{}</text>"#,
+        width / 2.0,
+        escape(title)
+    );
+    out
+}
+
+/// The page closed with the caption's lines at its foot.
+fn close_page(mut out: String, height: f64, caption: &[String]) -> String {
     caption_lines(
         &mut out,
         height - 16.0 * caption.len() as f64 - 4.0,
@@ -669,18 +706,7 @@ pub fn basins(title: &str, caption: &[String], maps: &[BasinPanel]) -> String {
     let ch = PT + BW + PB + 16.0 * legend_rows as f64 + 10.0;
     let width = cw * maps.len().max(1) as f64;
     let height = 40.0 + ch + 16.0 * caption.len() as f64 + 10.0;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="24" font-size="15" text-anchor="middle">{}</text>"#,
-        width / 2.0,
-        escape(title)
-    );
+    let mut out = titled_page(width, height, title);
     for (k, m) in maps.iter().enumerate() {
         let g = &m.map.grid;
         let (ox, oy) = (cw * k as f64, 40.0);
@@ -783,13 +809,7 @@ pub fn basins(title: &str, caption: &[String], maps: &[BasinPanel]) -> String {
             );
         }
     }
-    caption_lines(
-        &mut out,
-        height - 16.0 * caption.len() as f64 - 4.0,
-        caption,
-    );
-    let _ = writeln!(out, "</svg>");
-    out
+    close_page(out, height, caption)
 }
 
 fn same_fill(a: &capsule_analysis::basin::Cell, b: &capsule_analysis::basin::Cell) -> bool {

@@ -183,77 +183,69 @@ pub fn figure(
         .map(|(i, q)| ((i + 1) as f64, q[2]))
         .collect();
     let red = "#d62728".to_string();
-    let a = Panel {
-        title: "(a) Poincaré y1 per drive period".into(),
-        xlabel: "period n".into(),
-        ylabel: "y1*".into(),
-        curves: vec![Curve {
-            name: String::new(),
-            colour: "black".into(),
-            style: Style::Dots,
-            points: y1,
-        }],
-        vlines: vec![(at as f64, red.clone())],
-    };
+    let a = Panel::new(
+        "(a) Poincaré y1 per drive period",
+        "period n",
+        "y1*",
+        vec![Curve::new("", "black", Style::Dots, y1)],
+    )
+    .with_vline(at as f64, red.clone());
     let sec = |c: &[[f64; 3]]| c.iter().map(|q| (q[0], q[1])).collect::<Vec<_>>();
-    let b = Panel {
-        title: "(b) phase plane before (grey) and after (red)".into(),
-        xlabel: "x1 - x2".into(),
-        ylabel: "y1 - y2".into(),
-        curves: vec![
-            Curve {
-                name: format!("before: period {}", fmt_period(report.before.period)),
-                colour: "#999999".into(),
-                style: Style::Line,
-                points: phase(window(at.saturating_sub(k_before), at)),
-            },
-            Curve {
-                name: format!("after: period {}", fmt_period(report.after.period)),
-                colour: red.clone(),
-                style: Style::Line,
-                points: phase(window(n.saturating_sub(k_after), n)),
-            },
-            Curve {
-                name: "Poincaré section".into(),
-                colour: "#1f5fd6".into(),
-                style: Style::Dots,
-                points: [sec(&report.before.poincare), sec(&report.after.poincare)].concat(),
-            },
+    let b = Panel::new(
+        "(b) phase plane before (grey) and after (red)",
+        "x1 - x2",
+        "y1 - y2",
+        vec![
+            Curve::new(
+                format!("before: period {}", fmt_period(report.before.period)),
+                "#999999",
+                Style::Line,
+                phase(window(at.saturating_sub(k_before), at)),
+            ),
+            Curve::new(
+                format!("after: period {}", fmt_period(report.after.period)),
+                red.clone(),
+                Style::Line,
+                phase(window(n.saturating_sub(k_after), n)),
+            ),
+            Curve::new(
+                "Poincaré section",
+                "#1f5fd6",
+                Style::Dots,
+                [sec(&report.before.poincare), sec(&report.after.poincare)].concat(),
+            ),
         ],
-        vlines: vec![(scene.model.capsule.delta, "#2ca02c".into())],
-    };
+    )
+    .with_vline(scene.model.capsule.delta, "#2ca02c");
     let (from, to) = (at.saturating_sub(15), (at + 45).min(n));
     let hist = window(from, to);
-    let c = Panel {
-        title: format!("(c) displacements, periods {from} to {to}"),
-        xlabel: "tau".into(),
-        ylabel: "x1 (solid), x2 (dashed)".into(),
-        curves: vec![
-            Curve {
-                name: "x1".into(),
-                colour: "black".into(),
-                style: Style::Line,
-                points: hist.iter().map(|s| (s.tau, s.state.x1)).collect(),
-            },
-            Curve {
-                name: "x2".into(),
-                colour: red,
-                style: Style::Dashed,
-                points: hist.iter().map(|s| (s.tau, s.state.x2)).collect(),
-            },
+    let c = Panel::new(
+        format!("(c) displacements, periods {from} to {to}"),
+        "tau",
+        "x1 (solid), x2 (dashed)",
+        vec![
+            Curve::new(
+                "x1",
+                "black",
+                Style::Line,
+                hist.iter().map(|s| (s.tau, s.state.x1)).collect(),
+            ),
+            Curve::new(
+                "x2",
+                red,
+                Style::Dashed,
+                hist.iter().map(|s| (s.tau, s.state.x2)).collect(),
+            ),
         ],
-        vlines: vec![(at as f64 * scene.drive.period(), "#d62728".into())],
-    };
+    )
+    .with_vline(at as f64 * scene.drive.period(), "#d62728");
     let caption = vec![
         format!(
-            "{} friction, alpha {}, omega {}, gamma {}, beta {}, delta {}, xi {}; k_p {} until period {}, {} for {} period(s), then {}.",
+            "{} friction, alpha {}, omega {}, {}; k_p {} until period {}, {} for {} period(s), then {}.",
             scene.model.friction.name(),
             scene.drive.alpha,
             scene.drive.omega,
-            scene.model.capsule.gamma,
-            scene.model.capsule.beta,
-            scene.model.capsule.delta,
-            scene.model.capsule.xi,
+            scene.model.capsule,
             schedule.before,
             p.at,
             p.kp,

@@ -405,18 +405,7 @@ mod tests {
 
     #[test]
     fn jacobian_agrees_with_central_differences_in_every_mode() {
-        let laws = [
-            Friction::Coulomb,
-            Friction::Viscous { mu_v: 0.3 },
-            Friction::Stribeck { v_s: 0.1 },
-            Friction::SevenParameter {
-                mu_v: 0.1,
-                v_s: 0.1,
-                tau_d: 0.0,
-                k_s: 4e2,
-            },
-        ];
-        for law in laws {
+        for law in Friction::laws_with(0.3, 0.0, 4e2) {
             let eq = Equations::new(model(law), DRIVE);
             for regime in regimes() {
                 let y2 = match regime.phase {

@@ -47,6 +47,29 @@ pub struct Capsule {
     pub xi: f64,
 }
 
+impl Capsule {
+    /// The paper's section-3 set: gamma 5, beta 15, delta 0.02, xi 0.01.
+    pub const SECTION3: Capsule = Capsule {
+        gamma: 5.0,
+        beta: 15.0,
+        delta: 0.02,
+        xi: 0.01,
+    };
+}
+
+impl std::fmt::Display for Capsule {
+    /// `gamma 5, beta 15, delta 0.02, xi 0.01`, as captions and summaries print it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Capsule {
+            gamma,
+            beta,
+            delta,
+            xi,
+        } = self;
+        write!(f, "gamma {gamma}, beta {beta}, delta {delta}, xi {xi}")
+    }
+}
+
 /// The friction between capsule and environment (Table 1), with its constants.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "law", rename_all = "kebab-case")]
@@ -149,17 +172,23 @@ impl Friction {
 
     /// Every law with the paper's constants: the one list from which scene files, the command
     /// line, figures and error messages take the laws and their names.
-    pub const LAWS: [Friction; 4] = [
-        Friction::Coulomb,
-        Friction::Viscous { mu_v: MU_V.paper },
-        Friction::Stribeck { v_s: V_S.paper },
-        Friction::SevenParameter {
-            mu_v: MU_V.paper,
-            v_s: V_S.paper,
-            tau_d: TAU_D.paper,
-            k_s: K_S.paper,
-        },
-    ];
+    pub const LAWS: [Friction; 4] = Friction::laws_with(MU_V.paper, TAU_D.paper, K_S.paper);
+
+    /// Every law with these constants (`v_s` the paper's); the unit tests probe other values.
+    pub(crate) const fn laws_with(mu_v: f64, tau_d: f64, k_s: f64) -> [Friction; 4] {
+        let v_s = V_S.paper;
+        [
+            Friction::Coulomb,
+            Friction::Viscous { mu_v },
+            Friction::Stribeck { v_s },
+            Friction::SevenParameter {
+                mu_v,
+                v_s,
+                tau_d,
+                k_s,
+            },
+        ]
+    }
 
     /// The law called `name` (see [`Friction::name`]) with the paper's constants.
     pub fn by_name(name: &str) -> Option<Friction> {
@@ -232,6 +261,15 @@ pub struct FrictionConstant {
 }
 
 impl FrictionConstant {
+    const fn new(key: &'static str, meaning: &'static str, paper: f64, positive: bool) -> Self {
+        FrictionConstant {
+            key,
+            meaning,
+            paper,
+            positive,
+        }
+    }
+
     /// The command-line flag, without the dashes (`mu-v`).
     pub fn flag(&self) -> String {
         self.key.replace('_', "-")
@@ -239,34 +277,14 @@ impl FrictionConstant {
 }
 
 /// Viscous coefficient `mu_v` (paper: 0.1).
-pub const MU_V: FrictionConstant = FrictionConstant {
-    key: "mu_v",
-    meaning: "viscous coefficient",
-    paper: 0.1,
-    positive: false,
-};
+pub const MU_V: FrictionConstant = FrictionConstant::new("mu_v", "viscous coefficient", 0.1, false);
 /// Stribeck velocity `v_s` (paper: 0.1).
-pub const V_S: FrictionConstant = FrictionConstant {
-    key: "v_s",
-    meaning: "Stribeck velocity",
-    paper: 0.1,
-    positive: true,
-};
+pub const V_S: FrictionConstant = FrictionConstant::new("v_s", "Stribeck velocity", 0.1, true);
 /// Frictional-memory delay `tau_d` (paper: 0.05).
-pub const TAU_D: FrictionConstant = FrictionConstant {
-    key: "tau_d",
-    meaning: "frictional-memory delay",
-    paper: 0.05,
-    positive: false,
-};
+pub const TAU_D: FrictionConstant =
+    FrictionConstant::new("tau_d", "frictional-memory delay", 0.05, false);
 /// Pre-sliding stiffness `k_s` (paper: 4e4).
-pub const K_S: FrictionConstant = FrictionConstant {
-    key: "k_s",
-    meaning: "pre-sliding stiffness",
-    paper: 4e4,
-    positive: true,
-};
-/// Every friction constant, in the order scene files write them.
+pub const K_S: FrictionConstant = FrictionConstant::new("k_s", "pre-sliding stiffness", 4e4, true);
 pub const FRICTION_CONSTANTS: [FrictionConstant; 4] = [MU_V, V_S, TAU_D, K_S];
 
 /// Capsule and friction law: everything the plant needs besides the actuator force.
@@ -343,18 +361,7 @@ mod tests {
 
     #[test]
     fn sliding_friction_is_continuous_with_the_threshold_at_zero_velocity() {
-        let laws = [
-            Friction::Coulomb,
-            Friction::Viscous { mu_v: 0.1 },
-            Friction::Stribeck { v_s: 0.1 },
-            Friction::SevenParameter {
-                mu_v: 0.1,
-                v_s: 0.1,
-                tau_d: 0.05,
-                k_s: 4e4,
-            },
-        ];
-        for law in laws {
+        for law in Friction::LAWS {
             for dir in [1.0, -1.0] {
                 let f = law.sliding(dir, 0.0, 0.0);
                 assert_eq!(f, dir * law.threshold(), "{law:?} dir {dir}");
@@ -380,12 +387,7 @@ mod tests {
     #[test]
     fn capsule_force_includes_contact_only_past_the_gap() {
         let m = Model {
-            capsule: Capsule {
-                gamma: 5.0,
-                beta: 15.0,
-                delta: 0.02,
-                xi: 0.01,
-            },
+            capsule: Capsule::SECTION3,
             friction: Friction::Coulomb,
         };
         assert_eq!(m.contact_force(0.01), 0.0);

@@ -547,12 +547,7 @@ pub struct Scene {
 impl Default for Scene {
     fn default() -> Self {
         let model = Model {
-            capsule: Capsule {
-                gamma: 5.0,
-                beta: 15.0,
-                delta: 0.02,
-                xi: 0.01,
-            },
+            capsule: Capsule::SECTION3,
             friction: Friction::Coulomb,
         };
         Scene {

@@ -20,7 +20,7 @@ use mcap::{
 
 use crate::{
     fix_schemas::respell_dependencies,
-    scan::{chunk_records, SchemaRec},
+    scan::{chunk_records, keep_definition, SchemaRec},
     writer::{ChunkCompression, RecordWriter, WriterOptions, CAPSULE_METADATA, ROSBAG2_METADATA},
     ChannelId, RecordError,
 };
@@ -159,15 +159,8 @@ impl Rebuild<'_> {
 
     fn take(&mut self, rec: Record<'_>, compression: &str) -> Result<(), RecordError> {
         match rec {
-            Record::Schema { header, data } => {
-                self.schemas.entry(header.id).or_insert(SchemaRec {
-                    name: header.name,
-                    encoding: header.encoding,
-                    data: data.into_owned(),
-                });
-            }
-            Record::Channel(c) => {
-                self.channels.entry(c.id).or_insert(c);
+            Record::Schema { .. } | Record::Channel(_) => {
+                keep_definition(&mut self.schemas, &mut self.channels, rec)
             }
             Record::Message { header, data } => {
                 let Some(id) = self.channel(header.channel_id, compression)? else {

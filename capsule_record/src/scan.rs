@@ -8,6 +8,7 @@ use mcap::{
     McapError, MAGIC,
 };
 
+/// A schema record as stored.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SchemaRec {
     /// `pkg/msg/Type`.
@@ -16,6 +17,28 @@ pub struct SchemaRec {
     pub encoding: String,
     /// The schema text.
     pub data: Vec<u8>,
+}
+
+/// Keeps a schema or channel record (the first one of each id; a recovered or split file may
+/// repeat them); any other record is left alone.
+pub(crate) fn keep_definition(
+    schemas: &mut BTreeMap<u16, SchemaRec>,
+    channels: &mut BTreeMap<u16, records::Channel>,
+    rec: Record<'_>,
+) {
+    match rec {
+        Record::Schema { header, data } => {
+            schemas.entry(header.id).or_insert(SchemaRec {
+                name: header.name,
+                encoding: header.encoding,
+                data: data.into_owned(),
+            });
+        }
+        Record::Channel(c) => {
+            channels.entry(c.id).or_insert(c);
+        }
+        _ => {}
+    }
 }
 
 /// A message as stored.
@@ -163,15 +186,8 @@ pub fn scan(bytes: &[u8]) -> Result<Scan, McapError> {
 fn take(out: &mut Scan, rec: Record<'_>) {
     match rec {
         Record::Header(h) => out.header = Some(h),
-        Record::Schema { header, data } => {
-            out.schemas.entry(header.id).or_insert(SchemaRec {
-                name: header.name,
-                encoding: header.encoding,
-                data: data.into_owned(),
-            });
-        }
-        Record::Channel(c) => {
-            out.channels.entry(c.id).or_insert(c);
+        Record::Schema { .. } | Record::Channel(_) => {
+            keep_definition(&mut out.schemas, &mut out.channels, rec)
         }
         Record::Message { header, data } => {
             *out.counts.entry(header.channel_id).or_insert(0) += 1;

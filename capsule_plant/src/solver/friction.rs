@@ -158,23 +158,15 @@ mod tests {
 
     #[test]
     fn slopes_agree_with_central_differences() {
-        let laws = [
-            Friction::Coulomb,
-            Friction::Viscous { mu_v: 0.3 },
-            Friction::Stribeck { v_s: 0.1 },
-            Friction::SevenParameter {
-                mu_v: 0.1,
-                v_s: 0.1,
-                tau_d: 0.05,
-                k_s: 4e4,
-            },
-            Friction::SevenParameter {
-                mu_v: 0.1,
-                v_s: 0.2,
-                tau_d: 0.0,
-                k_s: 0.0,
-            },
-        ];
+        let no_memory = Friction::SevenParameter {
+            mu_v: 0.1,
+            v_s: 0.2,
+            tau_d: 0.0,
+            k_s: 0.0,
+        };
+        let laws = Friction::laws_with(0.3, 0.05, 4e4)
+            .into_iter()
+            .chain([no_memory]);
         for law in laws {
             for (dir, y2, y2d) in [(1.0, 0.3, 0.1), (-1.0, -0.7, -0.2), (1.0, 0.02, 0.0)] {
                 let h = 1e-7;
