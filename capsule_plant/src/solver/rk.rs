@@ -15,43 +15,57 @@ use crate::roots::{first_crossing, BOUNDARY};
 
 type V = [f64; 6];
 
-const C2: f64 = 1.0 / 5.0;
-const C3: f64 = 3.0 / 10.0;
-const C4: f64 = 4.0 / 5.0;
-const C5: f64 = 8.0 / 9.0;
-const A21: f64 = 1.0 / 5.0;
-const A31: f64 = 3.0 / 40.0;
-const A32: f64 = 9.0 / 40.0;
-const A41: f64 = 44.0 / 45.0;
-const A42: f64 = -56.0 / 15.0;
-const A43: f64 = 32.0 / 9.0;
-const A51: f64 = 19372.0 / 6561.0;
-const A52: f64 = -25360.0 / 2187.0;
-const A53: f64 = 64448.0 / 6561.0;
-const A54: f64 = -212.0 / 729.0;
-const A61: f64 = 9017.0 / 3168.0;
-const A62: f64 = -355.0 / 33.0;
-const A63: f64 = 46732.0 / 5247.0;
-const A64: f64 = 49.0 / 176.0;
-const A65: f64 = -5103.0 / 18656.0;
-const A71: f64 = 35.0 / 384.0;
-const A73: f64 = 500.0 / 1113.0;
-const A74: f64 = 125.0 / 192.0;
-const A75: f64 = -2187.0 / 6784.0;
-const A76: f64 = 11.0 / 84.0;
-const E1: f64 = 71.0 / 57600.0;
-const E3: f64 = -71.0 / 16695.0;
-const E4: f64 = 71.0 / 1920.0;
-const E5: f64 = -17253.0 / 339200.0;
-const E6: f64 = 22.0 / 525.0;
-const E7: f64 = -1.0 / 40.0;
-const D1: f64 = -12715105075.0 / 11282082432.0;
-const D3: f64 = 87487479700.0 / 32700410799.0;
-const D4: f64 = -10690763975.0 / 1880347072.0;
-const D5: f64 = 701980252875.0 / 199316789632.0;
-const D6: f64 = -1453857185.0 / 822651844.0;
-const D7: f64 = 69997945.0 / 29380423.0;
+/// Nodes `c` of stages 2 to 6 (stage 7, the FSAL stage, is at `t + h`).
+const C: [f64; 5] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0];
+/// Rows of `a` for stages 2 to 7 (the last row is the fifth-order solution, `b`; `b_2 = 0`).
+const A: [&[f64]; 6] = [
+    &[1.0 / 5.0],
+    &[3.0 / 40.0, 9.0 / 40.0],
+    &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
+    &[
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+    ],
+    &[
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+    ],
+    &[
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+/// Error weights `b - b*` of the seven stages.
+const E: [f64; 7] = [
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+/// Weights of the continuous extension's last coefficient.
+const D: [f64; 7] = [
+    -12715105075.0 / 11282082432.0,
+    0.0,
+    87487479700.0 / 32700410799.0,
+    -10690763975.0 / 1880347072.0,
+    701980252875.0 / 199316789632.0,
+    -1453857185.0 / 822651844.0,
+    69997945.0 / 29380423.0,
+];
 
+/// `y + h * sum a k` over `terms` (the fixed-step RK4's stages).
 #[inline(always)]
 fn axpy(y: &V, h: f64, terms: &[(f64, &V)]) -> V {
     let mut out = *y;
@@ -59,6 +73,23 @@ fn axpy(y: &V, h: f64, terms: &[(f64, &V)]) -> V {
         let mut acc = 0.0;
         for (a, k) in terms {
             acc += a * k[i];
+        }
+        *o += h * acc;
+    }
+    out
+}
+
+/// `y + h * sum_j w_j k_j` over the stages with a non-zero weight (the zeros of the tableau
+/// skipped, so the sums are those of the published `dopri5` code).
+#[inline(always)]
+fn combine(y: &V, h: f64, w: &[f64], k: &[V; 7]) -> V {
+    let mut out = *y;
+    for (i, o) in out.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for (a, kj) in w.iter().zip(k) {
+            if *a != 0.0 {
+                acc += a * kj[i];
+            }
         }
         *o += h * acc;
     }
@@ -158,46 +189,16 @@ impl Simulator {
         h: f64,
     ) -> DopriStep {
         let t = self.tau;
-        let k2 = self.rk_rhs(ctx, t + C2 * h, &axpy(y, h, &[(A21, k1)]));
-        let k3 = self.rk_rhs(ctx, t + C3 * h, &axpy(y, h, &[(A31, k1), (A32, &k2)]));
-        let k4 = self.rk_rhs(
-            ctx,
-            t + C4 * h,
-            &axpy(y, h, &[(A41, k1), (A42, &k2), (A43, &k3)]),
-        );
-        let k5 = self.rk_rhs(
-            ctx,
-            t + C5 * h,
-            &axpy(y, h, &[(A51, k1), (A52, &k2), (A53, &k3), (A54, &k4)]),
-        );
-        let k6 = self.rk_rhs(
-            ctx,
-            t + h,
-            &axpy(
-                y,
-                h,
-                &[(A61, k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)],
-            ),
-        );
-        let ynew = axpy(
-            y,
-            h,
-            &[(A71, k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)],
-        );
+        let mut k = [*k1; 7];
+        for s in 1..6 {
+            let stage = combine(y, h, A[s - 1], &k);
+            k[s] = self.rk_rhs(ctx, t + C[s - 1] * h, &stage);
+        }
+        let ynew = combine(y, h, A[5], &k);
         let k7 = self.rk_rhs(ctx, t + h, &ynew);
+        k[6] = k7;
         self.work.rhs_evals += 6;
-        let err = axpy(
-            &[0.0; 6],
-            h,
-            &[
-                (E1, k1),
-                (E3, &k3),
-                (E4, &k4),
-                (E5, &k5),
-                (E6, &k6),
-                (E7, &k7),
-            ],
-        );
+        let err = combine(&[0.0; 6], h, &E, &k);
         let mut cont = [[0.0; 6]; 5];
         for i in 0..6 {
             let ydiff = ynew[i] - y[i];
@@ -206,8 +207,12 @@ impl Simulator {
             cont[1][i] = ydiff;
             cont[2][i] = bspl;
             cont[3][i] = ydiff - h * k7[i] - bspl;
-            cont[4][i] =
-                h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+            cont[4][i] = h * D
+                .iter()
+                .zip(&k)
+                .filter(|(d, _)| **d != 0.0)
+                .map(|(d, kj)| d * kj[i])
+                .fold(0.0, |acc, x| acc + x);
         }
         DopriStep {
             y: ynew,
