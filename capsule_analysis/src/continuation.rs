@@ -120,6 +120,9 @@ pub struct Branch {
     pub special: Vec<SpecialPoint>,
     /// Why the continuation stopped before reaching its end, if it did.
     pub stopped: Option<String>,
+    /// The branch came back to its first point: a closed curve (an isola, as the period-3
+    /// orbit of Fig 18 between its two folds), complete after one lap.
+    pub closed: bool,
 }
 
 /// Why a continuation cannot start.
@@ -390,7 +393,10 @@ pub fn continue_from(
         points: vec![point(u[3], [u[0], u[1], u[2]], &e.lin)],
         special: Vec::new(),
         stopped: None,
+        closed: false,
     };
+    let (u0, t0) = (u, t);
+    let mut left_start = false;
     let mut u = u;
     let mut test = tests(&branch.points[0], t[3]);
     let mut h = settings.step;
@@ -435,6 +441,14 @@ pub fn continue_from(
                     h = (h * 1.3).min(settings.max_step);
                 }
                 if (u[3] - settings.to) * dir >= 0.0 {
+                    break;
+                }
+                // back at the start, heading the same way, after having left it: one lap done
+                let from_start = (0..4).map(|i| (u[i] - u0[i]).powi(2)).sum::<f64>().sqrt();
+                left_start |= from_start > 3.0 * settings.max_step;
+                let same_way = (0..4).map(|i| t[i] * t0[i]).sum::<f64>() > 0.0;
+                if left_start && same_way && from_start < settings.max_step {
+                    branch.closed = true;
                     break;
                 }
             }
@@ -598,5 +612,38 @@ mod tests {
         let why = branch.stopped.unwrap_or_default();
         assert!(why.starts_with("gamma = 5"), "{why}");
         assert!(why.contains("step below 3e0"), "{why}");
+    }
+
+    #[test]
+    fn the_period_3_isola_of_fig_18_passes_both_folds_and_closes_after_one_lap() {
+        // Coulomb, section-3 set, alpha 1.5, k_p 0, from (-1.5, 0, 0, 0): the period-3 orbit
+        // that coexists with period 1 (scenes/switch_alpha15.toml). Fig 18: period 3 emerges at
+        // alpha 0.682 and disappears at 1.654 (the paper, read off a brute-force diagram)
+        let mut scene = Scene::default();
+        scene.drive.alpha = 1.5;
+        scene.initial = capsule_plant::State::from_array([-1.5, 0.0, 0.0, 0.0]);
+        let branch = continue_branch(&scene, &Settings::new(Param::Alpha, 1.75))
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(branch.period, 3);
+        assert_eq!(branch.stopped, None);
+        assert!(branch.closed, "{} points", branch.points.len());
+        assert!(branch.points.len() < 400, "{} points", branch.points.len());
+        let folds: Vec<f64> = branch
+            .special
+            .iter()
+            .filter(|s| s.kind == SpecialKind::Fold)
+            .map(|s| s.value)
+            .collect();
+        assert_eq!(folds.len(), 2, "{folds:?}");
+        assert!((folds[0] - 1.654).abs() < 0.01, "{folds:?}");
+        assert!((folds[1] - 0.682).abs() < 0.01, "{folds:?}");
+        // through the upper fold: the stable side turns back unstable (a multiplier passes +1)
+        let top = (0..branch.points.len())
+            .max_by(|&a, &b| branch.points[a].value.total_cmp(&branch.points[b].value))
+            .unwrap_or(0);
+        let (before, after) = (&branch.points[top - 3], &branch.points[top + 3]);
+        assert!(before.stable && !after.stable, "{before:?} {after:?}");
+        let peak = branch.points[top].value;
+        assert!(before.value < peak && after.value < peak, "{peak}");
     }
 }

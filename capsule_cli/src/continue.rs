@@ -155,6 +155,22 @@ pub fn main(args: Args) -> Result<()> {
     for s in &branch.special {
         println!("  {:?} at {} = {:.9}", s.kind, param.name(), s.value);
     }
+    if branch.closed {
+        println!(
+            "  the branch closed on itself (an isola between {} = {:.9} and {:.9}): complete",
+            param.name(),
+            branch
+                .points
+                .iter()
+                .map(|p| p.value)
+                .fold(f64::INFINITY, f64::min),
+            branch
+                .points
+                .iter()
+                .map(|p| p.value)
+                .fold(f64::NEG_INFINITY, f64::max)
+        );
+    }
     if let Some(why) = &branch.stopped {
         bail!("the continuation stopped early at {why}; the branch so far is written");
     }

@@ -150,24 +150,24 @@ impl Friction {
         }
     }
 
+    /// The law's short name (scene files, command line) and its title in the paper's figures.
+    fn labels(&self) -> (&'static str, &'static str) {
+        match self {
+            Friction::Coulomb => ("coulomb", "Coulomb"),
+            Friction::Viscous { .. } => ("viscous", "Coulomb viscous"),
+            Friction::Stribeck { .. } => ("stribeck", "Coulomb Stribeck"),
+            Friction::SevenParameter { .. } => ("seven-parameter", "seven-parameter"),
+        }
+    }
+
     /// Short name as used in scene files and on the command line.
     pub fn name(&self) -> &'static str {
-        match self {
-            Friction::Coulomb => "coulomb",
-            Friction::Viscous { .. } => "viscous",
-            Friction::Stribeck { .. } => "stribeck",
-            Friction::SevenParameter { .. } => "seven-parameter",
-        }
+        self.labels().0
     }
 
     /// The law as the paper's figures title it.
     pub fn title(&self) -> &'static str {
-        match self {
-            Friction::Coulomb => "Coulomb",
-            Friction::Viscous { .. } => "Coulomb viscous",
-            Friction::Stribeck { .. } => "Coulomb Stribeck",
-            Friction::SevenParameter { .. } => "seven-parameter",
-        }
+        self.labels().1
     }
 
     /// Every law with the paper's constants: the one list from which scene files, the command
