@@ -586,10 +586,13 @@ class ParamClient:
         return r.results[0]
 
 
-def take_events(r, node, wait):
-    end = time.time() + wait
+def take_events(r, node, wait, until=None, timeout=5.0):
+    """NODE's parameter changes on /parameter_events for WAIT s and, with UNTIL, until one of
+    them changes that parameter (at most TIMEOUT s: it can come late on a loaded host)."""
+    start = time.time()
     out = []
-    while time.time() < end:
+    while time.time() < start + wait or (until is not None and not any(until in e for e in out)
+                                         and time.time() < start + timeout):
         for e in r.take(N=64):
             if e.node == node:
                 out.append({p.name: pyvalue(p.value) for p in e.changed_parameters})
@@ -615,7 +618,11 @@ def cmd_params(args):
     out["read_only"] = {d.name: d.read_only for d in descs}
     out["ranges"] = {d.name: [d.floating_point_range[0].from_value, d.floating_point_range[0].to_value]
                      for d in descs if d.floating_point_range}
-    take_events(events, c.node, 0.3)  # the reader has matched; drop what came before
+    # the events reader must know the node's writer before the first set (at most --timeout s)
+    deadline = time.time() + args.timeout
+    while events.get_subscription_matched_status().current_count < 1 and time.time() < deadline:
+        time.sleep(0.01)
+    take_events(events, c.node, 0.3)  # drop what came before
     out["set"] = []
     for item in args.set:
         name, value = item.split("=", 1)
@@ -624,7 +631,7 @@ def cmd_params(args):
         if not r.successful:
             fail(f"set {name}={value!r} refused: {r.reason}")
         after = c.get(name)[0]
-        evs = take_events(events, c.node, 0.5)
+        evs = take_events(events, c.node, 0.5, until=name)
         if not any(name in e for e in evs):
             fail(f"no /parameter_events for {name} after setting it: {evs}")
         out["set"].append({"name": name, "value": value, "now": after, "events": evs})

@@ -72,10 +72,12 @@ fn a_restarted_plant_is_commanded_from_its_first_samples() {
 
 #[test]
 fn a_killed_controller_means_zero_force_and_its_successor_resumes() {
+    // the successor has 3.5 s of the plant's run to take over (a loaded host's start and
+    // discovery can take more than a second)
     let run = controlled(
         90,
         r#"
-        start_plant --until-s 4 --summary-json $TMP/p.json 2> $TMP/p.log
+        start_plant --until-s 6 --summary-json $TMP/p.json 2> $TMP/p.log
         sleep 2
         kill -KILL $C; wait $C 2>/dev/null
         sleep 0.5

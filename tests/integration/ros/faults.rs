@@ -106,7 +106,9 @@ fn controller_gone_means_zero_force_and_plant_gone_means_no_commands() {
         wait $P; echo "plant rc=$?"
         cat $TMP/plant.json
         start_controller --mode forward --state-timeout-s 0.3 2> $TMP/ctl2.log
-        $B/capsule_plant --scene "$SCENE" --until-s 1 2>/dev/null
+        # the plant starts once the controller reads its state (a loaded host's discovery
+        # could take its whole second)
+        $B/capsule_plant --scene "$SCENE" --until-s 1 --wait-subscribers 1 2>/dev/null
         sleep 1.5
         stop $C
         cat $TMP/ctl2.log"#,
