@@ -33,9 +33,16 @@ fn log_lines(run: &Run, what: &str) -> u32 {
 /// scene's 0.1 s), so a loaded host's stalls do not trip it.
 const LAX: &str = "--command-timeout-s 1";
 
-/// Runs a case's script in its namespace, with `$LAX` filled in.
+/// A plant that runs until the case's script stops it (pid `$P`), its summary in `$TMP/p.json`,
+/// its log in `$TMP/p.log`.
+const PLANT: &str = "start_plant --until-s 300 --summary-json $TMP/p.json 2> $TMP/p.log";
+
+/// Runs a case's script in its namespace, with `$PLANT` and `$LAX` filled in.
 fn case(timeout_s: u32, script: &str) -> Run {
-    netns(timeout_s, &script.replace("$LAX", LAX))
+    netns(
+        timeout_s,
+        &script.replace("$PLANT", PLANT).replace("$LAX", LAX),
+    )
 }
 
 /// [`case`] with a controller in forward mode started first (pid `$C`, its stderr in
@@ -101,7 +108,7 @@ fn huge_and_non_finite_forces_never_kill_the_plant() {
     let run = case(
         120,
         r#"
-        start_plant --until-s 300 --summary-json $TMP/p.json 2> $TMP/p.log
+        $PLANT
         peer inject --force=nan,inf,1e308,-1e308,1000 --seconds 0.5 --min-states 50 \
             || echo "peer failed"
         stop $P; echo "plant rc=$?"
@@ -140,7 +147,7 @@ fn a_command_stamped_in_the_far_future_blocks_nothing() {
     let run = controlled(
         120,
         r#"
-        start_plant --until-s 300 $LAX --summary-json $TMP/p.json 2>/dev/null
+        $PLANT $LAX
         peer inject --force 0.05 --seconds 0 --stamp-sec 2147483647 --until-refused >/dev/null
         sleep 1
         stop $P; echo "plant rc=$?"
@@ -168,7 +175,7 @@ fn a_command_burst_is_taken_newest_first_and_repeats_are_not_refused() {
     let run = case(
         120,
         r#"
-        start_plant --until-s 300 --summary-json $TMP/p.json 2>/dev/null
+        $PLANT
         peer inject --force 0.05 --hz 20000 --seconds 2
         stop $P; echo "plant rc=$?"
         cat $TMP/p.json"#,
@@ -211,7 +218,7 @@ fn foreign_writers_on_the_force_topic_are_named_and_logged_rate_limited() {
     let run = controlled(
         120,
         r#"
-        start_plant --until-s 60 $LAX --summary-json $TMP/p.json 2> $TMP/p.log
+        $PLANT $LAX
         peer foreign --kind type --seconds 1.5
         peer foreign --kind layout --seconds 1.5
         stop $P; echo "plant rc=$?"
