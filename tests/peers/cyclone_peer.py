@@ -34,6 +34,8 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
                                             the rcl_interfaces parameter services and
                                             /parameter_events, as `ros2 param` uses them
 
+The capsule_msgs types are built from capsule_msgs/msg/*.msg and srv/*.srv, the files the Rust
+crate embeds; the standard ROS 2 types the peer uses are spelt out in STANDARD below.
 Only typed readers and writers are used (Cyclone's built-in DCPSSubscription reader crashed with
 RustDDS participants present). Exit status 0 = the checks held; 1 = a check failed.
 """
@@ -42,6 +44,7 @@ import json
 import math
 import os
 import random
+import re
 import sys
 import time
 import types
@@ -58,195 +61,121 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 
-@dataclass
-@annotate.final
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
-
-
-@dataclass
-@annotate.final
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@dataclass
-@annotate.final
-class CapsuleState(IdlStruct, typename="capsule_msgs::msg::dds_::CapsuleState_"):
-    header: Header
-    seq: uint64
-    mass_position: float64
-    mass_velocity: float64
-    capsule_position: float64
-    capsule_velocity: float64
-    in_contact: bool
-    stuck: bool
-    friction_force: float64
-    contact_force: float64
-    actuator_force: float64
-    command_stale: bool
-    rejected_commands: uint32
-
-
-@dataclass
-@annotate.final
-class ActuatorForce(IdlStruct, typename="capsule_msgs::msg::dds_::ActuatorForce_"):
-    header: Header
-    state_seq: uint64
-    force: float64
-
-
-@dataclass
-@annotate.final
-class ControllerStatus(IdlStruct, typename="capsule_msgs::msg::dds_::ControllerStatus_"):
-    header: Header
-    mode: uint8
-    mode_name: str
-    gain: float64
-    drive_amplitude: float64
-    drive_frequency: float64
-    drive_amplitude_si: float64
-    drive_frequency_hz: float64
-    commanding: bool
-    commands_sent: uint64
-    periods: uint32
-    progression_per_period: float64
-    progression_per_period_m: float64
-    mean_speed: float64
-    efficiency: float64
-    switch_state: uint8
-    switch_target_period: int32
-    switch_tries: int32
-    switch_max_tries: int32
-    switch_pulse_gain: float64
-    switch_pulse_periods: int32
-    switch_pulse_start: Time
-    switch_pulse_end: Time
-    orbit_period: int32
-
-
 # rmw_cyclonedds puts a 16-byte header (client GUID half, sequence number) before the request
-# and response fields; the type names stay those of the .srv halves.
-@dataclass
-@annotate.final
-class SetModeRequest(IdlStruct, typename="capsule_msgs::srv::dds_::SetMode_Request_"):
-    client_guid: uint64
-    sequence: int64
-    mode: uint8
-    gain: float64
-    effective_from: Time
-    pulse_periods: int32
-    target_period: int32
-    max_tries: int32
+# and response fields of a service; the type names stay those of the .srv halves.
+SERVICE_HEADER = {"client_guid": uint64, "sequence": int64}
+
+PRIMITIVES = {"bool": bool, "byte": uint8, "uint8": uint8, "int32": int32, "uint32": uint32,
+              "int64": int64, "uint64": uint64, "float64": float64, "string": str}
+
+# The standard ROS 2 interfaces the peer uses, as the ROS 2 distribution defines them (one type
+# an entry, its fields separated by ";", a service's halves by "---"), dependencies first.
+STANDARD = {
+    "builtin_interfaces/msg/Time": "int32 sec; uint32 nanosec",
+    "std_msgs/msg/Header": "builtin_interfaces/Time stamp; string frame_id",
+    "std_msgs/msg/String": "string data",
+    "sensor_msgs/msg/JointState": "std_msgs/Header header; string[] name; float64[] position; "
+                                  "float64[] velocity; float64[] effort",
+    "geometry_msgs/msg/Vector3": "float64 x; float64 y; float64 z",
+    "geometry_msgs/msg/Quaternion": "float64 x; float64 y; float64 z; float64 w",
+    "geometry_msgs/msg/Transform": "Vector3 translation; Quaternion rotation",
+    "geometry_msgs/msg/TransformStamped": "std_msgs/Header header; string child_frame_id; "
+                                          "Transform transform",
+    "tf2_msgs/msg/TFMessage": "geometry_msgs/TransformStamped[] transforms",
+    "diagnostic_msgs/msg/KeyValue": "string key; string value",
+    "diagnostic_msgs/msg/DiagnosticStatus": "byte level; string name; string message; "
+                                            "string hardware_id; KeyValue[] values",
+    "diagnostic_msgs/msg/DiagnosticArray": "std_msgs/Header header; DiagnosticStatus[] status",
+    "rcl_interfaces/msg/ParameterValue": "uint8 type; bool bool_value; int64 integer_value; "
+                                         "float64 double_value; string string_value; "
+                                         "byte[] byte_array_value; bool[] bool_array_value; "
+                                         "int64[] integer_array_value; "
+                                         "float64[] double_array_value; string[] string_array_value",
+    "rcl_interfaces/msg/Parameter": "string name; ParameterValue value",
+    "rcl_interfaces/msg/SetParametersResult": "bool successful; string reason",
+    "rcl_interfaces/msg/FloatingPointRange": "float64 from_value; float64 to_value; float64 step",
+    "rcl_interfaces/msg/IntegerRange": "int64 from_value; int64 to_value; uint64 step",
+    "rcl_interfaces/msg/ParameterDescriptor": "string name; uint8 type; string description; "
+                                              "string additional_constraints; bool read_only; "
+                                              "bool dynamic_typing; "
+                                              "FloatingPointRange[<=1] floating_point_range; "
+                                              "IntegerRange[<=1] integer_range",
+    "rcl_interfaces/msg/ListParametersResult": "string[] names; string[] prefixes",
+    "rcl_interfaces/msg/ParameterEvent": "builtin_interfaces/Time stamp; string node; "
+                                         "Parameter[] new_parameters; "
+                                         "Parameter[] changed_parameters; "
+                                         "Parameter[] deleted_parameters",
+    "rcl_interfaces/srv/ListParameters": "string[] prefixes; uint64 depth --- "
+                                         "ListParametersResult result",
+    "rcl_interfaces/srv/DescribeParameters": "string[] names --- "
+                                             "ParameterDescriptor[] descriptors",
+    "rcl_interfaces/srv/GetParameters": "string[] names --- ParameterValue[] values",
+    "rcl_interfaces/srv/GetParameterTypes": "string[] names --- uint8[] types",
+    "rcl_interfaces/srv/SetParameters": "Parameter[] parameters --- "
+                                        "SetParametersResult[] results",
+    "rcl_interfaces/srv/SetParametersAtomically": "Parameter[] parameters --- "
+                                                  "SetParametersResult result",
+}
+
+# capsule_msgs' own interfaces: the files the Rust crate embeds (one source of truth)
+CAPSULE_MSGS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "capsule_msgs")
 
 
-@dataclass
-@annotate.final
-class SetModeResponse(IdlStruct, typename="capsule_msgs::srv::dds_::SetMode_Response_"):
-    client_guid: uint64
-    sequence: int64
-    accepted: bool
-    mode: uint8
-    gain: float64
-    reason: str
+def idl_type(full_name, fields, known, header=None):
+    """The final IdlStruct of FULL_NAME ('pkg/msg/Name'; DDS name 'pkg::msg::dds_::Name_') with
+    the fields of interface text FIELDS (comments and constants skipped; a nested type is
+    looked up in KNOWN by 'pkg/Name', the package FULL_NAME's if the field names none), after
+    HEADER's fields."""
+    pkg, kind, name = full_name.split("/")
+    ann = dict(header or {})
+    for field in fields.split(";"):
+        words = field.split()
+        if len(words) < 2 or "=" in "".join(words[1:]):  # a constant: TYPE NAME=VALUE
+            continue
+        base, _, bound = words[0].partition("[")
+        ty = PRIMITIVES.get(base) or known[base if "/" in base else f"{pkg}/{base}"]
+        if bound == "]":
+            ty = sequence[ty]
+        elif bound.startswith("<="):
+            ty = sequence[ty, int(bound[2:-1])]
+        elif bound:
+            raise ValueError(f"{full_name}: fixed-size array {words[0]} not supported")
+        ann[words[1]] = ty
+    cls = types.new_class(name, (IdlStruct,), {"typename": f"{pkg}::{kind}::dds_::{name}_"},
+                          lambda ns: ns.update({"__annotations__": ann}))
+    return annotate.final(dataclass(cls))
 
 
-# standard types of the plant's views
-@dataclass
-@annotate.final
-class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
-    header: Header
-    name: sequence[str]
-    position: sequence[float64]
-    velocity: sequence[float64]
-    effort: sequence[float64]
+def load_types():
+    """Every type the peer uses, by 'pkg/Name' (a service's halves: 'pkg/Name_Request', ..)."""
+    files = [(f"capsule_msgs/{d}/{f[:-4]}", os.path.join(CAPSULE_MSGS, d, f))
+             for d in ("msg", "srv") for f in sorted(os.listdir(os.path.join(CAPSULE_MSGS, d)))]
+    texts = list(STANDARD.items())
+    for full_name, path in files:
+        with open(path) as f:
+            # comments off, one field a ';'-separated part, as in STANDARD
+            texts.append((full_name, ";".join(line.split("#")[0] for line in f)))
+    known = {}
+    for full_name, text in texts:
+        pkg, kind, name = full_name.split("/")
+        if kind == "srv":
+            for half, part in zip(("Request", "Response"), text.split("---")):
+                known[f"{pkg}/{name}_{half}"] = idl_type(f"{full_name}_{half}", part, known,
+                                                         SERVICE_HEADER)
+        else:
+            known[f"{pkg}/{name}"] = idl_type(full_name, text, known)
+    return known
 
 
-@dataclass
-@annotate.final
-class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
-    x: float64
-    y: float64
-    z: float64
+TYPES = load_types()
+# the types by their short names: T.CapsuleState, T.SetMode_Request, ..
+T = types.SimpleNamespace(**{k.split("/")[1]: v for k, v in TYPES.items()})
 
 
-@dataclass
-@annotate.final
-class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    x: float64
-    y: float64
-    z: float64
-    w: float64
-
-
-@dataclass
-@annotate.final
-class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
-    translation: Vector3
-    rotation: Quaternion
-
-
-@dataclass
-@annotate.final
-class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
-    header: Header
-    child_frame_id: str
-    transform: Transform
-
-
-@dataclass
-@annotate.final
-class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
-    transforms: sequence[TransformStamped]
-
-
-@dataclass
-@annotate.final
-class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
-    data: str
-
-
-@dataclass
-@annotate.final
-class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
-    key: str
-    value: str
-
-
-@dataclass
-@annotate.final
-class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
-    level: uint8
-    name: str
-    message: str
-    hardware_id: str
-    values: sequence[KeyValue]
-
-
-@dataclass
-@annotate.final
-class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
-    header: Header
-    status: sequence[DiagnosticStatus]
-
-
-# rcl_interfaces, as rmw_cyclonedds maps them (the request/reply halves with the same 16-byte
-# header as SetMode above)
-@dataclass
-@annotate.final
-class ParameterValue(IdlStruct, typename="rcl_interfaces::msg::dds_::ParameterValue_"):
-    type: uint8
-    bool_value: bool
-    integer_value: int64
-    double_value: float64
-    string_value: str
-    byte_array_value: sequence[uint8]
-    bool_array_value: sequence[bool]
-    integer_array_value: sequence[int64]
-    double_array_value: sequence[float64]
-    string_array_value: sequence[str]
+# the rcl_interfaces parameter services, by the name a node serves them under
+PARAM_SRV = {re.sub(r"(?<!^)([A-Z])", r"_\1", name).lower():
+             (TYPES[f"rcl_interfaces/{name}_Request"], TYPES[f"rcl_interfaces/{name}_Response"])
+             for name in (k.split("/")[2] for k in STANDARD if k.startswith("rcl_interfaces/srv/"))}
 
 
 def pvalue(v):
@@ -262,7 +191,7 @@ def pvalue(v):
         base.update(type=3, double_value=v)
     elif isinstance(v, str):
         base.update(type=4, string_value=v)
-    return ParameterValue(**base)
+    return T.ParameterValue(**base)
 
 
 def pyvalue(pv):
@@ -270,99 +199,13 @@ def pyvalue(pv):
             4: pv.string_value}.get(pv.type, f"type {pv.type}")
 
 
-@dataclass
-@annotate.final
-class Parameter(IdlStruct, typename="rcl_interfaces::msg::dds_::Parameter_"):
-    name: str
-    value: ParameterValue
+def reliable(durability=Policy.Durability.Volatile, depth=16):
+    """Reliable QoS (100 ms blocking), DURABILITY, keeping the last DEPTH samples."""
+    return Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+               durability, Policy.History.KeepLast(depth))
 
 
-@dataclass
-@annotate.final
-class SetParametersResult(IdlStruct, typename="rcl_interfaces::msg::dds_::SetParametersResult_"):
-    successful: bool
-    reason: str
-
-
-@dataclass
-@annotate.final
-class FloatingPointRange(IdlStruct, typename="rcl_interfaces::msg::dds_::FloatingPointRange_"):
-    from_value: float64
-    to_value: float64
-    step: float64
-
-
-@dataclass
-@annotate.final
-class IntegerRange(IdlStruct, typename="rcl_interfaces::msg::dds_::IntegerRange_"):
-    from_value: int64
-    to_value: int64
-    step: uint64
-
-
-@dataclass
-@annotate.final
-class ParameterDescriptor(IdlStruct, typename="rcl_interfaces::msg::dds_::ParameterDescriptor_"):
-    name: str
-    type: uint8
-    description: str
-    additional_constraints: str
-    read_only: bool
-    dynamic_typing: bool
-    floating_point_range: sequence[FloatingPointRange, 1]
-    integer_range: sequence[IntegerRange, 1]
-
-
-@dataclass
-@annotate.final
-class ListParametersResult(IdlStruct, typename="rcl_interfaces::msg::dds_::ListParametersResult_"):
-    names: sequence[str]
-    prefixes: sequence[str]
-
-
-@dataclass
-@annotate.final
-class ParameterEvent(IdlStruct, typename="rcl_interfaces::msg::dds_::ParameterEvent_"):
-    stamp: Time
-    node: str
-    new_parameters: sequence[Parameter]
-    changed_parameters: sequence[Parameter]
-    deleted_parameters: sequence[Parameter]
-
-
-def _srv(name, req_fields, resp_fields):
-    """Request and response classes of rcl_interfaces/srv/NAME in the rmw_cyclonedds mapping."""
-    def make(kind, fields):
-        ann = {"client_guid": uint64, "sequence": int64} | fields
-        cls = types.new_class(f"{name}_{kind}", (IdlStruct,),
-                              {"typename": f"rcl_interfaces::srv::dds_::{name}_{kind}_"},
-                              lambda ns: ns.update({"__annotations__": ann}))
-        return annotate.final(dataclass(cls))
-    return make("Request", req_fields), make("Response", resp_fields)
-
-
-PARAM_SRV = {
-    "list_parameters": _srv("ListParameters", {"prefixes": sequence[str], "depth": uint64},
-                            {"result": ListParametersResult}),
-    "describe_parameters": _srv("DescribeParameters", {"names": sequence[str]},
-                                {"descriptors": sequence[ParameterDescriptor]}),
-    "get_parameters": _srv("GetParameters", {"names": sequence[str]},
-                           {"values": sequence[ParameterValue]}),
-    "get_parameter_types": _srv("GetParameterTypes", {"names": sequence[str]},
-                                {"types": sequence[uint8]}),
-    "set_parameters": _srv("SetParameters", {"parameters": sequence[Parameter]},
-                           {"results": sequence[SetParametersResult]}),
-    "set_parameters_atomically": _srv("SetParametersAtomically",
-                                      {"parameters": sequence[Parameter]},
-                                      {"result": SetParametersResult}),
-}
-
-
-RELIABLE = Qos(
-    Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
-    Policy.Durability.Volatile,
-    Policy.History.KeepLast(16),
-)
+RELIABLE = reliable()
 
 
 def fail(msg):
@@ -374,15 +217,50 @@ def participant():
     return DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
 
 
-def read_states(dp, n, timeout):
-    reader = DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE)
-    out = []
+def reader(dp, topic, ty, qos=RELIABLE):
+    """A reader of ROS topic TOPIC (DDS topic rt/TOPIC) of type TY."""
+    return DataReader(dp, Topic(dp, f"rt/{topic}", ty), qos=qos)
+
+
+def writer(dp, topic, ty):
+    """A reliable writer of ROS topic TOPIC (DDS topic rt/TOPIC) of type TY."""
+    return DataWriter(dp, Topic(dp, f"rt/{topic}", ty), qos=RELIABLE)
+
+
+def wait_for(r, done, timeout, poll, n=64):
+    """Takes samples from reader R until DONE(all taken so far) holds or TIMEOUT s have passed,
+    polling every POLL s; returns all taken."""
+    got = []
     deadline = time.time() + timeout
-    while len(out) < n and time.time() < deadline:
-        for s in reader.take(N=64):
-            out.append(s)
-        time.sleep(0.002)
-    return reader, out
+    while time.time() < deadline:
+        got.extend(r.take(N=n))
+        if done(got):
+            break
+        time.sleep(poll)
+    return got
+
+
+def read_window(take, seconds, timeout, poll):
+    """Calls TAKE() every POLL s (it returns whether the first sample has come) until it has,
+    bounded by TIMEOUT s (discovery can take seconds on a loaded host), then for SECONDS more."""
+    start = time.time()
+    deadline = start + timeout
+    while time.time() < deadline:
+        if take() and deadline - start > seconds:
+            start = time.time()
+            deadline = start + seconds
+        time.sleep(poll)
+
+
+def force_command(stamp, state_seq, force):
+    """An ActuatorForce command stamped STAMP answering state STATE_SEQ."""
+    return T.ActuatorForce(header=T.Header(stamp=stamp, frame_id="odom"), state_seq=state_seq,
+                           force=force)
+
+
+def read_states(dp, n, timeout):
+    return wait_for(reader(dp, "capsule/state", T.CapsuleState), lambda got: len(got) >= n,
+                    timeout, 0.002)
 
 
 def check_state_sample(s):
@@ -399,7 +277,7 @@ def check_state_sample(s):
 
 def cmd_state(args):
     dp = participant()
-    _, states = read_states(dp, args.samples, args.timeout)
+    states = read_states(dp, args.samples, args.timeout)
     if len(states) < args.samples:
         fail(f"got {len(states)} of {args.samples} state samples")
     for s in states:
@@ -422,111 +300,126 @@ def cmd_state(args):
                           "actuator_force": states[-1].actuator_force}}))
 
 
-def cmd_force(args):
-    dp = participant()
-    reader = DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE)
-    writer = DataWriter(dp, Topic(dp, "rt/capsule/actuator_force", ActuatorForce), qos=RELIABLE)
-    latest = [None]
+class Pump:
+    """Reads the plant's state every 5 ms and, while commanding, sends a command each time: the
+    checks `force` and `joint-command` share."""
 
-    def pump(seconds, force=None):
+    def __init__(self, dp, also=lambda: None):
+        self.reader = reader(dp, "capsule/state", T.CapsuleState)
+        self.also = also  # called every round (other readers)
+        self.latest = None
+
+    def run(self, seconds, send=None):
+        """The states that came in SECONDS s; SEND(latest state) every round once one came."""
         end = time.time() + seconds
         seen = []
         while time.time() < end:
-            for s in reader.take(N=64):
-                latest[0] = s
+            for s in self.reader.take(N=64):
+                self.latest = s
                 seen.append(s)
-            if force is not None and latest[0] is not None:
-                s = latest[0]
-                writer.write(ActuatorForce(header=Header(stamp=s.header.stamp, frame_id="odom"),
-                                           state_seq=s.seq, force=force))
+            self.also()
+            if send is not None and self.latest is not None:
+                send(self.latest)
             time.sleep(0.005)
         return seen
 
-    pump(1.0)
-    if latest[0] is None:
-        fail("no state from the plant")
-    seen = pump(1.0, args.force)
-    applied = [s for s in seen if not s.command_stale and abs(s.actuator_force - args.force) < 1e-9]
-    if len(applied) < 5:
-        fail(f"plant did not apply {args.force} N: last {[(s.actuator_force, s.command_stale) for s in seen[-5:]]}")
+    def first_state(self, w, timeout=15.0, match_timeout=5.0):
+        """Reads for 1 s and until the first state, at most TIMEOUT s (discovery can take
+        seconds on a loaded host), then until W matches a reader (a write before that is
+        lost), at most MATCH_TIMEOUT s: no match is left to the checks that follow (a plant
+        that does not take these commands may have no reader)."""
+        deadline = time.time() + timeout
+        self.run(1.0)
+        while self.latest is None and time.time() < deadline:
+            self.run(0.05)
+        if self.latest is None:
+            fail("no state from the plant")
+        deadline = time.time() + match_timeout
+        while w.get_publication_matched_status().current_count < 1 and time.time() < deadline:
+            self.run(0.05)
+
+    def applied(self, send, value, what):
+        """Commands by SEND for 1 s; the states that show VALUE applied (at least 5, or fail
+        naming WHAT)."""
+        seen = self.run(1.0, send)
+        applied = [s for s in seen if not s.command_stale and abs(s.actuator_force - value) < 1e-9]
+        if len(applied) < 5:
+            fail(f"plant did not apply {what}: last {[(s.actuator_force, s.command_stale) for s in seen[-5:]]}")
+        return applied
+
+    def refused(self, send, what):
+        """Commands by SEND (non-finite) for 0.3 s, then 0.3 s of silence: the plant's refusal
+        count must have grown and no non-finite force reached the simulation. Returns the
+        counts before and after."""
+        before = self.latest.rejected_commands
+        seen = self.run(0.3, send) + self.run(0.3)
+        after = seen[-1].rejected_commands if seen else before
+        if after <= before:
+            fail(f"{what} not counted as refused ({before} -> {after})")
+        if any(not math.isfinite(s.actuator_force) for s in seen):
+            fail(f"{what} reached the simulation")
+        return before, after
+
+    def falls_back(self, seconds):
+        """Silence for SECONDS: the watchdog must fall back to zero force and say so."""
+        tail = self.run(seconds)[-3:]
+        if not tail or not all(s.command_stale and s.actuator_force == 0.0 for s in tail):
+            fail(f"no zero-force fallback after silence: {[(s.actuator_force, s.command_stale) for s in tail]}")
+
+
+def cmd_force(args):
+    dp = participant()
+    pump = Pump(dp)
+    w = writer(dp, "capsule/actuator_force", T.ActuatorForce)
+
+    def send(force):
+        return lambda s: w.write(force_command(s.header.stamp, s.seq, force))
+
+    pump.first_state(w)
+    applied = pump.applied(send(args.force), args.force, f"{args.force} N")
     # a late command (stamped before the last accepted one) must not take over
-    last_ok = seen[-1].rejected_commands
-    writer.write(ActuatorForce(header=Header(stamp=Time(sec=0, nanosec=1), frame_id="odom"),
-                               state_seq=0, force=-args.force))
-    seen = pump(0.3, args.force)
+    last_ok = pump.latest.rejected_commands
+    w.write(force_command(T.Time(sec=0, nanosec=1), 0, -args.force))
+    seen = pump.run(0.3, send(args.force))
     if seen[-1].rejected_commands <= last_ok:
         fail("a late (old-stamped) command was not refused")
     if any(abs(s.actuator_force + args.force) < 1e-12 for s in seen):
         fail("a late command was applied (time rewound)")
-    before = seen[-1].rejected_commands
-    pump(0.3, float("nan"))
-    seen = pump(0.3)
-    after = seen[-1].rejected_commands if seen else before
-    if after <= before:
-        fail(f"NaN commands not counted as refused ({before} -> {after})")
-    # stop commanding: the watchdog must fall back to zero force and say so
-    seen = pump(args.stale_wait)
-    tail = seen[-3:]
-    if not tail or not all(s.command_stale and s.actuator_force == 0.0 for s in tail):
-        fail(f"no zero-force fallback after silence: {[(s.actuator_force, s.command_stale) for s in tail]}")
+    before, after = pump.refused(send(float("nan")), "NaN commands")
+    pump.falls_back(args.stale_wait)
     print(json.dumps({"applied_samples": len(applied), "refused_before": before, "refused_after": after,
                       "stale_fallback": True}))
 
 
 def cmd_joint_command(args):
     dp = participant()
-    reader = DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE)
-    js_reader = DataReader(dp, Topic(dp, "rt/joint_states", JointState), qos=RELIABLE)
-    writer = DataWriter(dp, Topic(dp, "rt/capsule/joint_commands", JointState), qos=RELIABLE)
-    latest = [None]
+    js_reader = reader(dp, "joint_states", T.JointState)
     joint_states = []
+    pump = Pump(dp, also=lambda: joint_states.extend(js_reader.take(N=64)))
+    w = writer(dp, "capsule/joint_commands", T.JointState)
 
-    def command(names, efforts):
-        now = time.time()
-        writer.write(JointState(header=Header(stamp=Time(sec=int(now), nanosec=int((now % 1) * 1e9)), frame_id=""),
-                                name=names, position=[], velocity=[], effort=efforts))
+    def send(names, efforts):
+        def command(_):
+            now = time.time()
+            w.write(T.JointState(header=T.Header(stamp=T.Time(sec=int(now), nanosec=int((now % 1) * 1e9)), frame_id=""),
+                                 name=names, position=[], velocity=[], effort=efforts))
+        return command
 
-    def pump(seconds, names=None, efforts=None):
-        end = time.time() + seconds
-        seen = []
-        while time.time() < end:
-            for s in reader.take(N=64):
-                latest[0] = s
-                seen.append(s)
-            joint_states.extend(js_reader.take(N=64))
-            if names is not None:
-                command(names, efforts)
-            time.sleep(0.005)
-        return seen
-
-    pump(1.0)
-    if latest[0] is None:
-        fail("no state from the plant")
+    pump.first_state(w)
     f = args.effort
     # both joints named, as topic_based_ros2_control sends them when both have an effort
     # interface: the plant must pick inner_mass_joint's by name
-    seen = pump(1.0, ["capsule_joint", "inner_mass_joint"], [9.0, f])
-    applied = [s for s in seen if not s.command_stale and abs(s.actuator_force - f) < 1e-9]
-    if len(applied) < 5:
-        fail(f"plant did not apply the effort {f} N: last {[(s.actuator_force, s.command_stale) for s in seen[-5:]]}")
+    applied = pump.applied(send(["capsule_joint", "inner_mass_joint"], [9.0, f]), f,
+                           f"the effort {f} N")
     efforts = [js.effort[list(js.name).index("inner_mass_joint")] for js in joint_states
                if "inner_mass_joint" in js.name and len(js.effort) == len(js.name)]
     if not any(abs(e - f) < 1e-9 for e in efforts):
         fail(f"joint_states never showed inner_mass_joint's effort {f} ({len(joint_states)} joint states, last efforts {efforts[-3:]})")
-    before = seen[-1].rejected_commands
-    seen = pump(0.3, ["inner_mass_joint"], [float("nan")]) + pump(0.3)
-    after = seen[-1].rejected_commands if seen else before
-    if after <= before:
-        fail(f"NaN efforts not counted as refused ({before} -> {after})")
-    if any(not math.isfinite(s.actuator_force) for s in seen):
-        fail("a NaN effort reached the simulation")
-    seen = pump(0.5, ["wheel_joint"], [-f])
+    before, after = pump.refused(send(["inner_mass_joint"], [float("nan")]), "NaN efforts")
+    seen = pump.run(0.5, send(["wheel_joint"], [-f]))
     if any(abs(s.actuator_force + f) < 1e-12 for s in seen):
         fail("a command for another joint was applied")
-    seen = pump(args.stale_wait)
-    tail = seen[-3:]
-    if not tail or not all(s.command_stale and s.actuator_force == 0.0 for s in tail):
-        fail(f"no zero-force fallback after silence: {[(s.actuator_force, s.command_stale) for s in tail]}")
+    pump.falls_back(args.stale_wait)
     print(json.dumps({"applied_samples": len(applied), "joint_states_effort_seen": True,
                       "refused_before": before, "refused_after": after, "stale_fallback": True}))
 
@@ -534,74 +427,64 @@ def cmd_joint_command(args):
 def cmd_status(args):
     """Waits for a status with at least --periods complete periods and prints it."""
     dp = participant()
-    reader = DataReader(dp, Topic(dp, "rt/capsule_controller/status", ControllerStatus), qos=RELIABLE)
-    deadline = time.time() + args.timeout
-    last = None
-    while time.time() < deadline:
-        for st in reader.take(N=16):
-            last = st
-        if last is not None and last.periods >= args.periods:
-            print(json.dumps({k: getattr(last, k) for k in (
-                "mode", "mode_name", "gain", "drive_amplitude", "drive_frequency", "commanding",
-                "commands_sent", "periods", "progression_per_period", "progression_per_period_m",
-                "mean_speed", "efficiency", "switch_state", "switch_tries", "orbit_period")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
-            return
-        time.sleep(0.01)
-    fail(f"no status with {args.periods} periods within {args.timeout} s (last: {last})")
+    got = wait_for(reader(dp, "capsule_controller/status", T.ControllerStatus),
+                   lambda got: got and got[-1].periods >= args.periods, args.timeout, 0.01, n=16)
+    last = got[-1] if got else None
+    if last is None or last.periods < args.periods:
+        fail(f"no status with {args.periods} periods within {args.timeout} s (last: {last})")
+    print(json.dumps({k: getattr(last, k) for k in (
+        "mode", "mode_name", "gain", "drive_amplitude", "drive_frequency", "commanding",
+        "commands_sent", "periods", "progression_per_period", "progression_per_period_m",
+        "mean_speed", "efficiency", "switch_state", "switch_tries", "orbit_period")} | {"stamp_s": last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec}))
+
+
+class ServiceClient:
+    """Calls SERVICE in the rmw_cyclonedds request/reply mapping: the request again (with a new
+    sequence number) every 0.5 s until the reply to it comes, for at most TIMEOUT s."""
+
+    def __init__(self, dp, service, req, resp, timeout):
+        self.service = service.strip("/")
+        self.req, self.timeout = req, timeout
+        self.writer = DataWriter(dp, Topic(dp, f"rq/{self.service}Request", req), qos=RELIABLE)
+        self.reader = DataReader(dp, Topic(dp, f"rr/{self.service}Reply", resp), qos=RELIABLE)
+        self.guid = random.getrandbits(63)
+        self.seq = 0
+
+    def call(self, **fields):
+        deadline = time.time() + self.timeout
+        while time.time() < deadline:
+            self.seq += 1
+            self.writer.write(self.req(client_guid=self.guid, sequence=self.seq, **fields))
+            end = min(deadline, time.time() + 0.5)
+            while time.time() < end:
+                for r in self.reader.take(N=16):
+                    if r.client_guid == self.guid and r.sequence == self.seq:
+                        return r
+                time.sleep(0.005)
+        fail(f"no /{self.service} reply within {self.timeout} s")
 
 
 def cmd_set_mode(args):
     dp = participant()
-    svc = args.service.strip("/")
-    writer = DataWriter(dp, Topic(dp, f"rq/{svc}Request", SetModeRequest), qos=RELIABLE)
-    reader = DataReader(dp, Topic(dp, f"rr/{svc}Reply", SetModeResponse), qos=RELIABLE)
-    guid = random.getrandbits(63)
-    seq = 1
-    deadline = time.time() + args.timeout
-    while time.time() < deadline:
-        writer.write(SetModeRequest(client_guid=guid, sequence=seq, mode=args.mode, gain=args.gain,
-                                    effective_from=Time(sec=0, nanosec=0),
-                                    pulse_periods=args.pulse_periods, target_period=args.target_period,
-                                    max_tries=args.max_tries))
-        end = min(deadline, time.time() + 0.5)
-        while time.time() < end:
-            for r in reader.take(N=16):
-                if r.client_guid == guid and r.sequence == seq:
-                    print(json.dumps({"accepted": r.accepted, "mode": r.mode, "gain": r.gain,
-                                      "reason": r.reason}))
-                    return
-            time.sleep(0.01)
-        seq += 1
-    fail(f"no set_mode reply within {args.timeout} s")
-
-
-@dataclass
-@annotate.final
-class ForeignType(IdlStruct, typename="std_msgs::msg::dds_::String_"):
-    data: str
-
-
-@dataclass
-@annotate.final
-class ForeignLayout(IdlStruct, typename="capsule_msgs::msg::dds_::ActuatorForce_"):
-    x: uint8
+    r = ServiceClient(dp, args.service, T.SetMode_Request, T.SetMode_Response, args.timeout).call(
+        mode=args.mode, gain=args.gain, effective_from=T.Time(sec=0, nanosec=0),
+        pulse_periods=args.pulse_periods, target_period=args.target_period,
+        max_tries=args.max_tries)
+    print(json.dumps({"accepted": r.accepted, "mode": r.mode, "gain": r.gain, "reason": r.reason}))
 
 
 def cmd_inject(args):
     dp = participant()
-    reader = DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE)
-    writer = DataWriter(dp, Topic(dp, "rt/capsule/actuator_force", ActuatorForce), qos=RELIABLE)
-    latest = None
+    states = reader(dp, "capsule/state", T.CapsuleState)
+    w = writer(dp, "capsule/actuator_force", T.ActuatorForce)
     deadline = time.time() + args.timeout
-    while latest is None and time.time() < deadline:
-        for s in reader.take(N=64):
-            latest = s
-        time.sleep(0.002)
-    if latest is None:
+    got = wait_for(states, bool, args.timeout, 0.002)
+    if not got:
         fail("no state from the plant")
+    latest = got[-1]
     # the state came through, but our writer may not have matched the plant's reader yet: a
     # volatile write before that is lost (on a loaded host the single future-stamped command was)
-    while writer.get_publication_matched_status().current_count < 1:
+    while w.get_publication_matched_status().current_count < 1:
         if time.time() > deadline:
             fail("the plant's force reader never matched")
         time.sleep(0.01)
@@ -621,17 +504,16 @@ def cmd_inject(args):
                 received < args.min_states and time.time() < start + args.timeout):
             if cmd is None or time.time() - last_take >= 0.0005:  # a take costs more than a write
                 last_take = time.time()
-                for s in reader.take(N=64):
+                for s in states.take(N=64):
                     gaps += max(0, s.seq - latest.seq - 1)
                     received += 1
                     max_applied = max(max_applied, abs(s.actuator_force))
                     finite = finite and all(math.isfinite(getattr(s, k)) for k in (
                         "mass_position", "mass_velocity", "capsule_position", "capsule_velocity"))
                     latest = s
-                stamp = latest.header.stamp if args.stamp_sec is None else Time(sec=args.stamp_sec, nanosec=0)
-                cmd = ActuatorForce(header=Header(stamp=stamp, frame_id="odom"), state_seq=latest.seq,
-                                    force=force)
-            writer.write(cmd)
+                stamp = latest.header.stamp if args.stamp_sec is None else T.Time(sec=args.stamp_sec, nanosec=0)
+                cmd = force_command(stamp, latest.seq, force)
+            w.write(cmd)
             sent += 1
             next_at += period
             # pace: sleep when ahead (Python's sleep is too coarse for 20 kHz: spin then)
@@ -648,11 +530,11 @@ def cmd_inject(args):
             refused_before = start_refused
             resend_at = time.time() + 0.5
             while latest.rejected_commands <= refused_before and time.time() < start + args.timeout:
-                for s in reader.take(N=64):
+                for s in states.take(N=64):
                     received += 1
                     latest = s
                 if time.time() >= resend_at:
-                    writer.write(cmd)
+                    w.write(cmd)
                     sent += 1
                     resend_at = time.time() + 0.5
                 time.sleep(0.002)
@@ -667,59 +549,51 @@ def cmd_inject(args):
                               "rejected_commands": latest.rejected_commands}}), flush=True)
 
 
+# what the plant cannot take on its force topic: the ActuatorForce name with another layout
+FOREIGN_LAYOUT = idl_type("capsule_msgs/msg/ActuatorForce", "uint8 x", TYPES)
+
+
 def cmd_foreign(args):
     dp = participant()
-    ty, make = {"type": (ForeignType, lambda i: ForeignType(data=f"not a force {i}")),
-                "layout": (ForeignLayout, lambda i: ForeignLayout(x=i % 256))}[args.kind]
-    writer = DataWriter(dp, Topic(dp, "rt/capsule/actuator_force", ty), qos=RELIABLE)
+    ty, make = {"type": (T.String, lambda i: T.String(data=f"not a force {i}")),
+                "layout": (FOREIGN_LAYOUT, lambda i: FOREIGN_LAYOUT(x=i % 256))}[args.kind]
+    w = writer(dp, "capsule/actuator_force", ty)
     end = time.time() + args.seconds
     sent = 0
     while time.time() < end:
-        writer.write(make(sent))
+        w.write(make(sent))
         sent += 1
         time.sleep(0.001)
     print(json.dumps({"kind": args.kind, "sent": sent}))
+
+
 class ParamClient:
     """Calls a node's rcl_interfaces parameter services (rmw_cyclonedds mapping)."""
 
     def __init__(self, dp, node, timeout):
         self.node = "/" + node.strip("/")
-        self.timeout = timeout
-        self.guid = random.getrandbits(63)
-        self.seq = 0
-        self.ends = {}
-        for svc, (req, resp) in PARAM_SRV.items():
-            base = f"{self.node.strip('/')}/{svc}"
-            self.ends[svc] = (req, DataWriter(dp, Topic(dp, f"rq/{base}Request", req), qos=RELIABLE),
-                              DataReader(dp, Topic(dp, f"rr/{base}Reply", resp), qos=RELIABLE))
+        self.services = {svc: ServiceClient(dp, f"{self.node}/{svc}", req, resp, timeout)
+                         for svc, (req, resp) in PARAM_SRV.items()}
 
     def call(self, svc, **fields):
-        req, writer, reader = self.ends[svc]
-        deadline = time.time() + self.timeout
-        while time.time() < deadline:
-            self.seq += 1
-            writer.write(req(client_guid=self.guid, sequence=self.seq, **fields))
-            end = min(deadline, time.time() + 0.5)
-            while time.time() < end:
-                for r in reader.take(N=16):
-                    if r.client_guid == self.guid and r.sequence == self.seq:
-                        return r
-                time.sleep(0.005)
-        fail(f"no {svc} reply from {self.node} within {self.timeout} s")
+        return self.services[svc].call(**fields)
 
     def get(self, *names):
         return [pyvalue(v) for v in self.call("get_parameters", names=list(names)).values]
 
     def set(self, name, value):
-        r = self.call("set_parameters", parameters=[Parameter(name=name, value=pvalue(value))])
+        r = self.call("set_parameters", parameters=[T.Parameter(name=name, value=pvalue(value))])
         return r.results[0]
 
 
-def take_events(reader, node, wait):
-    end = time.time() + wait
+def take_events(r, node, wait, until=None, timeout=5.0):
+    """NODE's parameter changes on /parameter_events for WAIT s and, with UNTIL, until one of
+    them changes that parameter (at most TIMEOUT s: it can come late on a loaded host)."""
+    start = time.time()
     out = []
-    while time.time() < end:
-        for e in reader.take(N=64):
+    while time.time() < start + wait or (until is not None and not any(until in e for e in out)
+                                         and time.time() < start + timeout):
+        for e in r.take(N=64):
             if e.node == node:
                 out.append({p.name: pyvalue(p.value) for p in e.changed_parameters})
         time.sleep(0.01)
@@ -733,9 +607,7 @@ def cmd_params(args):
     --refuse NAME=VALUE (must be refused with a reason, nothing changed, no event)
     Prints one JSON line with what it saw."""
     dp = participant()
-    events = DataReader(dp, Topic(dp, "rt/parameter_events", ParameterEvent),
-                        qos=Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
-                                Policy.Durability.Volatile, Policy.History.KeepLast(1000)))
+    events = reader(dp, "parameter_events", T.ParameterEvent, reliable(depth=1000))
     c = ParamClient(dp, args.node, args.timeout)
     names = list(c.call("list_parameters", prefixes=[], depth=0).result.names)
     out = {"names": names}
@@ -746,7 +618,11 @@ def cmd_params(args):
     out["read_only"] = {d.name: d.read_only for d in descs}
     out["ranges"] = {d.name: [d.floating_point_range[0].from_value, d.floating_point_range[0].to_value]
                      for d in descs if d.floating_point_range}
-    take_events(events, c.node, 0.3)  # the reader has matched; drop what came before
+    # the events reader must know the node's writer before the first set (at most --timeout s)
+    deadline = time.time() + args.timeout
+    while events.get_subscription_matched_status().current_count < 1 and time.time() < deadline:
+        time.sleep(0.01)
+    take_events(events, c.node, 0.3)  # drop what came before
     out["set"] = []
     for item in args.set:
         name, value = item.split("=", 1)
@@ -755,7 +631,7 @@ def cmd_params(args):
         if not r.successful:
             fail(f"set {name}={value!r} refused: {r.reason}")
         after = c.get(name)[0]
-        evs = take_events(events, c.node, 0.5)
+        evs = take_events(events, c.node, 0.5, until=name)
         if not any(name in e for e in evs):
             fail(f"no /parameter_events for {name} after setting it: {evs}")
         out["set"].append({"name": name, "value": value, "now": after, "events": evs})
@@ -778,8 +654,8 @@ def cmd_params(args):
     if args.set:
         name, value = args.set[0].split("=", 1)
         r = c.call("set_parameters_atomically",
-                   parameters=[Parameter(name=name, value=pvalue(json.loads(value))),
-                               Parameter(name="no_such", value=pvalue(1.0))]).result
+                   parameters=[T.Parameter(name=name, value=pvalue(json.loads(value))),
+                               T.Parameter(name="no_such", value=pvalue(1.0))]).result
         if r.successful:
             fail("set_parameters_atomically with an unknown name succeeded")
         out["atomic_refused"] = r.reason
@@ -790,26 +666,24 @@ def cmd_views(args):
     """Reads the plant's standard-type views beside rt/capsule/state and checks each against
     the state sample with the same stamp; --absent NAME... must stay silent. Prints JSON."""
     dp = participant()
-    latched = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
-                  Policy.Durability.TransientLocal, Policy.History.KeepLast(1))
     readers = {
-        "state": DataReader(dp, Topic(dp, "rt/capsule/state", CapsuleState), qos=RELIABLE),
-        "joint_states": DataReader(dp, Topic(dp, "rt/joint_states", JointState), qos=RELIABLE),
-        "tf": DataReader(dp, Topic(dp, "rt/tf", TFMessage), qos=RELIABLE),
-        "diagnostics": DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=RELIABLE),
-        "robot_description": DataReader(dp, Topic(dp, "rt/robot_description", String), qos=latched),
+        "state": reader(dp, "capsule/state", T.CapsuleState),
+        "joint_states": reader(dp, "joint_states", T.JointState),
+        "tf": reader(dp, "tf", T.TFMessage),
+        "diagnostics": reader(dp, "diagnostics", T.DiagnosticArray),
+        # latched: a late reader must get it
+        "robot_description": reader(dp, "robot_description", T.String,
+                                    reliable(Policy.Durability.TransientLocal, 1)),
     }
     got = {k: [] for k in readers}
-    # discovery can take seconds on a loaded host: count from the first state sample
-    start = time.time()
-    deadline = start + args.timeout
-    while time.time() < deadline:
+
+    def take():
         for k, r in readers.items():
             got[k].extend(r.take(N=256))
-        if got["state"] and deadline - start > args.seconds:
-            start = time.time()
-            deadline = start + args.seconds
-        time.sleep(0.005)
+        return bool(got["state"])
+
+    # counted from the first state sample
+    read_window(take, args.seconds, args.timeout, 0.005)
     if not got["state"]:
         fail(f"no state sample within {args.timeout} s")
     stamp = lambda h: (h.stamp.sec, h.stamp.nanosec)
@@ -818,37 +692,45 @@ def cmd_views(args):
     for name in args.absent:
         if got[name]:
             fail(f"{name} is switched off but {len(got[name])} messages came")
+
+    def matched(view, header_of, check):
+        """CHECK(message, the state sample of its stamp or None) on each message of VIEW; at
+        least 10 must have a state sample. Returns how many had one."""
+        n = 0
+        for m in got[view]:
+            s = states.get(stamp(header_of(m)))
+            check(m, s)
+            n += s is not None
+        if n < 10:
+            fail(f"only {n} {view} messages matched a state sample ({len(states)} states, "
+                 f"{len(got[view])} {view}; first stamps {list(states)[:3]}, "
+                 f"{[stamp(header_of(m)) for m in got[view][:3]]})")
+        return n
+
+    def joint_state(js, s):
+        if list(js.name) != ["capsule_joint", "inner_mass_joint"]:
+            fail(f"joint names {js.name}")
+        if s is None:
+            return
+        want = ([s.capsule_position, s.mass_position - s.capsule_position],
+                [s.capsule_velocity, s.mass_velocity - s.capsule_velocity],
+                [s.friction_force, s.actuator_force])
+        if (list(js.position), list(js.velocity), list(js.effort)) != want:
+            fail(f"joint state {js} does not map state {s}")
+
+    def tf(m, s):
+        t = m.transforms[0]
+        if (t.header.frame_id, t.child_frame_id) != ("odom", "capsule"):
+            fail(f"tf {t.header.frame_id} -> {t.child_frame_id}")
+        if s is None:
+            return
+        if t.transform.translation.x != s.capsule_position or t.transform.rotation.w != 1.0:
+            fail(f"tf {t.transform} does not place the capsule of {s}")
+
     if "joint_states" not in args.absent:
-        matched = 0
-        for js in got["joint_states"]:
-            if list(js.name) != ["capsule_joint", "inner_mass_joint"]:
-                fail(f"joint names {js.name}")
-            s = states.get(stamp(js.header))
-            if s is None:
-                continue
-            want = ([s.capsule_position, s.mass_position - s.capsule_position],
-                    [s.capsule_velocity, s.mass_velocity - s.capsule_velocity],
-                    [s.friction_force, s.actuator_force])
-            if (list(js.position), list(js.velocity), list(js.effort)) != want:
-                fail(f"joint state {js} does not map state {s}")
-            matched += 1
-        if matched < 10:
-            fail(f"only {matched} joint states matched a state sample ({len(states)} states, {len(got['joint_states'])} joint states)")
-        out["joint_states_matched"] = matched
+        out["joint_states_matched"] = matched("joint_states", lambda js: js.header, joint_state)
     if "tf" not in args.absent:
-        matched = 0
-        for m in got["tf"]:
-            t = m.transforms[0]
-            if (t.header.frame_id, t.child_frame_id) != ("odom", "capsule"):
-                fail(f"tf {t.header.frame_id} -> {t.child_frame_id}")
-            s = states.get(stamp(t.header))
-            if s is not None:
-                if t.transform.translation.x != s.capsule_position or t.transform.rotation.w != 1.0:
-                    fail(f"tf {t.transform} does not place the capsule of {s}")
-                matched += 1
-        if matched < 10:
-            fail(f"only {matched} tf messages matched a state sample ({len(states)} states, {list(states)[:3]}, tf {[stamp(m.transforms[0].header) for m in got['tf'][:3]]})")
-        out["tf_matched"] = matched
+        out["tf_matched"] = matched("tf", lambda m: m.transforms[0].header, tf)
     if "robot_description" not in args.absent:
         if not got["robot_description"]:
             fail("no robot_description (transient local: a late reader must get it)")
@@ -873,16 +755,14 @@ def cmd_diagnostics(args):
     """Reads /diagnostics for --seconds (counted from the first array) and prints the last
     status of each --name (a node's statuses are named "NODE: ..."); fails if one is missing."""
     dp = participant()
-    r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=RELIABLE)
+    r = reader(dp, "diagnostics", T.DiagnosticArray)
     got = []
-    start = time.time()
-    deadline = start + args.timeout
-    while time.time() < deadline:
+
+    def take():
         got.extend(r.take(N=64))
-        if got and deadline - start > args.seconds:
-            start = time.time()
-            deadline = start + args.seconds
-        time.sleep(0.02)
+        return bool(got)
+
+    read_window(take, args.seconds, args.timeout, 0.02)
     last = {}
     for m in got:
         for st in m.status:
@@ -897,53 +777,46 @@ def cmd_diagnostics(args):
     print(json.dumps(out))
 
 
+def options(parser, type, help=None, **defaults):
+    """Adds --NAME options of TYPE with their defaults (NAME's '_' spelt '-'); returns PARSER."""
+    for name, default in defaults.items():
+        parser.add_argument("--" + name.replace("_", "-"), type=type, default=default, help=help)
+    return parser
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
-    a = sub.add_parser("state")
-    a.add_argument("--samples", type=int, default=50)
-    a.add_argument("--timeout", type=float, default=15.0)
-    a = sub.add_parser("force")
-    a.add_argument("--force", type=float, default=0.123)
-    a.add_argument("--stale-wait", type=float, default=1.5)
-    a = sub.add_parser("joint-command")
-    a.add_argument("--effort", type=float, default=0.123)
-    a.add_argument("--stale-wait", type=float, default=1.5)
-    a = sub.add_parser("status")
-    a.add_argument("--periods", type=int, default=10)
-    a.add_argument("--timeout", type=float, default=60.0)
+    options(options(sub.add_parser("state"), int, samples=50), float, timeout=15.0)
+    options(sub.add_parser("force"), float, force=0.123, stale_wait=1.5)
+    options(sub.add_parser("joint-command"), float, effort=0.123, stale_wait=1.5)
+    options(options(sub.add_parser("status"), int, periods=10), float, timeout=60.0)
     a = sub.add_parser("set-mode")
     a.add_argument("mode", type=int)
     a.add_argument("gain", type=float)
-    a.add_argument("--pulse-periods", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
-    a.add_argument("--target-period", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
-    a.add_argument("--max-tries", type=int, default=0, help="SWITCH_ATTRACTOR (mode 5) only")
-    a.add_argument("--service", default="/capsule_controller/set_mode")
-    a.add_argument("--timeout", type=float, default=15.0)
+    options(a, int, "SWITCH_ATTRACTOR (mode 5) only", pulse_periods=0, target_period=0, max_tries=0)
+    options(a, str, service="/capsule_controller/set_mode")
+    options(a, float, timeout=15.0)
     a = sub.add_parser("inject")
     a.add_argument("--force", required=True, help="F, or F1,F2,... one phase each")
-    a.add_argument("--seconds", type=float, default=1.0, help="per phase")
-    a.add_argument("--hz", type=float, default=1000.0)
-    a.add_argument("--stamp-sec", type=int, default=None)
-    a.add_argument("--min-states", type=int, default=0, help="per phase, states received at least")
+    options(a, float, "per phase", seconds=1.0)
+    options(a, float, hz=1000.0, timeout=15.0)
+    options(a, int, stamp_sec=None)
+    options(a, int, "per phase, states received at least", min_states=0)
     a.add_argument("--until-refused", action="store_true",
                    help="resend until a state shows the plant refused the command")
-    a.add_argument("--timeout", type=float, default=15.0)
     a = sub.add_parser("foreign")
     a.add_argument("--kind", choices=["type", "layout"], required=True)
-    a.add_argument("--seconds", type=float, default=1.0)
+    options(a, float, seconds=1.0)
     a = sub.add_parser("params")
     a.add_argument("--node", default="/capsule_controller")
-    a.add_argument("--set", action="append", default=[], metavar="NAME=JSON")
-    a.add_argument("--refuse", action="append", default=[], metavar="NAME=JSON")
-    a.add_argument("--timeout", type=float, default=15.0)
+    for name in ("--set", "--refuse"):
+        a.add_argument(name, action="append", default=[], metavar="NAME=JSON")
+    options(a, float, timeout=15.0)
     a = sub.add_parser("diagnostics")
     a.add_argument("--name", nargs="+", required=True)
-    a.add_argument("--seconds", type=float, default=2.5)
-    a.add_argument("--timeout", type=float, default=30.0)
-    a = sub.add_parser("views")
-    a.add_argument("--seconds", type=float, default=3.0)
-    a.add_argument("--timeout", type=float, default=30.0)
+    options(a, float, seconds=2.5, timeout=30.0)
+    a = options(sub.add_parser("views"), float, seconds=3.0, timeout=30.0)
     a.add_argument("--absent", nargs="*", default=[])
     args = p.parse_args()
     {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode,

@@ -5,35 +5,52 @@
 //! (`tests/peers/cyclone_peer.py inject|foreign`). Assertions leave room for a loaded host
 //! (lost samples are not what these cases check).
 
-use super::harness::{json_number, json_raw, netns, Run};
+use super::harness::{assert_at_least, assert_contains, json_number, json_raw, netns, Run};
 
 /// The plant's summary JSON line (the first stdout line starting with `{"samples"`).
 fn summary(run: &Run) -> &str {
-    run.stdout
-        .lines()
-        .find(|l| l.starts_with("{\"samples\""))
-        .unwrap_or_else(|| panic!("no plant summary\n{}", run.all()))
+    run.line("{\"samples\"")
 }
 
-/// The peer's JSON line whose key `key` is present.
-fn peer_json<'a>(run: &'a Run, key: &str) -> &'a str {
-    run.stdout
-        .lines()
-        .find(|l| l.starts_with('{') && l.contains(&format!("\"{key}\"")))
-        .unwrap_or_else(|| panic!("no peer output with {key}\n{}", run.all()))
+/// The plant's summary, which must show that it was commanded at its end (`command_stale`
+/// false: the controller's commands were not lost).
+#[track_caller]
+fn commanded(run: &Run) -> &str {
+    let j = summary(run);
+    assert_eq!(json_raw(j, "command_stale"), Some("false"), "{j}");
+    j
 }
 
-const PEER: &str = "python3 $ROOT/tests/peers/cyclone_peer.py";
+/// The number the script printed after `{what} log lines: ` (not a number: u32::MAX).
+fn log_lines(run: &Run, what: &str) -> u32 {
+    run.after(&format!("{what} log lines: "))
+        .trim()
+        .parse()
+        .unwrap_or(u32::MAX)
+}
 
 /// Where the zero-force watchdog is not what a case checks, the plant waits 1 s for it (not the
 /// scene's 0.1 s), so a loaded host's stalls do not trip it.
 const LAX: &str = "--command-timeout-s 1";
 
-/// Runs a case's script in its namespace, with `$PEER` and `$LAX` filled in.
+/// A plant that runs until the case's script stops it (pid `$P`), its summary in `$TMP/p.json`,
+/// its log in `$TMP/p.log`.
+const PLANT: &str = "start_plant --until-s 300 --summary-json $TMP/p.json 2> $TMP/p.log";
+
+/// Runs a case's script in its namespace, with `$PLANT` and `$LAX` filled in.
 fn case(timeout_s: u32, script: &str) -> Run {
     netns(
         timeout_s,
-        &script.replace("$PEER", PEER).replace("$LAX", LAX),
+        &script.replace("$PLANT", PLANT).replace("$LAX", LAX),
+    )
+}
+
+/// [`case`] with a controller in forward mode started first (pid `$C`, its stderr in
+/// `$TMP/ctl.log`); the script stops it.
+fn controlled(timeout_s: u32, script: &str) -> Run {
+    case(
+        timeout_s,
+        &format!("start_controller --mode forward 2> $TMP/ctl.log\n{script}"),
     )
 }
 
@@ -41,59 +58,48 @@ fn case(timeout_s: u32, script: &str) -> Run {
 fn a_restarted_plant_is_commanded_from_its_first_samples() {
     // before the fix the new plant waited until its seq passed the killed one's (~1500 here):
     // within its 1 s run it was never answered
-    let run = case(
+    let run = controlled(
         90,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2> $TMP/ctl.log &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 20 2>/dev/null &
-        P=$!
+        start_plant --until-s 20 2>/dev/null
         sleep 2
         kill -KILL $P; wait $P 2>/dev/null
         $B/capsule_plant --scene "$SCENE" --until-s 1 --wait-subscribers 1 $LAX \
             --summary-json $TMP/p2.json 2>/dev/null
         echo "plant2 rc=$?"
         cat $TMP/p2.json
-        kill -TERM $C; wait $C
+        stop $C
         cat $TMP/ctl.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant2 rc=0"), "{all}");
-    let j = summary(&run);
+    run.assert_stdout(&["plant2 rc=0", "a new plant publishes"]);
+    let j = commanded(&run);
     let before = json_number(j, "before_first_answer").unwrap_or(f64::NAN);
     assert!(before <= 20.0, "first answer after {before} samples: {j}");
-    assert_eq!(json_raw(j, "command_stale"), Some("false"), "{j}");
-    assert!(run.stdout.contains("a new plant publishes"), "{all}");
 }
 
 #[test]
 fn a_killed_controller_means_zero_force_and_its_successor_resumes() {
-    let run = case(
+    // the successor has 3.5 s of the plant's run to take over (a loaded host's start and
+    // discovery can take more than a second)
+    let run = controlled(
         90,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 4 --summary-json $TMP/p.json 2> $TMP/p.log &
-        P=$!
+        start_plant --until-s 6 --summary-json $TMP/p.json 2> $TMP/p.log
         sleep 2
         kill -KILL $C; wait $C 2>/dev/null
         sleep 0.5
-        $B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
-        C=$!
+        start_controller --mode forward 2>/dev/null
         wait $P; echo "plant rc=$?"
-        kill -TERM $C; wait $C
+        stop $C
         cat $TMP/p.json; cat $TMP/p.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
+    run.assert_stdout(&["plant rc=0"]);
+    // the fallback, then commanded again
     let zero = run
         .stdout
         .find("applying zero force")
-        .unwrap_or_else(|| panic!("no fallback\n{all}"));
-    assert!(
-        run.stdout[zero..].contains("applying commanded force"),
-        "not commanded again after the fallback\n{all}"
-    );
+        .unwrap_or_else(|| panic!("no fallback\n{}", run.all()));
+    assert_contains(&run.stdout[zero..], &["applying commanded force"]);
 }
 
 #[test]
@@ -102,50 +108,35 @@ fn huge_and_non_finite_forces_never_kill_the_plant() {
     let run = case(
         120,
         r#"
-        $B/capsule_plant --scene "$SCENE" --until-s 300 --summary-json $TMP/p.json 2> $TMP/p.log &
-        P=$!
-        $PEER inject --force=nan,inf,1e308,-1e308,1000 --seconds 0.5 --min-states 50 \
+        $PLANT
+        peer inject --force=nan,inf,1e308,-1e308,1000 --seconds 0.5 --min-states 50 \
             || echo "peer failed"
-        kill -TERM $P; wait $P; echo "plant rc=$?"
+        stop $P; echo "plant rc=$?"
         cat $TMP/p.json
         echo "saturation log lines: $(grep -c 'beyond the force limit' $TMP/p.log)"
         echo "refusal log lines: $(grep -c 'command refused' $TMP/p.log)""#,
     );
     let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
+    run.assert_stdout(&["plant rc=0"]);
     assert!(!run.stdout.contains("peer failed"), "{all}");
     let j = summary(&run);
-    assert!(
-        json_number(j, "saturated_commands").unwrap_or(0.0) >= 3.0,
-        "{j}"
-    );
-    assert!(
-        json_number(j, "rejected_commands").unwrap_or(0.0) >= 2.0,
-        "NaN and inf: {j}"
-    );
+    assert_at_least(j, "saturated_commands", 3.0);
+    // NaN and inf
+    assert_at_least(j, "rejected_commands", 2.0);
     // 1e308, -1e308 and 1000 N: applied saturated at 100 P_f = 10 N; every state finite
-    let phases: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("{\"force\""))
-        .collect();
+    let phases = run.lines_starting("{\"force\"");
     assert_eq!(phases.len(), 5, "{all}");
     for p in &phases {
         assert_eq!(json_raw(p, "finite"), Some("true"), "{p}");
         // each phase waited for 50 states (a loaded CI host once delivered none in 0.5 s)
-        assert!(json_number(p, "received").unwrap_or(0.0) >= 50.0, "{p}");
+        assert_at_least(p, "received", 50.0);
     }
     for p in &phases[2..] {
         assert_eq!(json_number(p, "max_abs_applied"), Some(10.0), "{p}");
     }
     // logged rate-limited: hundreds of commands, a few lines
     for what in ["saturation", "refusal"] {
-        let n: u32 = run
-            .stdout
-            .lines()
-            .find_map(|l| l.strip_prefix(&format!("{what} log lines: ")))
-            .and_then(|n| n.trim().parse().ok())
-            .unwrap_or(u32::MAX);
+        let n = log_lines(&run, what);
         assert!((1..=25).contains(&n), "{what}: {n} lines\n{all}");
     }
 }
@@ -153,26 +144,25 @@ fn huge_and_non_finite_forces_never_kill_the_plant() {
 #[test]
 fn a_command_stamped_in_the_far_future_blocks_nothing() {
     // before the fix every later command was refused as late and the force went to 0
-    let run = case(
+    let run = controlled(
         120,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2> $TMP/ctl.log &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 300 $LAX --summary-json $TMP/p.json 2>/dev/null &
-        P=$!
-        $PEER inject --force 0.05 --seconds 0 --stamp-sec 2147483647 --until-refused >/dev/null
+        $PLANT $LAX
+        peer inject --force 0.05 --seconds 0 --stamp-sec 2147483647 --until-refused >/dev/null
         sleep 1
-        kill -TERM $P; wait $P; echo "plant rc=$?"
-        kill -TERM $C; wait $C
+        stop $P; echo "plant rc=$?"
+        stop $C
         cat $TMP/p.json; cat $TMP/ctl.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
-    let j = summary(&run);
+    run.assert_stdout(&["plant rc=0"]);
+    let j = commanded(&run);
     let refused = json_number(j, "rejected_commands").unwrap_or(f64::NAN);
     assert!((1.0..=3.0).contains(&refused), "refused {refused}: {j}");
-    assert_eq!(json_raw(j, "command_stale"), Some("false"), "{j}");
-    assert!(!run.stdout.contains("does not take our commands"), "{all}");
+    assert!(
+        !run.stdout.contains("does not take our commands"),
+        "{}",
+        run.all()
+    );
 }
 
 /// A burst of commands far above the sample rate (20 kHz asked; what the Python peer reaches
@@ -185,15 +175,13 @@ fn a_command_burst_is_taken_newest_first_and_repeats_are_not_refused() {
     let run = case(
         120,
         r#"
-        $B/capsule_plant --scene "$SCENE" --until-s 300 --summary-json $TMP/p.json 2>/dev/null &
-        P=$!
-        $PEER inject --force 0.05 --hz 20000 --seconds 2
-        kill -TERM $P; wait $P; echo "plant rc=$?"
+        $PLANT
+        peer inject --force 0.05 --hz 20000 --seconds 2
+        stop $P; echo "plant rc=$?"
         cat $TMP/p.json"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
-    let peer = peer_json(&run, "sent");
+    run.assert_stdout(&["plant rc=0"]);
+    let peer = run.json_with("sent");
     println!("burst: {peer}");
     assert_eq!(json_number(peer, "max_abs_applied"), Some(0.05), "{peer}");
     let j = summary(&run);
@@ -203,72 +191,53 @@ fn a_command_burst_is_taken_newest_first_and_repeats_are_not_refused() {
 #[test]
 fn a_second_plant_of_the_same_name_is_reported_by_both_nodes() {
     // before the fix nothing said so (the second plant applied the first one's commands)
-    let run = case(
+    let run = controlled(
         90,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2> $TMP/ctl.log &
-        C=$!
         $B/capsule_plant --scene "$SCENE" --until-s 5 $LAX --summary-json $TMP/a.json 2> $TMP/a.log &
         A=$!
         sleep 1.5
         $B/capsule_plant --scene "$SCENE" --until-s 1.5 2>/dev/null
         wait $A; echo "plant A rc=$?"
-        kill -TERM $C; wait $C
+        stop $C
         cat $TMP/a.json; cat $TMP/a.log $TMP/ctl.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant A rc=0"), "{all}");
-    assert!(run.stdout.contains("A SECOND PLANT publishes"), "{all}");
-    assert!(
-        run.stdout.contains("GRAPH CONFLICT") && run.stdout.contains("ANOTHER PLANT"),
-        "{all}"
-    );
-    let j = summary(&run);
-    assert!(
-        json_number(j, "graph_conflicts").unwrap_or(0.0) >= 1.0,
-        "{j}"
-    );
-    assert_eq!(
-        json_raw(j, "command_stale"),
-        Some("false"),
-        "the controller kept plant A: {j}"
-    );
+    run.assert_stdout(&[
+        "plant A rc=0",
+        "A SECOND PLANT publishes",
+        "GRAPH CONFLICT",
+        "ANOTHER PLANT",
+    ]);
+    // the controller kept plant A
+    assert_at_least(commanded(&run), "graph_conflicts", 1.0);
 }
 
 #[test]
 fn foreign_writers_on_the_force_topic_are_named_and_logged_rate_limited() {
     // before the fix an undecodable command was logged once per sample
-    let run = case(
+    let run = controlled(
         120,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 60 $LAX --summary-json $TMP/p.json 2> $TMP/p.log &
-        P=$!
-        $PEER foreign --kind type --seconds 1.5
-        $PEER foreign --kind layout --seconds 1.5
-        kill -TERM $P; wait $P; echo "plant rc=$?"
-        kill -TERM $C; wait $C
+        $PLANT $LAX
+        peer foreign --kind type --seconds 1.5
+        peer foreign --kind layout --seconds 1.5
+        stop $P; echo "plant rc=$?"
+        stop $C
         cat $TMP/p.json
         echo "undecodable log lines: $(grep -c 'undecodable command' $TMP/p.log)"
         grep 'GRAPH CONFLICT' $TMP/p.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
+    run.assert_stdout(&[
+        "plant rc=0",
+        "GRAPH CONFLICT: a publisher of type std_msgs::msg::dds_::String_",
+    ]);
+    let n = log_lines(&run, "undecodable");
     assert!(
-        run.stdout
-            .contains("GRAPH CONFLICT: a publisher of type std_msgs::msg::dds_::String_"),
-        "{all}"
+        (1..=25).contains(&n),
+        "{n} undecodable lines\n{}",
+        run.all()
     );
-    let n: u32 = run
-        .stdout
-        .lines()
-        .find_map(|l| l.strip_prefix("undecodable log lines: "))
-        .and_then(|n| n.trim().parse().ok())
-        .unwrap_or(u32::MAX);
-    assert!((1..=25).contains(&n), "{n} undecodable lines\n{all}");
-    let j = summary(&run);
-    assert_eq!(json_raw(j, "command_stale"), Some("false"), "{j}");
+    commanded(&run);
 }
 
 #[test]
@@ -291,38 +260,30 @@ fn the_launcher_keeps_control_when_only_the_recorder_dies() {
         grep capsule_launch $TMP/l.log
         $B/capsule record recover $TMP/runs/*.mcap > /dev/null; echo "recover rc=$?""#,
     );
-    let all = run.all();
-    assert!(
-        run.stdout.contains("RECORDER DIED") && run.stdout.contains("control goes on"),
-        "{all}"
-    );
+    run.assert_stdout(&["RECORDER DIED", "control goes on"]);
     // the plant ran to its end, commanded
-    let j = summary(&run);
+    let j = commanded(&run);
     assert_eq!(json_number(j, "stamp_ns"), Some(4e9), "{j}");
-    assert_eq!(json_raw(j, "command_stale"), Some("false"), "{j}");
     // the run is still reported as failed: the recording is incomplete, and recoverable
-    assert!(run.stdout.contains("launcher rc=1"), "{all}");
-    assert!(run.stdout.contains("recover rc=0"), "{all}");
+    run.assert_stdout(&["launcher rc=1", "recover rc=0"]);
 }
 
 #[test]
 fn out_of_range_requests_are_refused_with_a_reason() {
-    let run = case(
+    let run = controlled(
         60,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward 2>/dev/null &
-        C=$!
         $B/capsule_ros set-mode forward --at-s 1e308; echo "at-s rc=$?"
         $B/capsule_ros set-mode 200; echo "mode rc=$?"
         $B/capsule_controller --scene "$SCENE" --alpha 1e308 --check; echo "alpha rc=$?"
-        kill -TERM $C; wait $C"#,
+        stop $C"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("at-s rc=2"), "{all}");
-    assert!(run.stderr.contains("--at-s 1e308: must be finite"), "{all}");
-    assert!(run.stdout.contains("accepted=false mode=FORWARD"), "{all}");
-    assert!(run.stdout.contains("mode rc=3"), "{all}");
-    assert!(run.stdout.contains("alpha rc=2"), "{all}");
-    // refused by the flag's range (clap names it) before the force-limit check
-    assert!(run.stderr.contains("'1e308' for '--alpha"), "{all}");
+    run.assert_stdout(&[
+        "at-s rc=2",
+        "accepted=false mode=FORWARD",
+        "mode rc=3",
+        "alpha rc=2",
+    ]);
+    // --alpha refused by the flag's range (clap names it) before the force-limit check
+    run.assert_stderr(&["--at-s 1e308: must be finite", "'1e308' for '--alpha"]);
 }

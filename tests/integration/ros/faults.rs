@@ -1,15 +1,14 @@
 //! Bad input and faults: refused mode requests, bad scenes and flags, a plant or controller
 //! that goes away, clean shutdown on SIGTERM.
 
-use super::harness::{json_number, json_raw, netns};
+use super::harness::{assert_contains, json_number, json_raw, netns};
 
 #[test]
 fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
     let run = netns(
         90,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward &
-        C=$!
+        start_controller --mode forward
         set_mode() { $B/capsule_ros set-mode "$@"; echo "rc=$?"; }
         set_mode 9
         set_mode custom --gain nan
@@ -17,19 +16,12 @@ fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
         set_mode custom --gain 5
         set_mode backward --gain 0.15
         set_mode 17 --gain 0.1
-        kill -TERM $C; wait $C; echo "controller rc=$?""#,
+        stop $C; echo "controller rc=$?""#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let answers: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("accepted="))
-        .collect();
-    let codes: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("rc="))
-        .collect();
+    run.assert_ok();
+    run.assert_stdout(&["controller rc=0"]);
+    let answers = run.lines_starting("accepted=");
+    let codes = run.lines_starting("rc=");
     // a non-finite gain is refused by capsule_ros's own range check before it is sent (the
     // controller's refusal of one is unit-tested in capsule_controller::mode)
     assert_eq!(answers.len(), 4, "{}", run.all());
@@ -45,26 +37,17 @@ fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
         "{}",
         run.all()
     );
-    assert!(
-        answers[0].contains("accepted=false mode=FORWARD gain=0.2")
-            && answers[0].contains("unknown mode 9")
+    assert_contains(
+        answers[0],
+        &["accepted=false mode=FORWARD gain=0.2", "unknown mode 9"],
     );
-    assert!(
-        answers[1].contains("mode=FORWARD") && answers[1].contains("limit"),
-        "{}",
-        answers[1]
-    );
+    assert_contains(answers[1], &["mode=FORWARD", "limit"]);
     assert!(
         answers[2].starts_with("accepted=true mode=BACKWARD gain=-0.15"),
         "{}",
         answers[2]
     );
-    assert!(
-        answers[3].contains("accepted=false mode=BACKWARD gain=-0.15"),
-        "{}",
-        answers[3]
-    );
-    assert!(run.stdout.contains("controller rc=0"), "{}", run.all());
+    assert_contains(answers[3], &["accepted=false mode=BACKWARD gain=-0.15"]);
 }
 
 #[test]
@@ -116,42 +99,31 @@ fn controller_gone_means_zero_force_and_plant_gone_means_no_commands() {
     let run = netns(
         90,
         r#"
-        $B/capsule_controller --scene "$SCENE" --mode forward --state-timeout-s 0.3 2> $TMP/ctl.log &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 3 --summary-json $TMP/plant.json &
-        P=$!
+        start_controller --mode forward --state-timeout-s 0.3 2> $TMP/ctl.log
+        start_plant --until-s 3 --summary-json $TMP/plant.json
         sleep 2
-        kill -TERM $C; wait $C
+        stop $C
         wait $P; echo "plant rc=$?"
         cat $TMP/plant.json
-        $B/capsule_controller --scene "$SCENE" --mode forward --state-timeout-s 0.3 2> $TMP/ctl2.log &
-        C=$!
-        $B/capsule_plant --scene "$SCENE" --until-s 1 2>/dev/null
+        start_controller --mode forward --state-timeout-s 0.3 2> $TMP/ctl2.log
+        # the plant starts once the controller reads its state (a loaded host's discovery
+        # could take its whole second)
+        $B/capsule_plant --scene "$SCENE" --until-s 1 --wait-subscribers 1 2>/dev/null
         sleep 1.5
-        kill -TERM $C; wait $C
+        stop $C
         cat $TMP/ctl2.log"#,
     );
-    let all = run.all();
-    assert!(run.stdout.contains("plant rc=0"), "{all}");
-    let json = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with('{'))
-        .unwrap_or_else(|| panic!("no summary\n{all}"));
+    run.assert_stdout(&["plant rc=0", "state stale", "stopped commanding"]);
+    // the plant's summary
+    let json = run.line("{");
     assert_eq!(
         json_raw(json, "command_stale"),
         Some("true"),
         "plant did not fall back: {json}"
     );
     assert_eq!(json_number(json, "actuator_force"), Some(0.0), "{json}");
-    assert!(
-        run.stderr.contains("applying zero force"),
-        "plant did not say so\n{all}"
-    );
-    assert!(
-        run.stdout.contains("state stale") && run.stdout.contains("stopped commanding"),
-        "{all}"
-    );
+    // and said so
+    run.assert_stderr(&["applying zero force"]);
 }
 
 #[test]
@@ -169,8 +141,7 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
         left=0; for k in $KIDS; do kill -0 $k 2>/dev/null && left=$((left+1)); done
         echo "left=$left""#,
     );
-    assert!(run.stdout.contains("launcher rc=0"), "{}", run.all());
-    assert!(run.stdout.contains("left=0"), "{}", run.all());
+    run.assert_stdout(&["launcher rc=0", "left=0"]);
     // both nodes got the signal and shut down by themselves
     let stops = run.stderr.matches("SIGTERM: shutting down").count();
     assert_eq!(stops, 2, "{}", run.all());
@@ -194,17 +165,13 @@ fn launcher_pins_every_thread_of_every_node_to_the_cpus_asked() {
         done
         wait $L; echo "launcher rc=$?""#,
     );
+    run.assert_stdout(&["launcher rc=0"]);
     let all = run.all();
-    assert!(run.stdout.contains("launcher rc=0"), "{all}");
-    let cpu = run
-        .stdout
-        .lines()
-        .find_map(|l| l.strip_prefix("cpu="))
-        .unwrap_or_else(|| panic!("no cpu\n{all}"));
+    let cpu = run.after("cpu=");
     let threads: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter_map(|l| l.strip_prefix("thread "))
+        .lines_starting("thread ")
+        .iter()
+        .map(|l| &l["thread ".len()..])
         .collect();
     for node in ["capsule_plant/", "capsule_control", "capsule_recorde"] {
         let of_node: Vec<_> = threads.iter().filter(|t| t.starts_with(node)).collect();
@@ -227,32 +194,17 @@ fn namespaces_remaps_and_help_work_end_to_end() {
         for b in capsule_plant capsule_controller capsule_ros capsule_foxglove; do $B/$b --help > /dev/null || exit 1; done
         echo "help ok"
         NS="--namespace robot1 -r capsule/state:=/robot1/sim_state"
-        $B/capsule_controller --scene "$SCENE" --mode forward $NS &
-        C=$!
+        start_controller --mode forward $NS
         $B/capsule_ros set-mode backward --service /robot1/capsule_controller/set_mode || exit 1
         $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 0.5 --wait-subscribers 1 \
             --summary-json $TMP/ns.json $NS || exit 1
-        kill -TERM $C; wait $C
+        stop $C
         echo "SUMMARY $(cat $TMP/ns.json)""#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    assert!(run.stdout.contains("help ok"), "{}", run.all());
-    assert!(
-        run.stdout.contains("accepted=true mode=BACKWARD"),
-        "{}",
-        run.all()
-    );
-    assert!(
-        run.stderr
-            .contains("state /robot1/sim_state <- force /robot1/capsule/actuator_force"),
-        "{}",
-        run.all()
-    );
-    let json = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with("SUMMARY"))
-        .unwrap_or_else(|| panic!("{}", run.all()));
+    run.assert_ok();
+    run.assert_stdout(&["help ok", "accepted=true mode=BACKWARD"]);
+    run.assert_stderr(&["state /robot1/sim_state <- force /robot1/capsule/actuator_force"]);
+    let json = run.after("SUMMARY ");
     assert_eq!(json_number(json, "samples"), Some(501.0), "{json}");
     assert_eq!(json_number(json, "unanswered"), Some(0.0), "{json}");
 }

@@ -43,24 +43,17 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
             python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} \
                 --seconds 3 --min 5 --timeout 90 || exit 1
             KIDS=$(pgrep -P $L)
-            kill -TERM $L; wait $L || exit 1
+            stop $L || exit 1
             # the launcher stopped every node, the bridge too
             for k in $KIDS; do kill -0 $k 2>/dev/null && {{ echo "left running: $k"; exit 1; }}; done
             exit 0"#,
             client = client.display()
         ),
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    assert!(
-        run.stdout.contains("url ws://127.0.0.1:"),
-        "bound on loopback, port printed: {}",
-        run.all()
-    );
-    let summary = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with("{\"server\""))
-        .unwrap_or("");
+    run.assert_ok();
+    // bound on loopback, port printed
+    run.assert_stdout(&["url ws://127.0.0.1:"]);
+    let summary = run.line("{\"server\"");
     assert!(summary.contains("\"capsule_foxglove\""), "{summary}");
     let state = section(summary, STATE);
     let status = section(summary, STATUS);
@@ -121,14 +114,9 @@ fn the_foxglove_bridge_refuses_a_non_loopback_bind() {
             30,
             &format!("$B/capsule_foxglove --host {host} --port 0; echo \"rc=$?\""),
         );
-        assert_eq!(run.code, Some(0), "{}", run.all());
-        assert!(run.stdout.contains("rc=2"), "{host}: {}", run.all());
-        assert!(
-            run.stderr.contains(&format!("--host \"{host}\""))
-                && run.stderr.contains("127.0.0.1 only"),
-            "{host}: {}",
-            run.all()
-        );
+        run.assert_ok();
+        run.assert_stdout(&["rc=2"]);
+        run.assert_stderr(&[&format!("--host \"{host}\""), "127.0.0.1 only"]);
         assert!(!run.stdout.contains("serving"), "nothing served for {host}");
     }
 }

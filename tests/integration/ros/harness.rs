@@ -16,18 +16,22 @@ pub fn bin_dir() -> PathBuf {
     let dir = std::env::var_os("CAPSULE_BIN")
         .map(PathBuf::from)
         .unwrap_or_else(|| root().join("target/debug"));
-    for b in [
+    let missing: Vec<String> = [
         "capsule_plant",
         "capsule_controller",
         "capsule_ros",
         "capsule_foxglove",
-    ] {
-        assert!(
-            dir.join(b).is_file(),
-            "{} missing: run `cargo build --workspace` first",
-            dir.join(b).display()
-        );
-    }
+    ]
+    .iter()
+    .map(|b| dir.join(b))
+    .filter(|p| !p.is_file())
+    .map(|p| p.display().to_string())
+    .collect();
+    assert!(
+        missing.is_empty(),
+        "{} missing: run `cargo build --workspace` first",
+        missing.join(", ")
+    );
     dir
 }
 
@@ -53,11 +57,106 @@ impl Run {
     pub fn all(&self) -> String {
         format!("--- stdout\n{}\n--- stderr\n{}", self.stdout, self.stderr)
     }
+
+    /// Panics with both streams unless the script exited with 0.
+    #[track_caller]
+    pub fn assert_ok(&self) {
+        assert_eq!(self.code, Some(0), "{}", self.all());
+    }
+
+    /// The stdout lines that start with `prefix`.
+    pub fn lines_starting(&self, prefix: &str) -> Vec<&str> {
+        self.stdout
+            .lines()
+            .filter(|l| l.starts_with(prefix))
+            .collect()
+    }
+
+    /// The first stdout line that starts with `prefix`; panics with both streams if none does.
+    #[track_caller]
+    pub fn line(&self, prefix: &str) -> &str {
+        self.stdout
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no line starting with {prefix:?}\n{}", self.all()))
+    }
+
+    /// The first JSON line on stdout with the key `key`; panics with both streams if none has.
+    #[track_caller]
+    pub fn json_with(&self, key: &str) -> &str {
+        let quoted = format!("\"{key}\"");
+        self.stdout
+            .lines()
+            .find(|l| l.starts_with('{') && l.contains(&quoted))
+            .unwrap_or_else(|| panic!("no JSON line with {quoted}\n{}", self.all()))
+    }
+
+    /// The rest of the first stdout line that starts with `prefix`; panics with both streams if
+    /// none does.
+    #[track_caller]
+    pub fn after(&self, prefix: &str) -> &str {
+        &self.line(prefix)[prefix.len()..]
+    }
+
+    /// Panics with both streams unless stdout contains every one of `needles`.
+    #[track_caller]
+    pub fn assert_stdout(&self, needles: &[&str]) {
+        self.assert_in("stdout", &self.stdout, needles);
+    }
+
+    /// Panics with both streams unless stderr contains every one of `needles`.
+    #[track_caller]
+    pub fn assert_stderr(&self, needles: &[&str]) {
+        self.assert_in("stderr", &self.stderr, needles);
+    }
+
+    #[track_caller]
+    fn assert_in(&self, name: &str, text: &str, needles: &[&str]) {
+        for n in needles {
+            assert!(text.contains(n), "{name} lacks {n:?}\n{}", self.all());
+        }
+    }
+}
+
+/// Panics unless `text` contains every one of `needles`.
+#[track_caller]
+pub fn assert_contains(text: &str, needles: &[&str]) {
+    for n in needles {
+        assert!(text.contains(n), "{n:?} missing: {text}");
+    }
+}
+
+/// Panics unless the number after `"key":` in `json` is at least `min` (missing: fails).
+#[track_caller]
+pub fn assert_at_least(json: &str, key: &str, min: f64) {
+    let v = json_number(json, key).unwrap_or(f64::NAN);
+    assert!(v >= min, "{key} = {v}, expected >= {min}: {json}");
+}
+
+/// Bash functions every script can call: `start_plant ARGS...` / `start_controller ARGS...`
+/// start the node on `$SCENE` in the background (pid in `$P` / `$C`; a redirection after the call
+/// applies to the node), `stop PID...` sends SIGTERM and waits (the status is the last one's),
+/// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py).
+const PRELUDE: &str = r#"
+start_plant() { "$B/capsule_plant" --scene "$SCENE" "$@" & P=$!; }
+start_controller() { "$B/capsule_controller" --scene "$SCENE" "$@" & C=$!; }
+stop() { kill -TERM "$@"; wait "$@"; }
+peer() { python3 "$ROOT/tests/peers/cyclone_peer.py" "$@"; }
+"#;
+
+/// [`netns`] for a script that calls `peer`: first checks that the peer can run.
+pub fn netns_with_peer(timeout_s: u32, script: &str) -> Run {
+    let ok = Command::new("python3")
+        .args(["-c", "import cyclonedds"])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
+    netns(timeout_s, script)
 }
 
 /// Runs a bash script in a fresh loopback-only namespace for at most `timeout_s`.
 /// `$B` is the binary directory, `$ROOT` the workspace, `$SCENE` the control-point scene and
-/// `$TMP` a scratch directory.
+/// `$TMP` a scratch directory; the functions of [`PRELUDE`] are defined.
 pub fn netns(timeout_s: u32, script: &str) -> Run {
     let b = bin_dir();
     let tmp = std::env::temp_dir().join(format!("capsule_ros_{}_{}", std::process::id(), unique()));
@@ -66,7 +165,7 @@ pub fn netns(timeout_s: u32, script: &str) -> Run {
     let out: Output = Command::new("bash")
         .arg(root().join("tests/peers/netns_run.sh"))
         .arg(timeout_s.to_string())
-        .args(["bash", "-c", script])
+        .args(["bash", "-c", &format!("{PRELUDE}{script}")])
         .env("B", &b)
         .env("CAPSULE_BIN", &b)
         .env("ROOT", root())

@@ -1,51 +1,24 @@
 //! A real peer: the Eclipse Cyclone DDS Python binding reads the state, commands the plant and
 //! calls the mode service in the rmw_cyclonedds request/reply mapping.
 
-use super::harness::{json_number, netns, root};
-
-fn peer() -> String {
-    let ok = std::process::Command::new("python3")
-        .args(["-c", "import cyclonedds"])
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
-    root()
-        .join("tests/peers/cyclone_peer.py")
-        .display()
-        .to_string()
-}
+use super::harness::{assert_at_least, assert_contains, json_number, netns_with_peer};
 
 #[test]
 fn cyclone_peer_reads_state_and_commands_the_plant() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         120,
-        &format!(
-            r#"
-            $B/capsule_plant --scene "$SCENE" --until-s 12 &
-            P=$!
-            python3 {py} state --samples 200 || exit 1
-            python3 {py} force --force 0.05 || exit 1
-            kill -TERM $P; wait $P"#
-        ),
+        r#"
+        start_plant --until-s 12
+        peer state --samples 200 || exit 1
+        peer force --force 0.05 || exit 1
+        stop $P"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let state = run
-        .stdout
-        .lines()
-        .find(|l| l.contains("\"rate_hz\""))
-        .unwrap_or_else(|| panic!("{}", run.all()));
+    run.assert_ok();
+    let state = run.json_with("rate_hz");
     let rate = json_number(state, "rate_hz").unwrap_or(f64::NAN);
     assert!((rate - 1000.0).abs() < 1e-6, "rate {rate}: {state}");
-    let force = run
-        .stdout
-        .lines()
-        .find(|l| l.contains("applied_samples"))
-        .unwrap_or_else(|| panic!("{}", run.all()));
-    assert!(
-        json_number(force, "applied_samples").unwrap_or(0.0) >= 5.0,
-        "{force}"
-    );
+    let force = run.json_with("applied_samples");
+    assert_at_least(force, "applied_samples", 5.0);
     assert!(
         json_number(force, "refused_after") > json_number(force, "refused_before"),
         "{force}"
@@ -54,71 +27,40 @@ fn cyclone_peer_reads_state_and_commands_the_plant() {
 
 #[test]
 fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         90,
-        &format!(
-            r#"
-            RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_controller --scene "$SCENE" --mode forward &
-            C=$!
-            python3 {py} set-mode 2 0.1 || exit 1
-            python3 {py} set-mode 9 0.1 || exit 1
-            python3 {py} set-mode 4 nan || exit 1
-            kill -TERM $C; wait $C"#
-        ),
+        r#"
+        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller --mode forward
+        peer set-mode 2 0.1 || exit 1
+        peer set-mode 9 0.1 || exit 1
+        peer set-mode 4 nan || exit 1
+        stop $C"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let answers: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("{\"accepted\""))
-        .collect();
+    run.assert_ok();
+    let answers = run.lines_starting("{\"accepted\"");
     assert_eq!(answers.len(), 3, "{}", run.all());
-    assert!(
-        answers[0].contains("\"accepted\": true") && answers[0].contains("\"gain\": -0.1"),
-        "{}",
-        answers[0]
+    assert_contains(answers[0], &["\"accepted\": true", "\"gain\": -0.1"]);
+    // refused, and the mode stays BACKWARD
+    assert_contains(
+        answers[1],
+        &["\"accepted\": false", "unknown mode 9", "\"mode\": 2"],
     );
-    assert!(
-        answers[1].contains("\"accepted\": false") && answers[1].contains("unknown mode 9"),
-        "{}",
-        answers[1]
-    );
-    assert!(
-        answers[1].contains("\"mode\": 2"),
-        "mode must stay BACKWARD: {}",
-        answers[1]
-    );
-    assert!(
-        answers[2].contains("\"accepted\": false") && answers[2].contains("not finite"),
-        "{}",
-        answers[2]
-    );
+    assert_contains(answers[2], &["\"accepted\": false", "not finite"]);
 }
 
 #[test]
 fn cyclone_peer_reads_the_controller_status() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         120,
-        &format!(
-            r#"
-            $B/capsule_controller --scene "$SCENE" --mode forward --use-sim-time &
-            C=$!
-            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 &
-            P=$!
-            python3 {py} status --periods 30; rc=$?
-            kill -TERM $C $P; wait; exit $rc"#
-        ),
+        r#"
+        start_controller --mode forward --use-sim-time
+        start_plant --pacing lockstep --until-s 6
+        peer status --periods 30; rc=$?
+        kill -TERM $C $P; wait; exit $rc"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let st = run
-        .stdout
-        .lines()
-        .find(|l| l.contains("\"mode_name\""))
-        .unwrap_or_else(|| panic!("{}", run.all()));
-    assert!(st.contains("\"mode_name\": \"FORWARD\""), "{st}");
-    assert!(st.contains("\"commanding\": true"), "{st}");
+    run.assert_ok();
+    let st = run.json_with("mode_name");
+    assert_contains(st, &["\"mode_name\": \"FORWARD\"", "\"commanding\": true"]);
     assert_eq!(json_number(st, "gain"), Some(0.2), "{st}");
     assert_eq!(json_number(st, "drive_amplitude"), Some(1.6), "{st}");
     let prog = json_number(st, "progression_per_period").unwrap_or(f64::NAN);

@@ -2,83 +2,49 @@
 //! capsule/joint_commands (`capsule_plant --joint-commands`), sent by a real peer (Cyclone DDS
 //! Python binding) as TopicBasedSystem::write does, stamped with the sender's wall clock.
 
-use super::harness::{json_number, netns, root};
-
-fn peer() -> String {
-    root()
-        .join("tests/peers/cyclone_peer.py")
-        .display()
-        .to_string()
-}
+use super::harness::{assert_at_least, json_number, netns_with_peer, root};
 
 /// Switched on as a launch file would, by the parameter (the flag `--joint-commands` sets the
 /// same parameter; the lock-step refusal below uses the flag).
 #[test]
 fn joint_state_commands_drive_the_plant_when_switched_on() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         120,
-        &format!(
-            r#"
-            $B/capsule_plant --scene "$SCENE" --until-s 90 --ros-args -p joint_commands:=true &
-            P=$!
-            sleep 1
-            python3 {py} joint-command --effort 0.2 || exit 1
-            kill -TERM $P; wait $P"#
-        ),
+        r#"
+        start_plant --until-s 90 --ros-args -p joint_commands:=true
+        sleep 1
+        peer joint-command --effort 0.2 || exit 1
+        stop $P"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let out = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with("{\"applied_samples\""))
-        .unwrap_or("");
-    assert!(
-        json_number(out, "applied_samples").unwrap_or(0.0) >= 5.0,
-        "{out}"
-    );
+    run.assert_ok();
+    run.assert_stderr(&["taking JointState commands on /capsule/joint_commands"]);
+    let out = run.line("{\"applied_samples\"");
+    assert_at_least(out, "applied_samples", 5.0);
     assert!(
         json_number(out, "refused_after").unwrap_or(0.0)
             > json_number(out, "refused_before").unwrap_or(f64::MAX),
         "{out}"
     );
-    assert!(
-        run.stderr
-            .contains("taking JointState commands on /capsule/joint_commands"),
-        "{}",
-        run.all()
-    );
 }
 
 #[test]
 fn joint_state_commands_are_off_by_default_and_refused_in_lockstep() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         90,
-        &format!(
-            r#"
-            $B/capsule_plant --scene "$SCENE" --until-s 90 &
-            P=$!
-            sleep 1
-            python3 {py} joint-command --effort 0.2 --stale-wait 0.2 && exit 1
-            kill -TERM $P; wait $P
-            $B/capsule_plant --scene "$SCENE" --joint-commands --pacing lockstep --check
-            echo "rc=$?""#
-        ),
+        r#"
+        start_plant --until-s 90
+        sleep 1
+        peer joint-command --effort 0.2 --stale-wait 0.2 && exit 1
+        stop $P
+        $B/capsule_plant --scene "$SCENE" --joint-commands --pacing lockstep --check
+        echo "rc=$?""#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    assert!(
-        run.stderr.contains("plant did not apply the effort"),
-        "{}",
-        run.all()
-    );
-    assert!(run.stdout.contains("rc=2"), "{}", run.all());
-    assert!(
-        run.stderr
-            .contains("--joint-commands (or -p joint_commands:=true) with --pacing lockstep"),
-        "{}",
-        run.all()
-    );
+    run.assert_ok();
+    run.assert_stdout(&["rc=2"]);
+    run.assert_stderr(&[
+        "plant did not apply the effort",
+        "--joint-commands (or -p joint_commands:=true) with --pacing lockstep",
+    ]);
 }
 
 #[test]

@@ -9,13 +9,9 @@ fn demo_goes_forward_then_backward_then_stops() {
         r#"$ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 8.2 --mode forward --record-dir "$TMP/runs" \
              --with "$B/capsule_ros demo --scene '$SCENE' --segments forward:30,backward:30,off:30 --settle-periods 15""#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
+    run.assert_ok();
     let row = |mode: &str| -> f64 {
-        let line = run
-            .stdout
-            .lines()
-            .find(|l| l.starts_with(mode))
-            .unwrap_or_else(|| panic!("no {mode} row\n{}", run.all()));
+        let line = run.line(mode);
         let cols: Vec<&str> = line.split_whitespace().collect();
         cols.get(2)
             .and_then(|v| v.parse().ok())
@@ -43,23 +39,18 @@ fn demo_goes_forward_then_backward_then_stops() {
 fn lockstep_closed_loop_is_reproducible_bit_for_bit() {
     let script = r#"
         for i in 1 2; do
-          $B/capsule_controller --scene "$SCENE" --mode forward &
-          C=$!
+          start_controller --mode forward
           # a step waits up to 10 s for its answer (the scene's 0.1 s would let a loaded host's
           # stall step with zero force, and the runs differ: seen in CI-like load)
           $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 1.5 --wait-subscribers 1 \
               --command-timeout-s 10 --summary-json "$TMP/run$i.json" || exit 1
-          kill -TERM $C; wait $C || exit 1
+          stop $C || exit 1
           echo "RUN$i $(cat $TMP/run$i.json)"
         done"#;
     let run = netns(180, script);
-    assert_eq!(run.code, Some(0), "{}", run.all());
+    run.assert_ok();
     let last = |tag: &str| -> String {
-        let line = run
-            .stdout
-            .lines()
-            .find(|l| l.starts_with(tag))
-            .unwrap_or_else(|| panic!("no {tag}\n{}", run.all()));
+        let line = run.line(tag);
         line[line
             .find("\"last\"")
             .unwrap_or_else(|| panic!("no last sample in {line}"))..]

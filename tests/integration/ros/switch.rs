@@ -1,7 +1,7 @@
 //! The controller's attractor switch (SWITCH_ATTRACTOR, issue 13 point 3) live: closed loop in
 //! lock-step at alpha 1.5, and the request's checks through the Cyclone DDS peer.
 
-use super::harness::{netns, root};
+use super::harness::{assert_contains, netns, netns_with_peer};
 
 /// `key=value` of the client's `SWITCH ...` summary line.
 fn field<'a>(line: &'a str, key: &str) -> &'a str {
@@ -30,26 +30,20 @@ fn switch_attractor_moves_period_3_to_period_1_in_lockstep_and_releases_the_gain
            wait $R; rc=$?
            kill -TERM $P $C; wait; exit $rc"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let line = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with("SWITCH "))
-        .unwrap_or_else(|| panic!("no summary\n{}", run.all()));
-    assert_eq!(field(line, "result"), "SUCCEEDED", "{line}");
-    assert_eq!(
-        field(line, "before"),
-        "3",
-        "period 3 before (state): {line}"
-    );
-    assert_eq!(field(line, "after"), "1", "period 1 after (state): {line}");
-    assert_eq!(field(line, "status_orbit_period"), "1", "{line}");
-    assert_eq!(
-        field(line, "mode"),
-        "OFF",
-        "back to the previous mode: {line}"
-    );
-    assert_eq!(field(line, "gain"), "0", "gain released: {line}");
+    run.assert_ok();
+    let line = run.line("SWITCH ");
+    // period 3 before, period 1 after (state and status), back to the previous mode, the gain
+    // released
+    for (key, want) in [
+        ("result", "SUCCEEDED"),
+        ("before", "3"),
+        ("after", "1"),
+        ("status_orbit_period", "1"),
+        ("mode", "OFF"),
+        ("gain", "0"),
+    ] {
+        assert_eq!(field(line, key), want, "{key}: {line}");
+    }
     let tries: i32 = field(line, "tries").parse().unwrap_or(-1);
     assert!((1..=3).contains(&tries), "{line}");
     // the last pulse lasted one drive period: 2 pi / 0.95 / Omega0 = 0.1046 s, to a sample
@@ -71,40 +65,24 @@ fn switch_attractor_moves_period_3_to_period_1_in_lockstep_and_releases_the_gain
 
 #[test]
 fn switch_requests_are_checked_through_the_cyclone_peer() {
-    let ok = std::process::Command::new("python3")
-        .args(["-c", "import cyclonedds"])
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
-    let py = root()
-        .join("tests/peers/cyclone_peer.py")
-        .display()
-        .to_string();
-    let run = netns(
+    let run = netns_with_peer(
         120,
-        &format!(
-            r#"
-            RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_controller --scene "$SCENE" --mode forward &
-            C=$!
-            sm() {{ python3 {py} set-mode "$@" || exit 1; }}
-            sm 5 0.3 --pulse-periods 11 --target-period 1 --max-tries 3
-            sm 5 nan --pulse-periods 1 --target-period 1 --max-tries 3
-            sm 5 0.3 --pulse-periods 0 --target-period 1 --max-tries 3
-            sm 5 0.3 --pulse-periods -2 --target-period 1 --max-tries 3
-            sm 5 0.3 --pulse-periods 1 --target-period 1 --max-tries 0
-            sm 5 0.3 --pulse-periods 1 --target-period 0 --max-tries 3
-            sm 5 0.3 --pulse-periods 1 --target-period 1 --max-tries 3
-            sm 1 0.0
-            RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros set-mode switch-attractor --gain 0.3 --max-tries -1; echo "rust client rc=$?"
-            kill -TERM $C; wait $C"#
-        ),
+        r#"
+        sm() { peer set-mode "$@" || exit 1; }
+        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller --mode forward
+        sm 5 0.3 --pulse-periods 11 --target-period 1 --max-tries 3
+        sm 5 nan --pulse-periods 1 --target-period 1 --max-tries 3
+        sm 5 0.3 --pulse-periods 0 --target-period 1 --max-tries 3
+        sm 5 0.3 --pulse-periods -2 --target-period 1 --max-tries 3
+        sm 5 0.3 --pulse-periods 1 --target-period 1 --max-tries 0
+        sm 5 0.3 --pulse-periods 1 --target-period 0 --max-tries 3
+        sm 5 0.3 --pulse-periods 1 --target-period 1 --max-tries 3
+        sm 1 0.0
+        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros set-mode switch-attractor --gain 0.3 --max-tries -1; echo "rust client rc=$?"
+        stop $C"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let answers: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("{\"accepted\""))
-        .collect();
+    run.assert_ok();
+    let answers = run.lines_starting("{\"accepted\"");
     assert_eq!(answers.len(), 8, "{}", run.all());
     for (a, why) in answers[..6].iter().zip([
         "pulse_periods = 11",
@@ -114,30 +92,14 @@ fn switch_requests_are_checked_through_the_cyclone_peer() {
         "max_tries = 0",
         "target_period = 0",
     ]) {
-        assert!(
-            a.contains("\"accepted\": false") && a.contains(why),
-            "expected a refusal naming {why:?}: {a}"
-        );
-        assert!(
-            a.contains("\"mode\": 1") && a.contains("\"gain\": 0.2"),
-            "FORWARD 0.2 must stay: {a}"
+        // refused naming the reason; FORWARD 0.2 stays
+        assert_contains(
+            a,
+            &["\"accepted\": false", why, "\"mode\": 1", "\"gain\": 0.2"],
         );
     }
-    assert!(
-        answers[6].contains("\"accepted\": true") && answers[6].contains("\"mode\": 5"),
-        "{}",
-        answers[6]
-    );
+    assert_contains(answers[6], &["\"accepted\": true", "\"mode\": 5"]);
     // a mode request ends the switch: FORWARD again (the switch had nothing to act on)
-    assert!(
-        answers[7].contains("\"accepted\": true") && answers[7].contains("\"mode\": 1"),
-        "{}",
-        answers[7]
-    );
-    assert!(
-        run.stdout.contains("accepted=false") && run.stdout.contains("max_tries = -1"),
-        "{}",
-        run.all()
-    );
-    assert!(run.stdout.contains("rust client rc=3"), "{}", run.all());
+    assert_contains(answers[7], &["\"accepted\": true", "\"mode\": 1"]);
+    run.assert_stdout(&["accepted=false", "max_tries = -1", "rust client rc=3"]);
 }

@@ -3,52 +3,37 @@
 //! robot_description reaching a late (transient-local) reader, /diagnostics levels; each view
 //! switched off by a flag or a parameter stays silent.
 
-use super::harness::{json_number, netns, root};
+use super::harness::{assert_at_least, assert_contains, json_number, netns_with_peer, Run};
 
-fn peer() -> String {
-    root()
-        .join("tests/peers/cyclone_peer.py")
-        .display()
-        .to_string()
+/// The `n` JSON lines of the peer starting with `prefix` (the run must have succeeded).
+#[track_caller]
+fn peer_lines<'a>(run: &'a Run, prefix: &str, n: usize) -> Vec<&'a str> {
+    run.assert_ok();
+    let lines = run.lines_starting(prefix);
+    assert_eq!(lines.len(), n, "{}", run.all());
+    lines
 }
 
 #[test]
 fn views_map_the_state_and_diagnostics_follow_the_loop() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         150,
-        &format!(
-            r#"
-            $B/capsule_controller --scene "$SCENE" --mode forward &
-            C=$!
-            $B/capsule_plant --scene "$SCENE" --until-s 90 &
-            P=$!
-            sleep 2
-            python3 {py} views --seconds 3 || exit 1
-            kill -TERM $C; wait $C
-            sleep 1.5
-            python3 {py} views --seconds 2.5 || exit 1
-            kill -TERM $P; wait $P"#
-        ),
+        r#"
+        start_controller --mode forward
+        start_plant --until-s 90
+        sleep 2
+        peer views --seconds 3 || exit 1
+        stop $C
+        sleep 1.5
+        peer views --seconds 2.5 || exit 1
+        stop $P"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let lines: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.contains("\"joint_states_matched\""))
-        .collect();
-    assert_eq!(lines.len(), 2, "{}", run.all());
+    let lines = peer_lines(&run, "{\"state\"", 2);
     let live = lines[0];
     // 100 Hz views of a 1 kHz loop (every 10th sample; the thinning is unit-tested): the peer
     // matched at least 10 of each to a state sample, value for value
-    assert!(
-        json_number(live, "joint_states_matched").unwrap_or(0.0) >= 10.0,
-        "{live}"
-    );
-    assert!(
-        json_number(live, "tf_matched").unwrap_or(0.0) >= 10.0,
-        "{live}"
-    );
+    assert_at_least(live, "joint_states_matched", 10.0);
+    assert_at_least(live, "tf_matched", 10.0);
     assert!(live.contains("\"name\": \"capsule_plant: loop\""), "{live}");
     // commanded: answers counted, latency measured (the level itself depends on the host's
     // load here; the unit test checks the levels)
@@ -57,93 +42,64 @@ fn views_map_the_state_and_diagnostics_follow_the_loop() {
     // the controller gone: the watchdog fired, ERROR
     let gone = lines[1];
     assert_eq!(json_number(gone, "level"), Some(2.0), "{gone}");
-    assert!(
-        gone.contains("\"watchdog\": \"fired (zero force)\""),
-        "{gone}"
-    );
+    assert_contains(gone, &["\"watchdog\": \"fired (zero force)\""]);
 }
 
 #[test]
 fn views_switched_off_stay_silent() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         90,
-        &format!(
-            r#"
-            $B/capsule_plant --scene "$SCENE" --until-s 90 --no-tf --no-diagnostics \
-                --ros-args -p views.joint_states:=false -p views.robot_description:=false &
-            P=$!
-            sleep 1
-            python3 {py} views --seconds 2 --absent joint_states tf diagnostics robot_description || exit 1
-            kill -TERM $P; wait $P"#
-        ),
+        r#"
+        start_plant --until-s 90 --no-tf --no-diagnostics \
+            --ros-args -p views.joint_states:=false -p views.robot_description:=false
+        sleep 1
+        peer views --seconds 2 --absent joint_states tf diagnostics robot_description || exit 1
+        stop $P"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let out = run
-        .stdout
-        .lines()
-        .find(|l| l.starts_with("{\"state\""))
-        .unwrap_or("");
+    let out = peer_lines(&run, "{\"state\"", 1)[0];
     assert!(json_number(out, "state").unwrap_or(0.0) > 10.0, "{out}");
-    assert_eq!(json_number(out, "joint_states"), Some(0.0), "{out}");
+    for view in ["joint_states", "tf", "diagnostics", "robot_description"] {
+        assert_eq!(json_number(out, view), Some(0.0), "{view}: {out}");
+    }
 }
 
 #[test]
 fn the_controller_reports_on_diagnostics() {
-    let py = peer();
-    let run = netns(
+    let run = netns_with_peer(
         150,
-        &format!(
-            r#"
-            $B/capsule_controller --scene "$SCENE" --mode forward &
-            C=$!
-            python3 {py} diagnostics --name capsule_controller --seconds 1.5 || exit 1
-            $B/capsule_plant --scene "$SCENE" --until-s 90 --no-diagnostics &
-            P=$!
-            sleep 2
-            python3 {py} diagnostics --name capsule_controller --seconds 2.5 || exit 1
-            kill -TERM $P; wait $P
-            sleep 1.5
-            python3 {py} diagnostics --name capsule_controller --seconds 2.5 || exit 1
-            kill -TERM $C; wait $C"#
-        ),
+        r#"
+        start_controller --mode forward
+        peer diagnostics --name capsule_controller --seconds 1.5 || exit 1
+        start_plant --until-s 90 --no-diagnostics
+        sleep 2
+        peer diagnostics --name capsule_controller --seconds 2.5 || exit 1
+        stop $P
+        sleep 1.5
+        peer diagnostics --name capsule_controller --seconds 2.5 || exit 1
+        stop $C"#,
     );
-    assert_eq!(run.code, Some(0), "{}", run.all());
-    let lines: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("{\"capsule_controller\""))
-        .collect();
-    assert_eq!(lines.len(), 3, "{}", run.all());
+    let lines = peer_lines(&run, "{\"capsule_controller\"", 3);
     for l in &lines {
-        assert!(l.contains("\"capsule_controller: control\""), "{l}");
-        assert!(l.contains("\"mode\": \"FORWARD\""), "{l}");
+        assert_contains(
+            l,
+            &["\"capsule_controller: control\"", "\"mode\": \"FORWARD\""],
+        );
     }
     // no plant yet: WARN, not seen
     assert_eq!(json_number(lines[0], "level"), Some(1.0), "{}", lines[0]);
-    assert!(
-        lines[0].contains("\"plant\": \"not seen yet\""),
-        "{}",
-        lines[0]
-    );
-    assert!(
-        lines[0].contains("\"commands_sent\": \"0\""),
-        "{}",
-        lines[0]
+    assert_contains(
+        lines[0],
+        &["\"plant\": \"not seen yet\"", "\"commands_sent\": \"0\""],
     );
     // the plant running: commands went out in the last second, the plant is seen
     let live = lines[1];
-    assert!(live.contains("\"plant\": \"seen\""), "{live}");
     assert!(!live.contains("\"commands_last_s\": \"0\""), "{live}");
-    assert!(
-        live.contains("\"plant_takes_commands\": \"true\""),
-        "{live}"
+    assert_contains(
+        live,
+        &["\"plant\": \"seen\"", "\"plant_takes_commands\": \"true\""],
     );
     // the plant gone: the watchdog fired, ERROR
     let gone = lines[2];
     assert_eq!(json_number(gone, "level"), Some(2.0), "{gone}");
-    assert!(
-        gone.contains("\"plant\": \"lost (watchdog fired)\""),
-        "{gone}"
-    );
+    assert_contains(gone, &["\"plant\": \"lost (watchdog fired)\""]);
 }
