@@ -10,9 +10,9 @@
 /// A sliding-friction law with its effects known at compile time.
 pub(crate) trait SlidingLaw: Copy {
     /// The law reads the delayed velocity (frictional memory).
-    const MEMORY: bool;
+    const MEMORY: bool = false;
     /// The stuck capsule rests on a pre-sliding spring.
-    const PRESLIDING: bool;
+    const PRESLIDING: bool = false;
     /// Sliding friction for direction `dir`, velocity `y2`, delayed velocity `y2d`.
     fn sliding(&self, dir: f64, y2: f64, y2d: f64) -> f64;
     /// `d sliding / d y2` with the delayed velocity held fixed (`y2` has the sign of `dir`).
@@ -27,8 +27,6 @@ pub(crate) trait SlidingLaw: Copy {
 pub(crate) struct Coulomb;
 
 impl SlidingLaw for Coulomb {
-    const MEMORY: bool = false;
-    const PRESLIDING: bool = false;
     #[inline(always)]
     fn sliding(&self, dir: f64, _: f64, _: f64) -> f64 {
         dir
@@ -44,8 +42,6 @@ pub(crate) struct Viscous {
 }
 
 impl SlidingLaw for Viscous {
-    const MEMORY: bool = false;
-    const PRESLIDING: bool = false;
     #[inline(always)]
     fn sliding(&self, dir: f64, y2: f64, _: f64) -> f64 {
         dir + self.mu_v * y2
@@ -61,8 +57,6 @@ pub(crate) struct Stribeck {
 }
 
 impl SlidingLaw for Stribeck {
-    const MEMORY: bool = false;
-    const PRESLIDING: bool = false;
     #[inline(always)]
     fn sliding(&self, dir: f64, y2: f64, _: f64) -> f64 {
         dir * (1.0 + (-y2.abs() / self.v_s).exp())
