@@ -73,8 +73,11 @@ fn a_restarted_plant_is_commanded_from_its_first_samples() {
     );
     run.assert_stdout(&["plant2 rc=0", "a new plant publishes"]);
     let j = commanded(&run);
+    // the fixed controller answers within a few samples on a quiet host; the bound leaves a
+    // loaded CI host 0.25 s for the new plant's command reader to match, far below the ~2000
+    // samples the bug made it wait
     let before = json_number(j, "before_first_answer").unwrap_or(f64::NAN);
-    assert!(before <= 20.0, "first answer after {before} samples: {j}");
+    assert!(before <= 250.0, "first answer after {before} samples: {j}");
 }
 
 #[test]
@@ -194,10 +197,11 @@ fn a_second_plant_of_the_same_name_is_reported_by_both_nodes() {
     let run = controlled(
         90,
         r#"
-        $B/capsule_plant --scene "$SCENE" --until-s 5 $LAX --summary-json $TMP/a.json 2> $TMP/a.log &
+        $B/capsule_plant --scene "$SCENE" --until-s 8 $LAX --summary-json $TMP/a.json 2> $TMP/a.log &
         A=$!
         sleep 1.5
-        $B/capsule_plant --scene "$SCENE" --until-s 1.5 2>/dev/null
+        # 3 s: both nodes must discover it while it lives, also on a loaded host
+        $B/capsule_plant --scene "$SCENE" --until-s 3 2>/dev/null
         wait $A; echo "plant A rc=$?"
         stop $C
         cat $TMP/a.json; cat $TMP/a.log $TMP/ctl.log"#,

@@ -133,7 +133,13 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
         r#"
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --record-dir "$TMP/runs" &
         L=$!
-        sleep 2
+        # until every node the launcher started runs its DDS threads (bounded: a loaded host
+        # starts them late)
+        for i in $(seq 150); do
+            n=0; for k in $(pgrep -P $L); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
+            [ $n -ge 3 ] && break; sleep 0.1
+        done
+        sleep 0.5
         KIDS=$(pgrep -P $L)
         echo "children: $(echo $KIDS | wc -w)"
         kill -TERM $L
@@ -154,15 +160,22 @@ fn launcher_pins_every_thread_of_every_node_to_the_cpus_asked() {
         r#"
         CPU=$(grep Cpus_allowed_list /proc/self/status | awk '{print $2}' | tr ',' '\n' | tail -1 | sed 's/.*-//')
         echo "cpu=$CPU"
-        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 3 \
+        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 20 \
             --record-dir "$TMP/runs" --cpu-affinity "$CPU" &
         L=$!
-        sleep 2
+        # until every node the launcher started runs its DDS threads (bounded: a loaded host
+        # starts them late)
+        for i in $(seq 150); do
+            n=0; for k in $(pgrep -P $L); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
+            [ $n -ge 3 ] && break; sleep 0.1
+        done
+        sleep 0.5
         for k in $(pgrep -P $L); do
             for t in /proc/$k/task/*; do
                 echo "thread $(cat /proc/$k/comm)/$(tr ' ' _ < $t/comm) $(awk '/Cpus_allowed_list/ {print $2}' $t/status)"
             done
         done
+        kill -TERM $L
         wait $L; echo "launcher rc=$?""#,
     );
     run.assert_stdout(&["launcher rc=0"]);
