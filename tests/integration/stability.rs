@@ -1,6 +1,7 @@
 //! Stability analysis: the Poincaré map's exact Jacobian against central finite differences on
 //! orbits that cross every kind of event, Floquet multipliers, Lyapunov exponents.
 
+use crate::common::{assert_ok, capsule, json, line, TempDir};
 use crate::scene;
 use capsule_analysis::floquet::{floquet, map_only, poincare_map};
 use capsule_analysis::lyapunov::{largest_by_divergence, lyapunov};
@@ -236,16 +237,10 @@ fn chaotic_scenes_have_a_positive_converging_largest_exponent() {
 
 #[test]
 fn simulate_and_sweep_report_the_stability() {
-    let v = crate::cli::json(&[
-        "simulate",
-        "--scene",
-        "scenes/control_point.toml",
-        "--kp",
-        "0.1",
-        "--periods",
-        "220",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --scene scenes/control_point.toml --kp 0.1 --periods 220 --json",
+        &[],
+    ));
     let m = v["floquet"]["largest_modulus"].as_f64().unwrap_or(f64::NAN);
     assert!(m > 0.0 && m < 1.0, "{v}");
     assert_eq!(
@@ -255,16 +250,10 @@ fn simulate_and_sweep_report_the_stability() {
     let l = v["lyapunov"]["exponents"][0].as_f64().unwrap_or(f64::NAN);
     assert!(l < 0.0, "{v}");
     // a law with memory: no stability figures, and a note that says why
-    let v = crate::cli::json(&[
-        "simulate",
-        "--scene",
-        "scenes/fig02d_seven_parameter.toml",
-        "--periods",
-        "12",
-        "--transient",
-        "10",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --scene scenes/fig02d_seven_parameter.toml --periods 12 --transient 10 --json",
+        &[],
+    ));
     assert!(v["lyapunov"].is_null(), "{v}");
     assert!(
         v["stability_note"]
@@ -273,32 +262,13 @@ fn simulate_and_sweep_report_the_stability() {
             .contains("memory"),
         "{v}"
     );
-    let dir = std::env::temp_dir().join(format!("capsule_stability_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let prefix = dir.join("ly");
-    let out = crate::cli::capsule(&[
-        "sweep",
-        "--scene",
-        "scenes/fig02a_coulomb.toml",
-        "--param",
-        "alpha",
-        "--from",
-        "0.5",
-        "--to",
-        "1.5",
-        "--steps",
-        "3",
-        "--periods",
-        "250",
-        "--lyapunov",
-        "--out",
-        prefix.to_str().unwrap_or_default(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let dir = TempDir::new("stability_sweep");
+    let prefix = dir.file("ly");
+    assert_ok(&capsule(&line(
+        "sweep --scene scenes/fig02a_coulomb.toml --param alpha --from 0.5 --to 1.5 --steps 3 \
+         --periods 250 --lyapunov --out",
+        &[prefix.to_str().unwrap_or_default()],
+    )));
     let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap_or_default();
     assert!(csv
         .lines()
@@ -316,7 +286,6 @@ fn simulate_and_sweep_report_the_stability() {
     assert!(first("0.5") > 0.0 && first("1.5") < 0.0, "{csv}");
     let svg = std::fs::read_to_string(prefix.with_extension("svg")).unwrap_or_default();
     assert!(svg.contains("largest Lyapunov exponent"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 mod continuation {
@@ -511,27 +480,13 @@ mod continuation {
 
 #[test]
 fn continue_command_writes_the_branch_and_refuses_bad_input() {
-    let dir = std::env::temp_dir().join(format!("capsule_continue_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let prefix = dir.join("b");
+    let dir = TempDir::new("stability_continue");
+    let prefix = dir.file("b");
     let p = prefix.to_str().unwrap_or_default();
-    let base = [
-        "continue",
-        "--scene",
-        "scenes/control_point.toml",
-        "--out",
-        p,
-    ];
-    let run = |extra: &[&str]| {
-        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
-        crate::cli::capsule(&args)
-    };
+    let base = line("continue --scene scenes/control_point.toml --out", &[p]);
+    let run = |extra: &[&str]| capsule(&[&base[..], extra].concat());
     let ok = run(&["--kp", "0.05", "--param", "kp", "--to", "0.1"]);
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
+    assert_ok(&ok);
     let out = String::from_utf8_lossy(&ok.stdout);
     assert!(out.contains("Grazing at kp = 0.07"), "{out}");
     let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap_or_default();
@@ -544,10 +499,10 @@ fn continue_command_writes_the_branch_and_refuses_bad_input() {
             "invalid value 'mu' for '--param <PARAM>'",
         ),
         (
-            &[
-                "--alpha", "0.3", "--param", "alpha", "--to", "1", "--gamma", "5", "--beta", "15",
-                "--xi", "0.01", "--omega", "0.95",
-            ][..],
+            &line(
+                "--alpha 0.3 --param alpha --to 1 --gamma 5 --beta 15 --xi 0.01 --omega 0.95",
+                &[],
+            )[..],
             "not periodic",
         ),
     ] {
@@ -558,7 +513,6 @@ fn continue_command_writes_the_branch_and_refuses_bad_input() {
             "{extra:?}: {err}"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
