@@ -7,7 +7,7 @@
 use capsule_msgs::names::{default_topics, type_names};
 use capsule_msgs::std_types::Clock;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, SetModeRequest, SetModeResponse, Time};
 use capsule_record::{
@@ -17,31 +17,8 @@ use capsule_record::{
 };
 use serde_json::Value;
 
+use crate::common::{assert_ok, capsule, line, TempDir};
 use crate::root;
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("capsule_rec_it_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let p = dir.join(name);
-    let _ = std::fs::remove_file(&p);
-    p
-}
-
-/// Runs the built `capsule` binary (`$CAPSULE_BIN`, else target/debug).
-pub(crate) fn capsule(args: &[&str]) -> Output {
-    let bin = std::env::var_os("CAPSULE_BIN")
-        .map(|d| PathBuf::from(d).join("capsule"))
-        .unwrap_or_else(|| root().join("target/debug/capsule"));
-    assert!(
-        bin.exists(),
-        "{} missing: run `cargo build -p capsule_cli` first",
-        bin.display()
-    );
-    Command::new(bin)
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"))
-}
 
 /// Decodes with the reference readers (their own ROS 2 decoders) and returns their JSON.
 pub fn python_decode(path: &Path, reader: &str) -> Value {
@@ -139,6 +116,25 @@ fn event(kind: u8, seq: i64, mode: u8, gain: f64, accepted: Option<bool>) -> Set
     }
 }
 
+/// A writer of a recording at `path` that holds the scene `name` (text `toml`).
+pub(crate) fn scene_writer(
+    path: &Path,
+    name: &str,
+    toml: String,
+    options: &WriterOptions,
+) -> Result<RecordWriter, capsule_record::RecordError> {
+    RecordWriter::create(
+        path,
+        WriterOptions {
+            scene: Some(SceneRecord {
+                name: name.into(),
+                toml,
+            }),
+            ..options.clone()
+        },
+    )
+}
+
 /// A run of `n` states at 1 kHz with forces, clock, and two mode changes (one refused).
 fn write_run(path: &Path, n: u64, finish: bool) {
     write_run_with(path, n, finish, &WriterOptions::default(), false);
@@ -165,16 +161,7 @@ fn old_spelling(text: &str) -> String {
 /// as capsule wrote them before they were spelled as rosbag2 spells them.
 fn write_run_with(path: &Path, n: u64, finish: bool, options: &WriterOptions, old_schemas: bool) {
     let go = || -> Result<(), capsule_record::RecordError> {
-        let mut w = RecordWriter::create(
-            path,
-            WriterOptions {
-                scene: Some(SceneRecord {
-                    name: "it_scene".into(),
-                    toml: "# test\n".into(),
-                }),
-                ..options.clone()
-            },
-        )?;
+        let mut w = scene_writer(path, "it_scene", "# test\n".into(), options)?;
         let q = OfferedQos::reliable(10);
         let mut add = |topic: &str, ty: &str| {
             if old_schemas {
@@ -297,7 +284,8 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
 
 #[test]
 fn reference_readers_decode_every_message_with_the_published_values() {
-    let p = tmp("readers.mcap");
+    let tmp = TempDir::new("record_readers");
+    let p = tmp.file("readers.mcap");
     let n = 3000;
     write_run(&p, n, true);
     let v = python_decode(&p, "both");
@@ -330,7 +318,8 @@ fn reference_readers_decode_every_message_with_the_published_values() {
 
 #[test]
 fn info_shows_duration_topics_rates_modes_and_scene() {
-    let p = tmp("info.mcap");
+    let tmp = TempDir::new("record_info");
+    let p = tmp.file("info.mcap");
     write_run(&p, 2000, true);
     let out = capsule(&["record", "info", &p.display().to_string()]);
     let text = String::from_utf8_lossy(&out.stdout);
@@ -362,14 +351,15 @@ fn info_shows_duration_topics_rates_modes_and_scene() {
 
 #[test]
 fn bad_files_are_clear_errors_and_never_crash() {
-    let good = tmp("good.mcap");
+    let tmp = TempDir::new("record_bad_files");
+    let good = tmp.file("good.mcap");
     write_run(&good, 1500, true);
     let bytes = std::fs::read(&good).unwrap_or_default();
-    let truncated = tmp("truncated.mcap");
+    let truncated = tmp.file("truncated.mcap");
     std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap_or_else(|e| panic!("{e}"));
-    let text = tmp("text.mcap");
+    let text = tmp.file("text.mcap");
     std::fs::write(&text, "not an mcap file at all\n").unwrap_or_else(|e| panic!("{e}"));
-    let foreign = tmp("foreign.mcap");
+    let foreign = tmp.file("foreign.mcap");
     {
         let file = std::fs::File::create(&foreign).unwrap_or_else(|e| panic!("{e}"));
         let mut w =
@@ -390,7 +380,7 @@ fn bad_files_are_clear_errors_and_never_crash() {
             .unwrap_or_else(|e| panic!("{e}"));
         w.finish().unwrap_or_else(|e| panic!("{e}"));
     }
-    let missing = tmp("missing.mcap");
+    let missing = tmp.file("missing.mcap");
     for (file, want) in [
         (&missing, "no such file"),
         (&text, "not an MCAP file"),
@@ -426,7 +416,8 @@ fn recovered(p: &Path) -> PathBuf {
 
 #[test]
 fn recover_completes_a_cut_file_that_rosbags_then_opens() {
-    let p = tmp("cut.mcap");
+    let tmp = TempDir::new("record_recover_cut");
+    let p = tmp.file("cut.mcap");
     write_run(&p, 2400, false);
     let f = p.display().to_string();
     let before = std::fs::read(&p).unwrap_or_default();
@@ -469,8 +460,9 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
 
 #[test]
 fn recover_and_info_on_compressed_and_damaged_files() {
+    let tmp = TempDir::new("record_recover_damaged");
     for kind in ["zstd_fast", "lz4"] {
-        let p = tmp(&format!("cli_{kind}.mcap"));
+        let p = tmp.file(&format!("cli_{kind}.mcap"));
         let options = WriterOptions {
             compression: kind.parse().unwrap_or_default(),
             ..WriterOptions::default()
@@ -514,7 +506,7 @@ fn recover_and_info_on_compressed_and_damaged_files() {
         assert!(lost > 0);
         let mut bad = bytes.clone();
         bad[(c.chunk_start_offset + c.chunk_length * 3 / 4) as usize] ^= 0x01;
-        let b = tmp(&format!("cli_{kind}_flipped.mcap"));
+        let b = tmp.file(&format!("cli_{kind}_flipped.mcap"));
         std::fs::write(&b, &bad).unwrap_or_else(|e| panic!("{e}"));
         let out = capsule(&["record", "recover", &b.display().to_string()]);
         let text = String::from_utf8_lossy(&out.stdout);
@@ -543,7 +535,8 @@ fn recover_and_info_on_compressed_and_damaged_files() {
 
 #[test]
 fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
-    let old = tmp("old_spelling.mcap");
+    let tmp = TempDir::new("record_old_spelling");
+    let old = tmp.file("old_spelling.mcap");
     let n = 600;
     write_run_with(&old, n, true, &WriterOptions::default(), true);
     // the old files: Foxglove's readers refuse them (the Python readers do not notice)
@@ -552,7 +545,7 @@ fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
         err.contains("Expected 1 top level type definition for 'std_msgs/Header' but found 0"),
         "{err}"
     );
-    let fixed = tmp("old_spelling_fixed.mcap");
+    let fixed = tmp.file("old_spelling_fixed.mcap");
     let out = capsule(&[
         "record",
         "recover",
@@ -591,30 +584,30 @@ fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
     }
 }
 
+/// `capsule simulate --record` of 4 periods (2 of transient) of the Fig 15 scene, with
+/// `samples` samples a period and `extra` arguments; must succeed.
+fn simulate_record(path: &Path, samples: u32, extra: &[&str]) {
+    let args = line(
+        "simulate --scene scenes/fig15_forward.toml --periods 4 --transient 2",
+        &[],
+    );
+    let samples = samples.to_string();
+    let record = path.display().to_string();
+    assert_ok(&capsule(
+        &[
+            &args[..],
+            &["--samples-per-period", &samples, "--record", &record],
+            extra,
+        ]
+        .concat(),
+    ));
+}
+
 #[test]
 fn simulate_record_is_read_by_foxglove() {
-    let p = tmp("simulate.mcap");
-    let out = capsule(&[
-        "simulate",
-        "--scene",
-        &root()
-            .join("scenes/fig15_forward.toml")
-            .display()
-            .to_string(),
-        "--periods",
-        "4",
-        "--transient",
-        "2",
-        "--samples-per-period",
-        "50",
-        "--record",
-        &p.display().to_string(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let tmp = TempDir::new("record_simulate");
+    let p = tmp.file("simulate.mcap");
+    simulate_record(&p, 50, &[]);
     let v = python_decode(&p, "rosbags");
     let fox = foxglove_decode(&p);
     foxglove_agrees(&fox, &v, 2 * (1 + 4 * 50));
@@ -624,33 +617,13 @@ fn simulate_record_is_read_by_foxglove() {
 
 #[test]
 fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
-    let p = tmp("split_sim.mcap");
+    let tmp = TempDir::new("record_simulate_split");
+    let p = tmp.file("split_sim.mcap");
     let dir = p.with_extension("");
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = capsule(&[
-        "simulate",
-        "--scene",
-        &root()
-            .join("scenes/fig15_forward.toml")
-            .display()
-            .to_string(),
-        "--periods",
-        "4",
-        "--transient",
-        "2",
-        "--samples-per-period",
-        "100",
-        "--record",
-        &p.display().to_string(),
-        "--compression",
-        "zstd_fast",
-        "--max-bag-size",
-        "40000",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    simulate_record(
+        &p,
+        100,
+        &line("--compression zstd_fast --max-bag-size 40000", &[]),
     );
     let total = 2 * (1 + 4 * 100);
     // rosbags opens the directory through its metadata.yaml (rosbag2's reader path)
@@ -700,7 +673,7 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
         let out = capsule(
             &[
                 &["simulate", "--periods", "4", "--transient", "2", "--record"][..],
-                &[tmp("never.mcap").display().to_string().as_str()],
+                &[tmp.file("never.mcap").display().to_string().as_str()],
                 &bad,
             ]
             .concat(),
@@ -710,7 +683,7 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
             !out.status.success() && !err.contains("panicked"),
             "{bad:?}: {err}"
         );
-        assert!(!tmp("never.mcap").exists());
+        assert!(!tmp.file("never.mcap").exists());
     }
 }
 
@@ -755,13 +728,6 @@ fn netns(timeout_s: u32, dir: &Path, script: &str) -> (Option<i32>, String) {
         String::from_utf8_lossy(&out.stderr)
     );
     (out.status.code(), all)
-}
-
-fn fresh_dir(name: &str) -> PathBuf {
-    let d = tmp(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
-    d
 }
 
 fn only_mcap(dir: &Path) -> PathBuf {
@@ -826,7 +792,7 @@ fn in_plant_recording_holds_the_same_run() {
 /// of sim time, requested early): `--check-controller` replays a scheduled switch exactly, an
 /// immediate one only to within a sample of where the recording saw the request.
 fn launcher_run_is_recorded(name: &str, in_plant: bool) {
-    let dir = fresh_dir(name);
+    let dir = TempDir::new(&format!("record_{name}"));
     let (code, all) = netns(
         240,
         &dir,
@@ -975,7 +941,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
 
 #[test]
 fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
-    let dir = fresh_dir("sigkill_run");
+    let dir = TempDir::new("record_sigkill_run");
     let (code, all) = netns(
         120,
         &dir,
@@ -1040,7 +1006,7 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
 
 #[test]
 fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
-    let dir = fresh_dir("replay_run");
+    let dir = TempDir::new("record_replay_run");
     let original = dir.join("original.mcap");
     write_run(&original, 1500, true);
     let (code, all) = netns(
@@ -1205,8 +1171,9 @@ mod fuzz {
     fn originals() -> &'static [Vec<u8>; 2] {
         static FILES: OnceLock<[Vec<u8>; 2]> = OnceLock::new();
         FILES.get_or_init(|| {
+            let tmp = TempDir::new("record_fuzz_originals");
             [ChunkCompression::None, ChunkCompression::ZSTD_FAST].map(|c| {
-                let p = tmp(&format!("fuzz_orig_{}.mcap", c.chunk_name()));
+                let p = tmp.file(&format!("fuzz_orig_{}.mcap", c.chunk_name()));
                 let options = WriterOptions {
                     compression: c,
                     flush_interval_ns: 100_000_000,
@@ -1230,12 +1197,13 @@ mod fuzz {
             d in damage(),
         ) {
             let bad = apply(&originals()[which], &d);
-            let p = tmp(&format!("fuzz_{which}.mcap"));
+            let tmp = TempDir::new(&format!("record_fuzz_{which}"));
+            let p = tmp.file(&format!("fuzz_{which}.mcap"));
             std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
             let t0 = std::time::Instant::now();
             let _ = capsule_record::info(&p);
             let _ = capsule_record::messages(&p);
-            let out = tmp(&format!("fuzz_{which}.recovered.mcap"));
+            let out = tmp.file(&format!("fuzz_{which}.recovered.mcap"));
             if let Ok(r) = capsule_record::recover(&p, &out) {
                 prop_assert!(r.messages <= 3 * 600 + 4, "{r:?}");
                 // what recovery wrote is a complete file every path reads
