@@ -291,9 +291,44 @@ fn simulate_and_sweep_report_the_stability() {
 mod continuation {
     use super::at;
     use capsule_analysis::continuation::{
-        continue_branch, ContinuationError, Settings, SpecialKind,
+        continue_branch, switch_at_period_doubling, Branch, ContinuationError, Settings,
+        SpecialKind, SpecialPoint,
     };
     use capsule_analysis::{run, Param};
+    use capsule_plant::scene::Scene;
+
+    /// Where the branch has special points of this kind.
+    fn values(b: &Branch, kind: SpecialKind) -> Vec<f64> {
+        b.special
+            .iter()
+            .filter(|p| p.kind == kind)
+            .map(|p| p.value)
+            .collect()
+    }
+
+    /// The period of the brute-force run of `s` at `alpha`.
+    fn period_at(s: &Scene, alpha: f64) -> Option<usize> {
+        run(&Param::Alpha.apply(s, alpha))
+            .ok()
+            .and_then(|r| r.period)
+    }
+
+    /// Continued from alpha 2 down to 0.93: the period-1 branch, its first period doubling,
+    /// and the period-2 branch switched onto there.
+    fn down_to_period_two(s: &Scene) -> (SpecialPoint, Branch) {
+        let settings = Settings::new(Param::Alpha, 0.93);
+        let b = continue_branch(s, &settings).unwrap_or_else(|e| panic!("{e}"));
+        let pd = b
+            .special
+            .iter()
+            .find(|p| p.kind == SpecialKind::PeriodDoubling)
+            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
+        println!("period-1 branch: {:?}", b.special);
+        let b2 = switch_at_period_doubling(s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(b2.period, 2);
+        println!("period-2 branch: {:?}", b2.special);
+        (pd.clone(), b2)
+    }
 
     #[test]
     fn fig2a_main_branch_period_doubles_where_the_sweep_changes_period() {
@@ -302,12 +337,7 @@ mod continuation {
             .unwrap_or_else(|e| panic!("{e}"));
         assert!(b.stopped.is_none(), "{:?}", b.stopped);
         assert_eq!(b.period, 1);
-        let pd: Vec<f64> = b
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
+        let pd = values(&b, SpecialKind::PeriodDoubling);
         assert_eq!(pd.len(), 1, "{:?}", b.special);
         let pd = pd[0];
         println!("period doubling at alpha = {pd}");
@@ -321,9 +351,8 @@ mod continuation {
                 p.multipliers
             );
         }
-        let period_at = |a: f64| run(&Param::Alpha.apply(&s, a)).ok().and_then(|r| r.period);
-        assert_eq!(period_at(pd + 0.03), Some(1));
-        assert_eq!(period_at(pd - 0.03), Some(2));
+        assert_eq!(period_at(&s, pd + 0.03), Some(1));
+        assert_eq!(period_at(&s, pd - 0.03), Some(2));
         // along the stable part the branch is the attractor the sweep finds
         let mut compared = 0;
         for p in b.points.iter().filter(|p| p.value > pd + 0.02).step_by(5) {
@@ -338,27 +367,12 @@ mod continuation {
 
     #[test]
     fn fig2a_switching_at_the_period_doubling_follows_the_period_two_orbit_down_to_0_94() {
-        use capsule_analysis::continuation::switch_at_period_doubling;
         let s = at("fig02a_coulomb.toml", Some(2.0), 0.0);
-        let settings = Settings::new(Param::Alpha, 0.93);
-        let b = continue_branch(&s, &settings).unwrap_or_else(|e| panic!("{e}"));
-        let pd = b
-            .special
-            .iter()
-            .find(|p| p.kind == SpecialKind::PeriodDoubling)
-            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
-        let b2 = switch_at_period_doubling(&s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(b2.period, 2);
+        let (pd, b2) = down_to_period_two(&s);
         assert!(b2.stopped.is_none(), "{:?}", b2.stopped);
         // the period-2 orbit is born where the period-1 orbit loses stability, and doubles again
         // near alpha 0.94, where the brute-force run is period-4 and the chaotic band begins
-        let pd2: Vec<f64> = b2
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
-        println!("period-2 branch: {:?}", b2.special);
+        let pd2 = values(&b2, SpecialKind::PeriodDoubling);
         assert!(
             pd2.len() == 1 && pd2[0] > 0.935 && pd2[0] < 0.945,
             "{pd2:?}"
@@ -395,34 +409,17 @@ mod continuation {
 
     #[test]
     fn fig2b_viscous_transitions_are_found_by_continuation_and_agree_with_the_sweep() {
-        use capsule_analysis::continuation::switch_at_period_doubling;
         // Fig 2b (Coulomb + viscous): periodic from alpha 0.942 in the paper; here period 1
         // above a period doubling near 1.33 and period 2 below it, down to a second doubling
         // near 0.95 where the chaotic band begins
         let s = at("fig02b_viscous.toml", Some(2.0), 0.0);
-        let settings = Settings::new(Param::Alpha, 0.93);
-        let b = continue_branch(&s, &settings).unwrap_or_else(|e| panic!("{e}"));
-        let pd = b
-            .special
-            .iter()
-            .find(|p| p.kind == SpecialKind::PeriodDoubling)
-            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
-        println!("period-1 branch: {:?}", b.special);
+        let (pd, b2) = down_to_period_two(&s);
         assert!(pd.value > 1.30 && pd.value < 1.36, "{}", pd.value);
-        let period_at = |a: f64| run(&Param::Alpha.apply(&s, a)).ok().and_then(|r| r.period);
-        assert_eq!(period_at(pd.value + 0.03), Some(1));
-        assert_eq!(period_at(pd.value - 0.03), Some(2));
-        let b2 = switch_at_period_doubling(&s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(b2.period, 2);
-        let pd2: Vec<f64> = b2
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
-        println!("period-2 branch: {:?}", b2.special);
+        assert_eq!(period_at(&s, pd.value + 0.03), Some(1));
+        assert_eq!(period_at(&s, pd.value - 0.03), Some(2));
+        let pd2 = values(&b2, SpecialKind::PeriodDoubling);
         assert!(pd2.len() == 1 && pd2[0] > 0.94 && pd2[0] < 0.96, "{pd2:?}");
-        assert_eq!(period_at(pd2[0] + 0.01), Some(2));
+        assert_eq!(period_at(&s, pd2[0] + 0.01), Some(2));
     }
 
     #[test]
@@ -442,12 +439,7 @@ mod continuation {
             SpecialKind::PeriodDoubling | SpecialKind::Fold | SpecialKind::Torus
         )));
         // the second impact appears between k_p = 0.07 and 0.08 (the sweep's finding, README)
-        let g: Vec<f64> = b
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::Grazing)
-            .map(|p| p.value)
-            .collect();
+        let g = values(&b, SpecialKind::Grazing);
         assert!(
             g.len() == 1 && g[0] > 0.07 && g[0] < 0.08,
             "{:?}",
