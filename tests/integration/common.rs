@@ -89,10 +89,26 @@ pub fn assert_refused(o: &Output, code: i32, words: &str, what: &str) -> String 
     err
 }
 
+/// Runs `capsule` with these arguments, which must succeed (what it wrote in the message);
+/// what it printed.
+pub fn capsule_ok(args: &[&str]) -> String {
+    let out = capsule(args);
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{args:?}: {text}{}", stderr(&out));
+    text
+}
+
 /// What a run that must succeed printed, parsed as JSON.
 pub fn json_of(o: &Output) -> serde_json::Value {
     assert_ok(o);
     serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("not JSON: {e}"))
+}
+
+/// Asserts that `text` holds each of `words` (the text in the message).
+pub fn assert_holds(text: &str, words: &[&str]) {
+    for w in words {
+        assert!(text.contains(w), "lacks `{w}`:\n{text}");
+    }
 }
 
 /// Runs `capsule` with these arguments, which must succeed, and parses what it printed as JSON.
@@ -124,7 +140,7 @@ pub fn files_in(dir: &Path) -> Vec<PathBuf> {
 pub struct TempDir(PathBuf);
 
 impl TempDir {
-    /// `capsule_it_<tag>_<pid>`, emptied if a earlier run left it.
+    /// `capsule_it_<tag>_<pid>`, emptied if an earlier run left it.
     pub fn new(tag: &str) -> Self {
         let d = std::env::temp_dir().join(format!("capsule_it_{tag}_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);

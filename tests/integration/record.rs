@@ -17,7 +17,7 @@ use capsule_record::{
 };
 use serde_json::Value;
 
-use crate::common::{assert_ok, capsule, line, TempDir};
+use crate::common::{assert_holds, assert_ok, capsule, capsule_ok, line, TempDir};
 use crate::root;
 
 /// Decodes with the reference readers (their own ROS 2 decoders) and returns their JSON.
@@ -222,14 +222,30 @@ fn bits(x: f64) -> i64 {
     x.to_bits() as i64
 }
 
+/// The rows a reader decoded of `topic` (`topics`: the reader's `topics` object).
+fn rows(topics: &Value, topic: &str) -> Vec<Value> {
+    topics[topic]["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default()
+}
+
+/// The first column of each row of `topic`, as integers (the sequence numbers).
+fn first_column(topics: &Value, topic: &str) -> Vec<u64> {
+    rows(topics, topic)
+        .iter()
+        .filter_map(|r| r[0].as_u64())
+        .collect()
+}
+
 fn check_reader(v: &Value, reader: &str, n: u64) {
     let topics_v = &v[reader]["topics"];
     let st = &topics_v[default_topics::STATE];
     assert_eq!(st["type"], type_names::STATE, "{reader}");
     assert_eq!(st["count"], n, "{reader}");
-    let rows = st["rows"].as_array().cloned().unwrap_or_default();
-    assert_eq!(rows.len() as u64, n);
-    for (k, r) in rows.iter().enumerate() {
+    let states = rows(topics_v, default_topics::STATE);
+    assert_eq!(states.len() as u64, n);
+    for (k, r) in states.iter().enumerate() {
         let want = state(k as u64 + 1);
         assert_eq!(r[0], want.seq, "{reader} state {k}");
         assert_eq!(r[1], want.header.stamp.to_nanos(), "{reader} state {k}");
@@ -245,10 +261,7 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
         );
         assert_eq!(r[4], want.stuck, "{reader} state {k}");
     }
-    let fr = topics_v[default_topics::FORCE]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
+    let fr = rows(topics_v, default_topics::FORCE);
     assert_eq!(fr.len() as u64, n, "{reader}");
     for (k, r) in fr.iter().enumerate() {
         assert_eq!(r[0], k as u64 + 1);
@@ -258,17 +271,13 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
             "{reader} force {k}"
         );
     }
-    let cl = topics_v[default_topics::CLOCK]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
+    let cl = rows(topics_v, default_topics::CLOCK);
     assert_eq!(cl.len() as u64, n);
     assert_eq!(cl[0][0], 1_000_000);
-    let ev = topics_v[default_topics::SET_MODE_EVENT]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
-    let ev: Vec<String> = ev.iter().map(|r| r.to_string()).collect();
+    let ev: Vec<String> = rows(topics_v, default_topics::SET_MODE_EVENT)
+        .iter()
+        .map(|r| r.to_string())
+        .collect();
     let (a, b) = (n / 3, 2 * n / 3);
     assert_eq!(
         ev,
@@ -321,31 +330,26 @@ fn info_shows_duration_topics_rates_modes_and_scene() {
     let tmp = TempDir::new("record_info");
     let p = tmp.file("info.mcap");
     write_run(&p, 2000, true);
-    let out = capsule(&["record", "info", &p.display().to_string()]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(text.contains("Read from:         summary"), "{text}");
-    assert!(text.contains("Scene:             it_scene"), "{text}");
-    assert!(text.contains("Duration:          1.999000010 s"), "{text}");
-    assert!(
-        text.contains("Start:             2023-11-14 22:13:20.001000000 UTC"),
-        "{text}"
+    let text = capsule_ok(&["record", "info", &p.display().to_string()]);
+    assert_holds(
+        &text,
+        &[
+            "Read from:         summary",
+            "Scene:             it_scene",
+            "Duration:          1.999000010 s",
+            "Start:             2023-11-14 22:13:20.001000000 UTC",
+        ],
     );
     assert!(
         text.contains("/capsule/state") && text.contains("count 2000 | rate 1000.5 Hz"),
         "{text}"
     );
-    assert!(
-        text.contains("set_mode FORWARD (gain 0.5): accepted -> FORWARD k_p 0.5: why"),
-        "{text}"
-    );
-    assert!(
-        text.contains("set_mode CUSTOM (gain 99): refused -> CUSTOM k_p 99: why"),
-        "{text}"
+    assert_holds(
+        &text,
+        &[
+            "set_mode FORWARD (gain 0.5): accepted -> FORWARD k_p 0.5: why",
+            "set_mode CUSTOM (gain 99): refused -> CUSTOM k_p 99: why",
+        ],
     );
 }
 
@@ -421,18 +425,9 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
     write_run(&p, 2400, false);
     let f = p.display().to_string();
     let before = std::fs::read(&p).unwrap_or_default();
-    let out = capsule(&["record", "recover", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["record", "recover", &f]);
     // everything was flushed before the "kill": nothing lost; a new file, the input untouched
-    assert!(
-        text.contains(&format!("recovered {} messages", 3 * 2400 + 4)),
-        "{text}"
-    );
+    assert_holds(&text, &[&format!("recovered {} messages", 3 * 2400 + 4)]);
     assert_eq!(std::fs::read(&p).unwrap_or_default(), before);
     let fixed = recovered(&p);
     let v = python_decode(&fixed, "rosbags");
@@ -448,7 +443,7 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
     let again = capsule(&["record", "recover", &f]);
     let err = String::from_utf8_lossy(&again.stderr);
     assert_eq!(again.status.code(), Some(1), "{err}");
-    assert!(err.contains("exists: not overwriting"), "{err}");
+    assert_holds(&err, &["exists: not overwriting"]);
     // --in-place replaces the input, explicitly
     let inplace = capsule(&["record", "recover", "--in-place", &f]);
     assert!(inplace.status.success());
@@ -471,25 +466,20 @@ fn recover_and_info_on_compressed_and_damaged_files() {
         let f = p.display().to_string();
         let total = 3 * 3000 + 4;
         // a compressed file is not damage
-        let info = capsule(&["record", "info", &f]);
-        let text = String::from_utf8_lossy(&info.stdout);
-        assert!(info.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains(&format!("Messages:          {total}")),
-            "{text}"
-        );
+        let text = capsule_ok(&["record", "info", &f]);
+        assert_holds(&text, &[&format!("Messages:          {total}")]);
         let v = python_decode(&p, "rosbags");
         check_reader(&v, "rosbags", 3000);
         foxglove_agrees(&foxglove_decode(&p), &v, total);
         // recovering a valid compressed file keeps every message, compressed as it was
-        let out = capsule(&["record", "recover", &f]);
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains(&format!("recovered {total} messages")),
-            "{text}"
+        let text = capsule_ok(&["record", "recover", &f]);
+        assert_holds(
+            &text,
+            &[
+                &format!("recovered {total} messages"),
+                "the input was complete and intact",
+            ],
         );
-        assert!(text.contains("the input was complete and intact"), "{text}");
         let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
         let ratio = size(&recovered(&p)) as f64 / size(&p) as f64;
         assert!((0.7..1.4).contains(&ratio), "{kind}: size ratio {ratio}");
@@ -508,13 +498,8 @@ fn recover_and_info_on_compressed_and_damaged_files() {
         bad[(c.chunk_start_offset + c.chunk_length * 3 / 4) as usize] ^= 0x01;
         let b = tmp.file(&format!("cli_{kind}_flipped.mcap"));
         std::fs::write(&b, &bad).unwrap_or_else(|e| panic!("{e}"));
-        let out = capsule(&["record", "recover", &b.display().to_string()]);
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains("damaged: skipped the chunk at offset"),
-            "{text}"
-        );
+        let text = capsule_ok(&["record", "recover", &b.display().to_string()]);
+        assert_holds(&text, &["damaged: skipped the chunk at offset"]);
         let kept = capsule_record::info(&recovered(&b))
             .map(|i| i.messages)
             .unwrap_or(0);
@@ -541,24 +526,18 @@ fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
     write_run_with(&old, n, true, &WriterOptions::default(), true);
     // the old files: Foxglove's readers refuse them (the Python readers do not notice)
     let err = foxglove_try(&old).err().unwrap_or_default();
-    assert!(
-        err.contains("Expected 1 top level type definition for 'std_msgs/Header' but found 0"),
-        "{err}"
+    assert_holds(
+        &err,
+        &["Expected 1 top level type definition for 'std_msgs/Header' but found 0"],
     );
     let fixed = tmp.file("old_spelling_fixed.mcap");
-    let out = capsule(&[
+    let text = capsule_ok(&[
         "record",
         "recover",
         &old.display().to_string(),
         "-o",
         &fixed.display().to_string(),
     ]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     for t in [
         type_names::STATE,
         type_names::FORCE,
@@ -642,16 +621,13 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
     }
     assert_eq!(sum, total);
     for arg in [dir.clone(), dir.join("metadata.yaml")] {
-        let info = capsule(&["record", "info", &arg.display().to_string()]);
-        let text = String::from_utf8_lossy(&info.stdout);
-        assert!(info.status.success(), "{text}");
-        assert!(
-            text.contains(&format!("Messages:          {total}")),
-            "{text}"
-        );
-        assert!(
-            text.contains(&format!("Files:             {}", files.len())),
-            "{text}"
+        let text = capsule_ok(&["record", "info", &arg.display().to_string()]);
+        assert_holds(
+            &text,
+            &[
+                &format!("Messages:          {total}"),
+                &format!("Files:             {}", files.len()),
+            ],
         );
     }
     // recovery works per file
@@ -822,23 +798,11 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     for reader in ["mcap", "rosbags"] {
         let t = &v[reader]["topics"];
         // every state the plant published, in order, none twice
-        let seqs: Vec<u64> = t[default_topics::STATE]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|r| r[0].as_u64())
-            .collect();
+        let seqs = first_column(t, default_topics::STATE);
         expect_all(&seqs, published, &format!("{reader} states"));
         // every command the controller sent: one per state it answered, in order, none twice;
         // at least as many as its last status counted
-        let forces: Vec<u64> = t[default_topics::FORCE]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|r| r[0].as_u64())
-            .collect();
+        let forces = first_column(t, default_topics::FORCE);
         assert!(
             forces.windows(2).all(|w| w[0] <= w[1]),
             "{reader}: force state_seq going back"
@@ -862,10 +826,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         );
         assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
         assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
-        let ev: Vec<String> = t[default_topics::SET_MODE_EVENT]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
+        let ev: Vec<String> = rows(t, default_topics::SET_MODE_EVENT)
             .iter()
             .map(|r| {
                 format!(
@@ -892,10 +853,12 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
     let info = capsule(&["record", "info", &file.display().to_string()]);
     let info = String::from_utf8_lossy(&info.stdout);
-    assert!(info.contains("Scene:             control_point"), "{info}");
-    assert!(
-        info.contains("set_mode BACKWARD (default gain): accepted -> BACKWARD k_p -0.2"),
-        "{info}"
+    assert_holds(
+        &info,
+        &[
+            "Scene:             control_point",
+            "set_mode BACKWARD (default gain): accepted -> BACKWARD k_p -0.2",
+        ],
     );
     // refused, the mode unchanged: FORWARD, or BACKWARD if the run (faster without a recorder
     // process) had passed the scheduled switch at 4.5 s when the request came
@@ -906,13 +869,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     );
     // the lock-step recording re-drives the controller library to identical commands
     let f = file.display().to_string();
-    let out = capsule(&["replay", "--check-controller", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["replay", "--check-controller", &f]);
     assert!(
         // (the plant stops at its last sample and does not take that sample's answer)
         (text.contains(&format!("checked {published} recorded commands"))
@@ -960,7 +917,7 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
         exit 0"#,
     );
     assert_eq!(code, Some(0), "{all}");
-    assert!(all.contains("recorder rc=137"), "{all}");
+    assert_holds(&all, &["recorder rc=137"]);
     let kill_ns: u64 = all
         .lines()
         .find_map(|l| l.strip_prefix("kill_ns="))
@@ -970,24 +927,12 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
     let f = file.display().to_string();
     let before = capsule(&["record", "info", &f]);
     assert_eq!(before.status.code(), Some(1), "a killed file has no footer");
-    let out = capsule(&["record", "recover", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["record", "recover", &f]);
     let file = recovered(&file);
     let v = python_decode(&file, "rosbags");
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
     let st = &v["rosbags"]["topics"][default_topics::STATE];
-    let seqs: Vec<u64> = st["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default()
-        .iter()
-        .filter_map(|r| r[0].as_u64())
-        .collect();
+    let seqs = first_column(&v["rosbags"]["topics"], default_topics::STATE);
     assert!(seqs.len() > 1000, "{} states\n{text}", seqs.len());
     // contiguous from the first sample: nothing lost before the cut
     expect_all(&seqs, seqs.len() as u64, "recovered states");
@@ -998,10 +943,7 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
         .unwrap_or(0);
     let lost_s = kill_ns.saturating_sub(last_log) as f64 * 1e-9;
     assert!(lost_s <= 1.0, "lost the last {lost_s:.3} s\n{text}");
-    assert!(
-        text.contains(&format!("recovered {} messages", v_total(&v))),
-        "{text}"
-    );
+    assert_holds(&text, &[&format!("recovered {} messages", v_total(&v))]);
 }
 
 #[test]
@@ -1020,7 +962,7 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
         kill -INT $R; wait $R; echo "recorder rc=$?""#,
     );
     assert_eq!(code, Some(0), "{all}");
-    assert!(all.contains("recorder rc=0"), "{all}");
+    assert_holds(&all, &["recorder rc=0"]);
     let a = capsule_record::messages(&original).unwrap_or_else(|e| panic!("{e}"));
     let b = capsule_record::messages(&dir.join("again.mcap")).unwrap_or_else(|e| panic!("{e}"));
     let by_topic = |v: &[capsule_record::messages::Message]| {
