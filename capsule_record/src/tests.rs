@@ -128,11 +128,17 @@ fn write_with(
     Ok(())
 }
 
+/// [`write_run`] into `<test>.mcap` in a directory of the test's own.
+fn written(test: &str, n: u64, finish: bool) -> (Tmp, PathBuf) {
+    let tmp = Tmp::new(test);
+    let p = tmp.file(&format!("{test}.mcap"));
+    write_run(&p, n, finish).unwrap_or_else(|e| panic!("{e}"));
+    (tmp, p)
+}
+
 #[test]
 fn info_reads_the_summary_with_counts_modes_and_scene() {
-    let tmp = Tmp::new("info");
-    let p = tmp.file("info.mcap");
-    write_run(&p, 2000, true).unwrap_or_else(|e| panic!("{e}"));
+    let (_tmp, p) = written("info", 2000, true);
     let i = info(&p).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(i.source, InfoSource::Summary);
     assert_eq!(i.profile, "ros2");
@@ -164,9 +170,7 @@ fn info_reads_the_summary_with_counts_modes_and_scene() {
 
 #[test]
 fn messages_come_back_in_order_with_their_values() {
-    let tmp = Tmp::new("messages");
-    let p = tmp.file("messages.mcap");
-    write_run(&p, 300, true).unwrap_or_else(|e| panic!("{e}"));
+    let (_tmp, p) = written("messages", 300, true);
     let all = messages(&p).unwrap_or_else(|e| panic!("{e}"));
     let states: Vec<CapsuleState> = all
         .iter()
@@ -182,9 +186,7 @@ fn messages_come_back_in_order_with_their_values() {
 
 #[test]
 fn a_cut_file_is_reported_and_recovered_with_the_profile() {
-    let tmp = Tmp::new("cut");
-    let p = tmp.file("cut.mcap");
-    write_run(&p, 1500, false).unwrap_or_else(|e| panic!("{e}"));
+    let (tmp, p) = written("cut", 1500, false);
     match info(&p) {
         Err(RecordError::Truncated(_)) => {}
         other => panic!("expected Truncated, got {other:?}"),
@@ -202,9 +204,7 @@ fn a_cut_file_is_reported_and_recovered_with_the_profile() {
 
 #[test]
 fn a_half_written_chunk_is_dropped_and_the_rest_kept() {
-    let tmp = Tmp::new("half");
-    let p = tmp.file("half.mcap");
-    write_run(&p, 1200, true).unwrap_or_else(|e| panic!("{e}"));
+    let (tmp, p) = written("half", 1200, true);
     let bytes = std::fs::read(&p).unwrap_or_default();
     // cut in the middle of the file: inside some chunk
     let cut = tmp.file("half_cut.mcap");
