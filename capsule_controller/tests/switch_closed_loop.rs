@@ -9,18 +9,8 @@ use capsule_controller::FeedbackLaw;
 use capsule_plant::scene::Scene;
 use capsule_plant::{ConstantForce, Simulator};
 
-const SCENE: &str = r#"
-[capsule]
-gamma = 5.0
-beta = 15.0
-delta = 0.02
-xi = 0.01
-[drive]
-alpha = 1.5
-omega = 0.95
-[initial]
-state = [-1.5, 0.0, 0.0, 0.0]
-"#;
+/// The bundled live scene of the switch: alpha 1.5, k_p 0, from (-1.5, 0, 0, 0).
+const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/switch_alpha15.toml");
 
 struct Loop {
     sim: Simulator,
@@ -31,7 +21,8 @@ struct Loop {
 
 impl Loop {
     fn new() -> Loop {
-        let scene = Scene::from_toml_str(SCENE, "test").expect("scene");
+        let text = std::fs::read_to_string(SCENE).expect("scene file");
+        let scene = Scene::from_toml_str(&text, SCENE).expect("scene");
         let dt = 1e-3 * scene.physical.omega0();
         let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
             .expect("simulator");

@@ -13,15 +13,32 @@ use crate::{
     scan::chunk_records,
     types::{OfferedQos, ServiceEventInfo, SetModeEvent},
     writer::ChunkCompression,
-    RecordError, RecordWriter, SceneRecord, WriterOptions,
+    RecordError, RecordWriter, Recovered, SceneRecord, WriterOptions,
 };
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("capsule_record_{}", std::process::id()));
-    let _ = std::fs::create_dir_all(&dir);
-    let p = dir.join(name);
-    let _ = std::fs::remove_file(&p);
-    p
+/// A directory of one test's own under the system temp dir, removed when the test ends, also
+/// when it panics (the recordings here are tens of MB).
+struct Tmp(PathBuf);
+
+impl Tmp {
+    fn new(test: &str) -> Tmp {
+        let pid = std::process::id();
+        let dir = std::env::temp_dir().join(format!("capsule_record_{pid}_{test}"));
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::create_dir_all(&dir);
+        Tmp(dir)
+    }
+
+    /// A file in the directory (not created).
+    fn file(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for Tmp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 fn state(seq: u64) -> CapsuleState {
@@ -60,20 +77,13 @@ fn write_with(
             ..options
         },
     )?;
-    let s = w.add_topic(
-        default_topics::STATE,
-        type_names::STATE,
-        &OfferedQos::reliable(10),
-    )?;
-    let f = w.add_topic(
-        default_topics::FORCE,
-        type_names::FORCE,
-        &OfferedQos::reliable(10),
-    )?;
-    let e = w.add_topic(
+    let mut add = |topic, ty, depth| w.add_topic(topic, ty, &OfferedQos::reliable(depth));
+    let s = add(default_topics::STATE, type_names::STATE, 10)?;
+    let f = add(default_topics::FORCE, type_names::FORCE, 10)?;
+    let e = add(
         default_topics::SET_MODE_EVENT,
         type_names::SET_MODE_EVENT,
-        &OfferedQos::reliable(1000),
+        1000,
     )?;
     for i in 1..=n {
         let t = 1_000_000_000 + i * 1_000_000;
@@ -118,10 +128,17 @@ fn write_with(
     Ok(())
 }
 
+/// [`write_run`] into `<test>.mcap` in a directory of the test's own.
+fn written(test: &str, n: u64, finish: bool) -> (Tmp, PathBuf) {
+    let tmp = Tmp::new(test);
+    let p = tmp.file(&format!("{test}.mcap"));
+    write_run(&p, n, finish).unwrap_or_else(|e| panic!("{e}"));
+    (tmp, p)
+}
+
 #[test]
 fn info_reads_the_summary_with_counts_modes_and_scene() {
-    let p = tmp("info.mcap");
-    write_run(&p, 2000, true).unwrap_or_else(|e| panic!("{e}"));
+    let (_tmp, p) = written("info", 2000, true);
     let i = info(&p).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(i.source, InfoSource::Summary);
     assert_eq!(i.profile, "ros2");
@@ -153,8 +170,7 @@ fn info_reads_the_summary_with_counts_modes_and_scene() {
 
 #[test]
 fn messages_come_back_in_order_with_their_values() {
-    let p = tmp("messages.mcap");
-    write_run(&p, 300, true).unwrap_or_else(|e| panic!("{e}"));
+    let (_tmp, p) = written("messages", 300, true);
     let all = messages(&p).unwrap_or_else(|e| panic!("{e}"));
     let states: Vec<CapsuleState> = all
         .iter()
@@ -170,13 +186,12 @@ fn messages_come_back_in_order_with_their_values() {
 
 #[test]
 fn a_cut_file_is_reported_and_recovered_with_the_profile() {
-    let p = tmp("cut.mcap");
-    write_run(&p, 1500, false).unwrap_or_else(|e| panic!("{e}"));
+    let (tmp, p) = written("cut", 1500, false);
     match info(&p) {
         Err(RecordError::Truncated(_)) => {}
         other => panic!("expected Truncated, got {other:?}"),
     }
-    let out = tmp("cut.recovered.mcap");
+    let out = tmp.file("cut.recovered.mcap");
     let r = recover(&p, &out).unwrap_or_else(|e| panic!("{e}"));
     assert!(!r.was_complete);
     assert_eq!(r.messages, 3001, "flushed before the cut: nothing lost");
@@ -189,13 +204,12 @@ fn a_cut_file_is_reported_and_recovered_with_the_profile() {
 
 #[test]
 fn a_half_written_chunk_is_dropped_and_the_rest_kept() {
-    let p = tmp("half.mcap");
-    write_run(&p, 1200, true).unwrap_or_else(|e| panic!("{e}"));
+    let (tmp, p) = written("half", 1200, true);
     let bytes = std::fs::read(&p).unwrap_or_default();
     // cut in the middle of the file: inside some chunk
-    let cut = tmp("half_cut.mcap");
+    let cut = tmp.file("half_cut.mcap");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap_or_else(|e| panic!("{e}"));
-    let out = tmp("half.recovered.mcap");
+    let out = tmp.file("half.recovered.mcap");
     let r = recover(&cut, &out).unwrap_or_else(|e| panic!("{e}"));
     assert!(r.cut.is_some());
     assert!(r.messages > 0 && r.messages < 2401, "{}", r.messages);
@@ -205,21 +219,22 @@ fn a_half_written_chunk_is_dropped_and_the_rest_kept() {
 
 #[test]
 fn bad_inputs_are_clear_errors() {
-    let missing = tmp("does_not_exist.mcap");
+    let tmp = Tmp::new("bad_inputs");
+    let missing = tmp.file("does_not_exist.mcap");
     assert!(matches!(info(&missing), Err(RecordError::Missing(_))));
-    let text = tmp("text.mcap");
+    let text = tmp.file("text.mcap");
     std::fs::write(&text, "hello, not mcap").unwrap_or_else(|e| panic!("{e}"));
     assert!(matches!(info(&text), Err(RecordError::NotMcap(_))));
     assert!(matches!(messages(&text), Err(RecordError::NotMcap(_))));
     assert!(matches!(
-        recover(&text, &tmp("x.mcap")),
+        recover(&text, &tmp.file("x.mcap")),
         Err(RecordError::NotMcap(_))
     ));
-    let empty = tmp("empty.mcap");
+    let empty = tmp.file("empty.mcap");
     std::fs::write(&empty, "").unwrap_or_else(|e| panic!("{e}"));
     assert!(matches!(info(&empty), Err(RecordError::NotMcap(_))));
     // a schema in another encoding: not a ROS 2 recording
-    let foreign = tmp("foreign.mcap");
+    let foreign = tmp.file("foreign.mcap");
     {
         let file = std::fs::File::create(&foreign).unwrap_or_else(|e| panic!("{e}"));
         let mut w =
@@ -283,8 +298,11 @@ fn full_disk_is_an_error_not_a_silent_truncation() {
     }
 }
 
-/// Each chunk of a complete file (from its summary): offset, length, messages in it.
-fn chunk_table(bytes: &[u8]) -> Vec<(usize, usize, u64)> {
+/// A chunk of a file: offset, length, messages in it.
+type Chunk = (usize, usize, u64);
+
+/// Each chunk of a complete file (from its summary).
+fn chunk_table(bytes: &[u8]) -> Vec<Chunk> {
     let summary = mcap::read::Summary::read(bytes)
         .ok()
         .flatten()
@@ -315,8 +333,8 @@ const KINDS: [ChunkCompression; 3] = [
 ];
 
 /// 6000 states + forces + 1 event in about 12 chunks (0.5 s of log time each).
-fn chunked_run(name: &str, compression: ChunkCompression) -> (PathBuf, Vec<u8>) {
-    let p = tmp(name);
+fn chunked_run(tmp: &Tmp, name: &str, compression: ChunkCompression) -> (PathBuf, Vec<u8>) {
+    let p = tmp.file(&format!("{name}_{}.mcap", compression.chunk_name()));
     let options = WriterOptions {
         compression,
         ..WriterOptions::default()
@@ -328,15 +346,16 @@ fn chunked_run(name: &str, compression: ChunkCompression) -> (PathBuf, Vec<u8>) 
 
 #[test]
 fn compressed_files_read_whole_and_recover_whole() {
+    let tmp = Tmp::new("whole");
     let mut sizes = Vec::new();
     for kind in KINDS {
-        let (p, bytes) = chunked_run(&format!("whole_{}.mcap", kind.chunk_name()), kind);
+        let (p, bytes) = chunked_run(&tmp, "whole", kind);
         let i = info(&p).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
         assert_eq!(i.messages, 12_001, "{kind:?}");
         assert_eq!(i.mode_changes.len(), 1, "{kind:?}");
         assert!(i.chunks >= 10, "{kind:?}: {} chunks", i.chunks);
         assert_eq!(messages(&p).map(|m| m.len()).ok(), Some(12_001));
-        let out = tmp(&format!("whole_{}.recovered.mcap", kind.chunk_name()));
+        let out = tmp.file(&format!("whole_{}.recovered.mcap", kind.chunk_name()));
         let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
         assert!(
             r.was_complete && r.damage.is_empty() && r.cut.is_none(),
@@ -354,56 +373,72 @@ fn compressed_files_read_whole_and_recover_whole() {
     assert!(sizes[1] * 2 < sizes[0] && sizes[2] < sizes[0], "{sizes:?}");
 }
 
+/// For each compression, in a directory of the test's own (`test`): the bytes of a
+/// [`chunked_run`] and its chunk table.
+fn each_chunked_run(test: &str, mut check: impl FnMut(&Tmp, ChunkCompression, &[u8], &[Chunk])) {
+    let tmp = Tmp::new(test);
+    for kind in KINDS {
+        let (_, bytes) = chunked_run(&tmp, test, kind);
+        check(&tmp, kind, &bytes, &chunk_table(&bytes));
+    }
+}
+
+/// Writes `bytes` to `<name>.mcap` in `tmp` and recovers it into `<name>.recovered.mcap`
+/// (replaced if there): the damaged file, the recovered one, what recovery says.
+fn recover_bytes(
+    tmp: &Tmp,
+    name: &str,
+    bytes: &[u8],
+) -> (PathBuf, PathBuf, Result<Recovered, RecordError>) {
+    let p = tmp.file(&format!("{name}.mcap"));
+    std::fs::write(&p, bytes).unwrap_or_else(|e| panic!("{e}"));
+    let out = tmp.file(&format!("{name}.recovered.mcap"));
+    let _ = std::fs::remove_file(&out);
+    let r = recover(&p, &out);
+    (p, out, r)
+}
+
 #[test]
 fn a_flipped_bit_in_a_middle_chunk_loses_that_chunk_only() {
-    for kind in KINDS {
-        let (_, bytes) = chunked_run(&format!("flip_{}.mcap", kind.chunk_name()), kind);
-        let chunks = chunk_table(&bytes);
+    each_chunked_run("flip", |tmp, kind, bytes, chunks| {
         let total: u64 = chunks.iter().map(|c| c.2).sum();
         assert_eq!(total, 12_001);
         for k in [1, chunks.len() / 2, chunks.len() - 2] {
             let (start, len, lost) = chunks[k];
-            let mut bad = bytes.clone();
+            let mut bad = bytes.to_vec();
             bad[start + len * 2 / 3] ^= 0x10;
-            let p = tmp(&format!("flip_{}_{k}.mcap", kind.chunk_name()));
-            std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
-            let out = tmp(&format!("flip_{}_{k}.recovered.mcap", kind.chunk_name()));
-            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?} {k}: {e}"));
+            let name = format!("flip_{}_{k}", kind.chunk_name());
+            let (_, out, r) = recover_bytes(tmp, &name, &bad);
+            let r = r.unwrap_or_else(|e| panic!("{kind:?} {k}: {e}"));
             assert_eq!(r.messages, total - lost, "{kind:?} chunk {k}: {r:?}");
             assert_eq!(r.chunks_dropped, 1, "{kind:?} chunk {k}: {r:?}");
             assert_eq!(r.chunks_kept as usize, chunks.len() - 1);
             assert_eq!(info(&out).map(|i| i.messages).ok(), Some(total - lost));
         }
-    }
+    });
 }
 
 #[test]
 fn a_damaged_chunk_length_prefix_loses_nothing() {
-    for kind in KINDS {
-        let (_, bytes) = chunked_run(&format!("len_{}.mcap", kind.chunk_name()), kind);
-        let chunks = chunk_table(&bytes);
+    each_chunked_run("len", |tmp, kind, bytes, chunks| {
         let k = chunks.len() / 2;
         for junk in [u64::MAX, 3, (chunks[k].1 as u64) * 3] {
-            let mut bad = bytes.clone();
+            let mut bad = bytes.to_vec();
             bad[chunks[k].0 + 1..chunks[k].0 + 9].copy_from_slice(&junk.to_le_bytes());
-            let p = tmp(&format!("len_{}.bad.mcap", kind.chunk_name()));
-            std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
-            let out = tmp(&format!("len_{}.recovered.mcap", kind.chunk_name()));
-            let _ = std::fs::remove_file(&out);
-            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+            let name = format!("len_{}", kind.chunk_name());
+            let r = recover_bytes(tmp, &name, &bad).2;
+            let r = r.unwrap_or_else(|e| panic!("{kind:?}: {e}"));
             // the chunk is read by its own fields (its CRC holds): nothing lost, the damage said
             assert_eq!(r.messages, 12_001, "{kind:?} {junk}: {r:?}");
             assert_eq!(r.damage.len(), 1, "{kind:?} {junk}: {r:?}");
             assert_eq!(r.chunks_dropped, 0);
         }
-    }
+    });
 }
 
 #[test]
 fn a_truncated_file_keeps_every_chunk_before_the_cut() {
-    for kind in KINDS {
-        let (_, bytes) = chunked_run(&format!("trunc_{}.mcap", kind.chunk_name()), kind);
-        let chunks = chunk_table(&bytes);
+    each_chunked_run("trunc", |tmp, kind, bytes, chunks| {
         for frac in [0.0, 0.1, 0.33, 0.5, 0.77, 0.95, 0.999] {
             let cut = ((bytes.len() as f64 * frac) as usize).max(8);
             let whole: u64 = chunks
@@ -411,45 +446,39 @@ fn a_truncated_file_keeps_every_chunk_before_the_cut() {
                 .filter(|c| c.0 + c.1 <= cut)
                 .map(|c| c.2)
                 .sum();
-            let p = tmp(&format!("trunc_{}_{frac}.mcap", kind.chunk_name()));
-            std::fs::write(&p, &bytes[..cut]).unwrap_or_else(|e| panic!("{e}"));
+            let name = format!("trunc_{}_{frac}", kind.chunk_name());
+            let (p, out, r) = recover_bytes(tmp, &name, &bytes[..cut]);
             assert!(info(&p).is_err(), "{kind:?} {frac}: a cut file is an error");
-            let out = tmp(&format!(
-                "trunc_{}_{frac}.recovered.mcap",
-                kind.chunk_name()
-            ));
-            let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?} {frac}: {e}"));
+            let r = r.unwrap_or_else(|e| panic!("{kind:?} {frac}: {e}"));
             assert_eq!(r.messages, whole, "{kind:?} cut at {frac}: {r:?}");
             assert!(!r.was_complete);
             assert_eq!(info(&out).map(|i| i.messages).ok(), Some(whole));
         }
-    }
+    });
 }
 
 #[test]
 fn a_damaged_chunk_header_skips_to_the_next_intact_chunk() {
-    for kind in KINDS {
-        let (_, bytes) = chunked_run(&format!("hdr_{}.mcap", kind.chunk_name()), kind);
-        let chunks = chunk_table(&bytes);
+    each_chunked_run("hdr", |tmp, kind, bytes, chunks| {
         let k = chunks.len() / 2;
-        let mut bad = bytes.clone();
+        let mut bad = bytes.to_vec();
         // the records length (after times, size, CRC and the compression name): past the end
         let name = kind.chunk_name().len();
         let at = chunks[k].0 + 9 + 8 + 8 + 8 + 4 + 4 + name;
         bad[at..at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
         bad[chunks[k].0 + 1..chunks[k].0 + 9].copy_from_slice(&u64::MAX.to_le_bytes());
-        let p = tmp(&format!("hdr_{}.bad.mcap", kind.chunk_name()));
-        std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
-        let out = tmp(&format!("hdr_{}.recovered.mcap", kind.chunk_name()));
-        let r = recover(&p, &out).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        let name = format!("hdr_{}", kind.chunk_name());
+        let r = recover_bytes(tmp, &name, &bad).2;
+        let r = r.unwrap_or_else(|e| panic!("{kind:?}: {e}"));
         assert_eq!(r.messages, 12_001 - chunks[k].2, "{kind:?}: {r:?}");
         assert_eq!(r.chunks_dropped, 1, "{kind:?}: {r:?}");
         assert_eq!(r.chunks_kept as usize, chunks.len() - 1);
-    }
+    });
 }
 
 #[test]
 fn split_by_duration_and_size_gives_numbered_files_and_one_metadata_yaml() {
+    let tmp = Tmp::new("split");
     use crate::bag::{bag_files, bag_info, BagOptions, BagWriter, METADATA_YAML};
     for (name, bag) in [
         (
@@ -469,9 +498,8 @@ fn split_by_duration_and_size_gives_numbered_files_and_one_metadata_yaml() {
             },
         ),
     ] {
-        let path = tmp(&format!("{name}.mcap"));
+        let path = tmp.file(&format!("{name}.mcap"));
         let dir = path.with_extension("");
-        let _ = std::fs::remove_dir_all(&dir);
         let mut w = BagWriter::create(&path, WriterOptions::default(), bag)
             .unwrap_or_else(|e| panic!("{e}"));
         let s = w

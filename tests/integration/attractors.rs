@@ -1,6 +1,7 @@
 //! Coexisting attractors (the paper's section 5.4, Figs 18-20) at coarse grids: basins and their
 //! change with the gain and the drive amplitude, switching by a gain schedule.
 
+use crate::common::{command, json, line, stderr, TempDir};
 use capsule_analysis::attractor::SettleConfig;
 use capsule_analysis::basin::{basins, BasinMap, Grid, Plane};
 use capsule_analysis::switch::switch_run;
@@ -79,18 +80,8 @@ fn fig18_period_three_basin_shrinks_toward_alpha_1_654() {
 
 #[test]
 fn fig20_control_switched_on_at_period_300_moves_period_3_to_period_1() {
-    let mut scene = coulomb(1.3, 0.0);
-    scene.initial = ON_PERIOD_THREE;
-    scene.horizon.periods = 600;
-    let on = GainSchedule {
-        before: 0.0,
-        pulse: Some(Pulse {
-            kp: 0.1,
-            at: 300,
-            periods: 1,
-        }),
-        after: 0.1,
-    };
+    let scene = from_period_three(1.3, 600);
+    let on = one_period_pulse(0.1, 300, 0.1);
     on.validate(600).unwrap();
     let r = switch_run(&scene, &on, 0, &mut |_| {}).unwrap();
     assert_eq!(r.before.period, Some(3));
@@ -103,30 +94,31 @@ fn fig20_control_switched_on_at_period_300_moves_period_3_to_period_1() {
 
 /// A start in the period-3 basin at alpha 1.3 and 1.5 (k_p 0): x1 - x2 = -1.5, all at rest.
 /// From rest the motion ends on the period-2 (alpha 1.3) or period-1 (alpha 1.5) orbit.
-const ON_PERIOD_THREE: State = State {
-    x1: -1.5,
-    y1: 0.0,
-    x2: 0.0,
-    y2: 0.0,
-};
+fn from_period_three(alpha: f64, periods: u32) -> Scene {
+    let mut scene = coulomb(alpha, 0.0);
+    scene.initial = State {
+        x1: -1.5,
+        ..State::default()
+    };
+    scene.horizon.periods = periods;
+    scene
+}
+
+/// k_p 0, then `kp` for the one period `at`, then `after`.
+fn one_period_pulse(kp: f64, at: u32, after: f64) -> GainSchedule {
+    GainSchedule {
+        before: 0.0,
+        pulse: Some(Pulse { kp, at, periods: 1 }),
+        after,
+    }
+}
 
 #[test]
 fn alpha_1_5_a_released_pulse_switches_at_a_suitable_phase_only() {
-    let mut scene = coulomb(1.5, 0.0);
-    scene.initial = ON_PERIOD_THREE;
-    scene.horizon.periods = 400;
-    let pulse = |at| GainSchedule {
-        before: 0.0,
-        pulse: Some(Pulse {
-            kp: 0.3,
-            at,
-            periods: 1,
-        }),
-        after: 0.0,
-    };
+    let scene = from_period_three(1.5, 400);
     let outcomes: Vec<(u32, Option<usize>, Option<usize>)> = (200..206)
         .map(|at| {
-            let r = switch_run(&scene, &pulse(at), 0, &mut |_| {}).unwrap();
+            let r = switch_run(&scene, &one_period_pulse(0.3, at, 0.0), 0, &mut |_| {}).unwrap();
             (at, r.before.period, r.after.period)
         })
         .collect();
@@ -144,18 +136,6 @@ fn alpha_1_5_a_released_pulse_switches_at_a_suitable_phase_only() {
     for at in 200..203 {
         assert_eq!(by_phase(at), by_phase(at + 3), "{outcomes:?}");
     }
-}
-
-fn capsule(args: &[&str]) -> std::process::Output {
-    let bin = std::env::var("CAPSULE_BIN").map_or_else(
-        |_| crate::root().join("target").join("debug").join("capsule"),
-        std::path::PathBuf::from,
-    );
-    std::process::Command::new(&bin)
-        .args(args)
-        .current_dir(std::env::temp_dir())
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", bin.display()))
 }
 
 #[test]
@@ -187,10 +167,16 @@ fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
             "--pulse-kp",
         ),
     ];
+    // run elsewhere than the repository, so that nothing lands there if a case goes through
+    let dir = TempDir::new("attractors_refusals");
     for (args, needle) in cases {
         let t0 = std::time::Instant::now();
-        let out = capsule(args);
-        let err = String::from_utf8_lossy(&out.stderr);
+        let out = command("capsule")
+            .args(args)
+            .current_dir(&*dir)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+        let err = stderr(&out);
         assert!(!out.status.success(), "{args:?} succeeded");
         assert!(err.contains(needle), "{args:?}: {err}");
         assert!(
@@ -202,26 +188,11 @@ fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
 
 #[test]
 fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
-    let dir = std::env::temp_dir().join(format!("capsule_basins_{}", std::process::id()));
-    let prefix = dir.join("b_kp0.05");
-    let out = capsule(&[
-        "basins",
-        "--alpha",
-        "1.5",
-        "--grid",
-        "3,2",
-        "--periods",
-        "40",
-        "--json",
-        "--out",
-        prefix.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let dir = TempDir::new("attractors_basins");
+    let v = json(&line(
+        "basins --alpha 1.5 --grid 3,2 --periods 40 --json --out",
+        &[&dir.arg("b_kp0.05")],
+    ));
     let atts = v["attractors"].as_array().unwrap();
     assert!(!atts.is_empty());
     let mut total = 0.0;
@@ -243,14 +214,13 @@ fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
     assert_eq!(v["grid"]["nx"], 3);
     assert_eq!(v["work"]["runs"], 6);
     for ext in ["svg", "png", "csv", "json"] {
-        let f = dir.join(format!("b_kp0.05.{ext}"));
+        let f = dir.file(&format!("b_kp0.05.{ext}"));
         assert!(
             f.metadata().map(|m| m.len() > 0).unwrap_or(false),
             "{}",
             f.display()
         );
     }
-    let png = std::fs::read(dir.join("b_kp0.05.png")).unwrap();
+    let png = std::fs::read(dir.file("b_kp0.05.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
-    let _ = std::fs::remove_dir_all(&dir);
 }

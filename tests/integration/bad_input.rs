@@ -6,79 +6,38 @@
 //! failed values exit non-zero. Needs the binaries (`cargo build --workspace`); no DDS starts
 //! (the nodes run with `--check`, which stops after the same checks a real start makes).
 
+use crate::common::{
+    assert_ok, assert_refused, command, files_in, json_of, line, run, stderr, TempDir,
+};
 use crate::root;
 use proptest::prelude::*;
-use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin(name: &str) -> PathBuf {
-    let p = root().join("target/debug").join(name);
-    assert!(
-        p.is_file(),
-        "{} missing: run `cargo build --workspace` first",
-        p.display()
-    );
-    p
-}
-
-/// Runs a binary with a deadline (a hang is a failure, not a stuck test run).
-fn run(name: &str, args: &[&str]) -> Output {
-    let mut child = Command::new(bin(name))
-        .args(args)
-        .current_dir(root())
-        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {name}: {e}"));
-    let t0 = Instant::now();
-    loop {
-        match child.try_wait() {
-            Ok(Some(_)) => break,
-            Ok(None) if t0.elapsed() > Duration::from_secs(60) => {
-                let _ = child.kill();
-                panic!("{name} {args:?} still running after 60 s");
-            }
-            Ok(None) => std::thread::sleep(Duration::from_millis(10)),
-            Err(e) => panic!("{name}: {e}"),
-        }
-    }
-    child
-        .wait_with_output()
-        .unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("capsule-bad-input-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
-    d.join(name)
-}
 
 /// The command lines that take a scene, `{}` standing for the scene path.
 fn scene_takers(out: &str) -> Vec<(&'static str, Vec<String>)> {
-    let v = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let v = |words: &str, tail: &[&str]| {
+        line(words, tail)
+            .into_iter()
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
     vec![
-        ("capsule", v(&["simulate", "--scene", "{}"])),
+        ("capsule", v("simulate --scene {}", &[])),
         (
             "capsule",
-            v(&[
-                "sweep", "--scene", "{}", "--param", "alpha", "--from", "1", "--to", "1",
-                "--steps", "1", "--out", out,
-            ]),
+            v(
+                "sweep --scene {} --param alpha --from 1 --to 1 --steps 1 --out",
+                &[out],
+            ),
         ),
-        ("capsule_plant", v(&["--scene", "{}", "--check"])),
-        ("capsule_controller", v(&["--scene", "{}", "--check"])),
+        ("capsule_plant", v("--scene {} --check", &[])),
+        ("capsule_controller", v("--scene {} --check", &[])),
         (
             "capsule_recorder",
-            v(&["--scene", "{}", "--check", "--record-dir", out]),
+            v("--scene {} --check --record-dir", &[out]),
         ),
-        ("capsule_ros", v(&["period", "--scene", "{}"])),
+        ("capsule_ros", v("period --scene {}", &[])),
     ]
 }
 
@@ -86,7 +45,8 @@ fn scene_takers(out: &str) -> Vec<(&'static str, Vec<String>)> {
 fn every_binary_refuses_every_bad_scene_the_same_way() {
     let dir = root().join("tests/fixtures/scenes_bad");
     let table = std::fs::read_to_string(dir.join("expect.tsv")).unwrap_or_default();
-    let out = tmp("sweep").display().to_string();
+    let tmp = TempDir::new("bad_input_scenes");
+    let out = tmp.arg("sweep");
     let mut n = 0;
     for line in table
         .lines()
@@ -127,288 +87,110 @@ fn every_binary_refuses_every_bad_scene_the_same_way() {
         n >= 40,
         "expected the malformed-scene corpus, found {n} cases"
     );
-    assert!(!tmp("sweep.csv").exists(), "a refused sweep wrote output");
+    assert!(
+        !tmp.file("sweep.csv").exists(),
+        "a refused sweep wrote output"
+    );
 }
+
+/// Flag values out of range, a case a line: binary | arguments | words of the refusal (`{rec}`
+/// stands for a recording that is never written).
+const OUT_OF_RANGE: &str = "
+capsule | simulate --periods -5 | from 1 to
+capsule | simulate --periods 0 | from 1 to
+capsule | simulate --alpha nan | finite
+capsule | simulate --alpha -1 | must be in
+capsule | simulate --omega inf | finite
+capsule | simulate --gamma 1e308 | <= 1e12
+capsule | simulate --gamma -1 | must be > 0
+capsule | simulate --kp 1e308 | must be in
+capsule | simulate --friction seven-parameter --mu-v 1e308 | must be in
+capsule | simulate --friction seven-parameter --k-s 1e308 | <= 1e12
+capsule | simulate --tol 0 | (0, 1)
+capsule | simulate --step=-1e-3 | must be > 0
+capsule | simulate --samples-per-period 100000000 --csv never.csv | from 1 to 1000000
+capsule | simulate --x0 1,2,3 | four comma-separated
+capsule | simulate --x0 0,0,0,0,0 | four comma-separated
+capsule | simulate --x0 0,nan,0,0 | finite
+capsule | simulate --mu-v 0.2 | does not apply
+capsule | sweep --param alpha --from 1 --to 2 --steps 4294967296 | from 1 to
+capsule | sweep --param alpha --from 1 --to 2 --steps 18446744073709551615 | from 1 to
+capsule | sweep --param alpha --from 1 --to 2 --steps 0 | from 1 to
+capsule | sweep --param alpha --from 1 --to 2 --threads 100000 | from 1 to 1024
+capsule | sweep --param alpha --from 1 --to 2 --threads 0 | from 1 to 1024
+capsule | sweep --param kp --from nan --to 1 | finite
+capsule | sweep --param kp --from 1e308 --to -1e308 | must be in
+capsule | bench --repeat 0 | from 1 to
+capsule | bench --sweep-values 0 | from 1 to
+capsule | bench accuracy --out /nonexistent/dir/acc | does not exist
+capsule | replay {rec} --rate 1e-300 | must be in
+capsule | replay {rec} --rate 0 | must be in
+capsule | replay {rec} --delay-s 1e308 | must be in
+capsule | replay {rec} --duration -1 | must be > 0
+capsule_plant | --scene scenes/control_point.toml --check --startup-timeout-s 1e308 | <= 1e6
+capsule_plant | --scene scenes/control_point.toml --check --rate-hz 1e-300 | must be in
+capsule_plant | --scene scenes/control_point.toml --check --rate-hz nan | finite
+capsule_plant | --scene scenes/control_point.toml --check --command-timeout-s 0 | must be > 0
+capsule_plant | --scene scenes/control_point.toml --check --until-s -1 | must be > 0
+capsule_plant | --scene scenes/control_point.toml --check --retransmit-ms 4294967296 | from 1 to 60000
+capsule_plant | --scene scenes/control_point.toml --check --flush-ms 0 | from 1 to 60000
+capsule_plant | --scene scenes/control_point.toml --check --clock-every 0 | from 1 to
+capsule_plant | --scene scenes/control_point.toml --check --wait-subscribers 100000 | from 0 to 1000
+capsule_controller | --scene scenes/control_point.toml --check --alpha -1 | must be in
+capsule_controller | --scene scenes/control_point.toml --check --gain nan | finite
+capsule_controller | --scene scenes/control_point.toml --check --gain inf | finite
+capsule_controller | --scene scenes/control_point.toml --check --direction-gain nan | '--direction-gain <DIRECTION_GAIN>': must be a finite number
+capsule_controller | --scene scenes/control_point.toml --check --direction-gain -1 | '--direction-gain <DIRECTION_GAIN>': must be in [0, 1e12]
+capsule_controller | --scene scenes/control_point.toml --check --chaos-gain inf | '--chaos-gain <CHAOS_GAIN>': must be a finite number
+capsule_controller | --scene scenes/control_point.toml --check --chaos-gain -1e308 | '--chaos-gain <CHAOS_GAIN>': must be in [-1e12, 1e12]
+capsule_controller | --scene scenes/control_point.toml --check --gain-limit 1e308 | '--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]
+capsule_controller | --scene scenes/control_point.toml --check --gain-limit -1 | '--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]
+capsule_controller | --scene scenes/control_point.toml --check --direction-gain 3 | --direction-gain 3: beyond gain_limit (--gain-limit 2)
+capsule_controller | --scene scenes/control_point.toml --check --chaos-gain -5 --gain-limit 4 | --chaos-gain -5: beyond gain_limit (--gain-limit 4)
+capsule | replay {rec} --gain-limit nan | '--gain-limit <GAIN_LIMIT>': must be a finite number
+capsule_controller | --scene scenes/control_point.toml --check --omega 0 | must be > 0
+capsule_controller | --scene scenes/control_point.toml --check --m1-kg -1 | must be > 0
+capsule_controller | --scene scenes/control_point.toml --check --state-timeout-s 1e308 | <= 1e6
+capsule_controller | --scene scenes/control_point.toml --check --status-period-ms 4294967296 | from 1 to 60000
+capsule_recorder | --check --wait-publishers-s 1e308 | must be in
+capsule_recorder | --check --idle-stop-s 1e308 | must be in
+capsule_recorder | --check --flush-ms 4294967296 | from 1 to 60000
+capsule_recorder | --check --poll-ms 0 | from 1 to 60000
+capsule_foxglove | --check --max-rate-hz inf | finite
+capsule_foxglove | --check --port 70000 | 0..=65535
+capsule_foxglove | --check --host 0.0.0.0 | 127.0.0.1 only
+capsule_recorder | --check --queue-depth 0 | from 1 to 1000000
+capsule_recorder | --check --queue-depth 18446744073709551616 | from 1 to 1000000
+capsule_ros | period --scene scenes/control_point.toml --periods -5 | must be > 0
+capsule_ros | set-mode forward --gain nan | finite
+capsule_ros | set-mode forward --timeout-s 1e308 | <= 1e6
+capsule_ros | demo --scene scenes/control_point.toml --settle-periods inf | finite
+";
 
 #[test]
 fn every_numeric_flag_refuses_values_out_of_its_range() {
-    let scene = "scenes/control_point.toml";
-    let rec = tmp("never.mcap").display().to_string();
-    let sim = |extra: &[&'static str]| [&["simulate"][..], extra].concat();
-    let sweep = |extra: &[&'static str]| {
-        [
-            &["sweep", "--param", "alpha", "--from", "1", "--to", "2"][..],
-            extra,
-        ]
-        .concat()
-    };
-    let plant = |extra: &[&'static str]| [&["--scene", scene, "--check"][..], extra].concat();
-    // (binary, arguments, words of the refusal)
-    let cases: Vec<(&str, Vec<&str>, &str)> = vec![
-        ("capsule", sim(&["--periods", "-5"]), "from 1 to"),
-        ("capsule", sim(&["--periods", "0"]), "from 1 to"),
-        ("capsule", sim(&["--alpha", "nan"]), "finite"),
-        ("capsule", sim(&["--alpha", "-1"]), "must be in"),
-        ("capsule", sim(&["--omega", "inf"]), "finite"),
-        ("capsule", sim(&["--gamma", "1e308"]), "<= 1e12"),
-        ("capsule", sim(&["--gamma", "-1"]), "must be > 0"),
-        ("capsule", sim(&["--kp", "1e308"]), "must be in"),
-        (
-            "capsule",
-            sim(&["--friction", "seven-parameter", "--mu-v", "1e308"]),
-            "must be in",
-        ),
-        (
-            "capsule",
-            sim(&["--friction", "seven-parameter", "--k-s", "1e308"]),
-            "<= 1e12",
-        ),
-        ("capsule", sim(&["--tol", "0"]), "(0, 1)"),
-        ("capsule", sim(&["--step=-1e-3"]), "must be > 0"),
-        (
-            "capsule",
-            sim(&["--samples-per-period", "100000000", "--csv", "never.csv"]),
-            "from 1 to 1000000",
-        ),
-        ("capsule", sim(&["--x0", "1,2,3"]), "four comma-separated"),
-        (
-            "capsule",
-            sim(&["--x0", "0,0,0,0,0"]),
-            "four comma-separated",
-        ),
-        ("capsule", sim(&["--x0", "0,nan,0,0"]), "finite"),
-        ("capsule", sim(&["--mu-v", "0.2"]), "does not apply"),
-        ("capsule", sweep(&["--steps", "4294967296"]), "from 1 to"),
-        (
-            "capsule",
-            sweep(&["--steps", "18446744073709551615"]),
-            "from 1 to",
-        ),
-        ("capsule", sweep(&["--steps", "0"]), "from 1 to"),
-        ("capsule", sweep(&["--threads", "100000"]), "from 1 to 1024"),
-        ("capsule", sweep(&["--threads", "0"]), "from 1 to 1024"),
-        (
-            "capsule",
-            vec!["sweep", "--param", "kp", "--from", "nan", "--to", "1"],
-            "finite",
-        ),
-        (
-            "capsule",
-            vec![
-                "sweep", "--param", "kp", "--from", "1e308", "--to", "-1e308",
-            ],
-            "must be in",
-        ),
-        ("capsule", vec!["bench", "--repeat", "0"], "from 1 to"),
-        ("capsule", vec!["bench", "--sweep-values", "0"], "from 1 to"),
-        (
-            "capsule",
-            vec!["bench", "accuracy", "--out", "/nonexistent/dir/acc"],
-            "does not exist",
-        ),
-        (
-            "capsule",
-            vec!["replay", &rec, "--rate", "1e-300"],
-            "must be in",
-        ),
-        ("capsule", vec!["replay", &rec, "--rate", "0"], "must be in"),
-        (
-            "capsule",
-            vec!["replay", &rec, "--delay-s", "1e308"],
-            "must be in",
-        ),
-        (
-            "capsule",
-            vec!["replay", &rec, "--duration", "-1"],
-            "must be > 0",
-        ),
-        (
-            "capsule_plant",
-            plant(&["--startup-timeout-s", "1e308"]),
-            "<= 1e6",
-        ),
-        (
-            "capsule_plant",
-            plant(&["--rate-hz", "1e-300"]),
-            "must be in",
-        ),
-        ("capsule_plant", plant(&["--rate-hz", "nan"]), "finite"),
-        (
-            "capsule_plant",
-            plant(&["--command-timeout-s", "0"]),
-            "must be > 0",
-        ),
-        ("capsule_plant", plant(&["--until-s", "-1"]), "must be > 0"),
-        (
-            "capsule_plant",
-            plant(&["--retransmit-ms", "4294967296"]),
-            "from 1 to 60000",
-        ),
-        (
-            "capsule_plant",
-            plant(&["--flush-ms", "0"]),
-            "from 1 to 60000",
-        ),
-        ("capsule_plant", plant(&["--clock-every", "0"]), "from 1 to"),
-        (
-            "capsule_plant",
-            plant(&["--wait-subscribers", "100000"]),
-            "from 0 to 1000",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--alpha", "-1"]),
-            "must be in",
-        ),
-        ("capsule_controller", plant(&["--gain", "nan"]), "finite"),
-        ("capsule_controller", plant(&["--gain", "inf"]), "finite"),
-        (
-            "capsule_controller",
-            plant(&["--direction-gain", "nan"]),
-            "'--direction-gain <DIRECTION_GAIN>': must be a finite number",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--direction-gain", "-1"]),
-            "'--direction-gain <DIRECTION_GAIN>': must be in [0, 1e12]",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--chaos-gain", "inf"]),
-            "'--chaos-gain <CHAOS_GAIN>': must be a finite number",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--chaos-gain", "-1e308"]),
-            "'--chaos-gain <CHAOS_GAIN>': must be in [-1e12, 1e12]",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--gain-limit", "1e308"]),
-            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--gain-limit", "-1"]),
-            "'--gain-limit <GAIN_LIMIT>': must be in [0, 1e12]",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--direction-gain", "3"]),
-            "--direction-gain 3: beyond gain_limit (--gain-limit 2)",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--chaos-gain", "-5", "--gain-limit", "4"]),
-            "--chaos-gain -5: beyond gain_limit (--gain-limit 4)",
-        ),
-        (
-            "capsule",
-            vec!["replay", &rec, "--gain-limit", "nan"],
-            "'--gain-limit <GAIN_LIMIT>': must be a finite number",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--omega", "0"]),
-            "must be > 0",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--m1-kg", "-1"]),
-            "must be > 0",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--state-timeout-s", "1e308"]),
-            "<= 1e6",
-        ),
-        (
-            "capsule_controller",
-            plant(&["--status-period-ms", "4294967296"]),
-            "from 1 to 60000",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--wait-publishers-s", "1e308"],
-            "must be in",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--idle-stop-s", "1e308"],
-            "must be in",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--flush-ms", "4294967296"],
-            "from 1 to 60000",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--poll-ms", "0"],
-            "from 1 to 60000",
-        ),
-        (
-            "capsule_foxglove",
-            vec!["--check", "--max-rate-hz", "inf"],
-            "finite",
-        ),
-        (
-            "capsule_foxglove",
-            vec!["--check", "--port", "70000"],
-            "0..=65535",
-        ),
-        (
-            "capsule_foxglove",
-            vec!["--check", "--host", "0.0.0.0"],
-            "127.0.0.1 only",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--queue-depth", "0"],
-            "from 1 to 1000000",
-        ),
-        (
-            "capsule_recorder",
-            vec!["--check", "--queue-depth", "18446744073709551616"],
-            "from 1 to 1000000",
-        ),
-        (
-            "capsule_ros",
-            vec!["period", "--scene", scene, "--periods", "-5"],
-            "must be > 0",
-        ),
-        (
-            "capsule_ros",
-            vec!["set-mode", "forward", "--gain", "nan"],
-            "finite",
-        ),
-        (
-            "capsule_ros",
-            vec!["set-mode", "forward", "--timeout-s", "1e308"],
-            "<= 1e6",
-        ),
-        (
-            "capsule_ros",
-            vec!["demo", "--scene", scene, "--settle-periods", "inf"],
-            "finite",
-        ),
-    ];
-    for (name, args, words) in &cases {
-        let o = run(name, args);
-        let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{name} {args:?}: {err}");
-        assert!(
-            err.contains(words),
-            "{name} {args:?}: `{err}` lacks `{words}`"
-        );
-        assert!(!err.contains("panicked"), "{name} {args:?} panicked: {err}");
+    let tmp = TempDir::new("bad_input_flags");
+    let rec = tmp.arg("never.mcap");
+    let mut n = 0;
+    for case in OUT_OF_RANGE.lines().filter(|l| !l.is_empty()) {
+        let cols: Vec<&str> = case.split('|').map(str::trim).collect();
+        let [name, args, words] = cols[..] else {
+            panic!("OUT_OF_RANGE: bad line {case:?}")
+        };
+        let args: Vec<&str> = args
+            .split_whitespace()
+            .map(|a| if a == "{rec}" { rec.as_str() } else { a })
+            .collect();
+        assert_refused(&run(name, &args), 2, words, &format!("{name} {args:?}"));
+        n += 1;
     }
+    assert_eq!(n, 69, "OUT_OF_RANGE lost cases");
 }
 
 #[test]
 fn the_controller_gain_flags_state_their_range_in_help() {
     let o = run("capsule_controller", &["--help"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ok(&o);
     let help = String::from_utf8_lossy(&o.stdout).into_owned();
     for (flag, range) in [
         ("--direction-gain", "[0, 1e12] and at most --gain-limit"),
@@ -427,78 +209,50 @@ fn the_controller_gain_flags_state_their_range_in_help() {
     // within the ranges, the defaults go
     let o = run(
         "capsule_controller",
-        &[
-            "--scene",
-            "scenes/control_point.toml",
-            "--check",
-            "--direction-gain",
-            "0.5",
-            "--chaos-gain",
-            "-1.5",
-        ],
+        &line(
+            "--scene scenes/control_point.toml --check --direction-gain 0.5 --chaos-gain -1.5",
+            &[],
+        ),
     );
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ok(&o);
 }
 
 #[test]
 fn runs_over_their_work_limits_are_refused_before_they_start() {
-    let csv = tmp("big.csv");
+    let tmp = TempDir::new("bad_input_limits");
+    let csv = tmp.file("big.csv");
     let csv_s = csv.display().to_string();
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    let cases = [
         (
-            vec![
-                "simulate",
-                "--periods",
-                "20",
-                "--transient",
-                "5",
-                "--method",
-                "fixed",
-                "--step",
-                "1e-12",
-            ],
+            line(
+                "simulate --periods 20 --transient 5 --method fixed --step 1e-12",
+                &[],
+            ),
             "--max-work",
         ),
         (
-            vec![
-                "simulate",
-                "--periods",
-                "200000",
-                "--samples-per-period",
-                "1000",
-                "--csv",
-                &csv_s,
-            ],
+            line(
+                "simulate --periods 200000 --samples-per-period 1000 --csv",
+                &[&csv_s],
+            ),
             "--max-samples",
         ),
         (
-            vec![
-                "sweep", "--param", "alpha", "--from", "0.5", "--to", "1", "--steps", "10000000",
-            ],
+            line(
+                "sweep --param alpha --from 0.5 --to 1 --steps 10000000",
+                &[],
+            ),
             "--max-work",
         ),
         (
-            vec![
-                "simulate",
-                "--periods",
-                "3",
-                "--method",
-                "fixed",
-                "--step",
-                "1e-3",
-                "--max-work",
-                "1000",
-            ],
+            line(
+                "simulate --periods 3 --method fixed --step 1e-3 --max-work 1000",
+                &[],
+            ),
             "--max-work",
         ),
         (
-            vec![
-                "simulate",
-                "--periods",
-                "3",
-                "--csv",
-                "/nonexistent/dir/h.csv",
-            ],
+            line("simulate --periods 3 --csv /nonexistent/dir/h.csv", &[]),
             "does not exist",
         ),
     ];
@@ -510,7 +264,7 @@ fn runs_over_their_work_limits_are_refused_before_they_start() {
     }
     assert!(!csv.exists(), "a refused run wrote its CSV");
     // the plant node: a fixed step that would take more than 1e6 steps per sample
-    let tiny = tmp("tiny_step.toml");
+    let tiny = tmp.file("tiny_step.toml");
     std::fs::write(&tiny, "[solver]\nmethod = \"fixed\"\nstep = 1e-300\n")
         .unwrap_or_else(|e| panic!("{e}"));
     let o = run(
@@ -527,27 +281,18 @@ fn runs_over_their_work_limits_are_refused_before_they_start() {
     // raised explicitly, the same run goes
     let o = run(
         "capsule",
-        &[
-            "simulate",
-            "--periods",
-            "3",
-            "--method",
-            "fixed",
-            "--step",
-            "1e-3",
-            "--max-work",
-            "1e5",
-        ],
+        &line(
+            "simulate --periods 3 --method fixed --step 1e-3 --max-work 1e5",
+            &[],
+        ),
     );
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ok(&o);
 }
 
 #[test]
 fn runs_that_leave_the_adaptive_envelope_stop_with_a_clear_error() {
-    let dir = root().join("tests/fixtures/scenes_stiff");
     let mut n = 0;
-    for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
-        let path = entry.map(|e| e.path()).unwrap_or_default();
+    for path in files_in(&root().join("tests/fixtures/scenes_stiff")) {
         let p = path.display().to_string();
         let t0 = Instant::now();
         let o = run("capsule", &["simulate", "--scene", &p]);
@@ -567,39 +312,22 @@ fn runs_that_leave_the_adaptive_envelope_stop_with_a_clear_error() {
     assert!(n >= 3);
     let o = run(
         "capsule",
-        &[
-            "simulate",
-            "--periods",
-            "20",
-            "--transient",
-            "5",
-            "--friction",
-            "seven-parameter",
-            "--k-s",
-            "1e10",
-        ],
+        &line(
+            "simulate --periods 20 --transient 5 --friction seven-parameter --k-s 1e10",
+            &[],
+        ),
     );
     assert!(stderr(&o).contains("envelope"), "{}", stderr(&o));
 }
 
 #[test]
 fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
-    let out = tmp("fail").display().to_string();
-    let args = [
-        "sweep",
-        "--param",
-        "alpha",
-        "--from",
-        "-1",
-        "--to",
-        "1",
-        "--steps",
-        "3",
-        "--periods",
-        "3",
-        "--out",
-        &out,
-    ];
+    let tmp = TempDir::new("bad_input_sweeps");
+    let out = tmp.arg("fail");
+    let args = line(
+        "sweep --param alpha --from -1 --to 1 --steps 3 --periods 3 --out",
+        &[&out],
+    );
     let o = run("capsule", &args);
     let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{text}");
@@ -609,7 +337,7 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
     );
     assert!(text.contains("1 of 3 values failed"), "{text}");
     let o = run("capsule", &[&args[..], &["--allow-failures"]].concat());
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ok(&o);
     // a value out of the parameter's range among good ones, and a range from +max to -max
     for (param, from, to, named) in [
         ("omega", "0", "1", "omega = 0: drive.omega: must be > 0"),
@@ -618,20 +346,10 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
         let o = run(
             "capsule",
             &[
-                "sweep",
-                "--param",
-                param,
-                "--from",
-                from,
-                "--to",
-                to,
-                "--steps",
-                "3",
-                "--periods",
-                "3",
-                "--out",
-                &out,
-            ],
+                &["sweep", "--param", param, "--from", from, "--to", to][..],
+                &line("--steps 3 --periods 3 --out", &[&out]),
+            ]
+            .concat(),
         );
         let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
         assert_eq!(o.status.code(), Some(1), "{text}");
@@ -639,92 +357,25 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
         assert!(text.contains("1 of 3 values failed"), "{param}: {text}");
     }
     // --out DIR/ writes into the directory
-    let dir = tmp("outdir");
+    let dir = tmp.file("outdir");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let d = format!("{}/", dir.display());
     let o = run(
         "capsule",
-        &[
-            "sweep",
-            "--param",
-            "kp",
-            "--from",
-            "0",
-            "--to",
-            "0.1",
-            "--steps",
-            "2",
-            "--periods",
-            "3",
-            "--out",
-            &d,
-        ],
+        &line(
+            "sweep --param kp --from 0 --to 0.1 --steps 2 --periods 3 --out",
+            &[&d],
+        ),
     );
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ok(&o);
     assert!(dir.join("kp.csv").is_file() && dir.join("kp.svg").is_file());
 }
 
-#[test]
-fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
-    let out = tmp("interrupted");
-    let out_s = out.display().to_string();
-    let child = Command::new(bin("capsule"))
-        .args([
-            "sweep",
-            "--param",
-            "alpha",
-            "--from",
-            "0.5",
-            "--to",
-            "1.5",
-            "--steps",
-            "20000",
-            "--periods",
-            "30",
-            "--threads",
-            "1",
-            "--out",
-            &out_s,
-        ])
-        .current_dir(root())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("{e}"));
-    std::thread::sleep(Duration::from_millis(1500));
-    let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .map(|s| s.success());
-    assert_eq!(killed.ok(), Some(true));
-    let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("interrupted:"), "{err}");
-    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
-    assert!(csv.lines().count() > 1, "nothing written: {err}");
-}
-
-#[test]
-fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
-    let csv = tmp("interrupted_sim.csv");
-    let _ = std::fs::remove_file(&csv);
-    let csv_s = csv.display().to_string();
-    // a million periods: minutes even in release, so the signal finds it running
-    let mut child = Command::new(bin("capsule"))
-        .args([
-            "simulate",
-            "--periods",
-            "1000000",
-            "--samples-per-period",
-            "1",
-            "--csv",
-            &csv_s,
-        ])
-        .current_dir(root())
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+/// Runs `capsule` with these arguments, sends it SIGINT after 1.5 s, and waits (at most 60 s)
+/// for it to stop.
+fn interrupted(args: &[&str]) -> std::process::Output {
+    let mut child = command("capsule")
+        .args(args)
         .spawn()
         .unwrap_or_else(|e| panic!("{e}"));
     std::thread::sleep(Duration::from_millis(1500));
@@ -737,11 +388,38 @@ fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero()
     while child.try_wait().ok().flatten().is_none() {
         if t0.elapsed() > Duration::from_secs(60) {
             let _ = child.kill();
-            panic!("simulate still running 60 s after SIGINT");
+            panic!("{args:?} still running 60 s after SIGINT");
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
+    child.wait_with_output().unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
+    let tmp = TempDir::new("bad_input_interrupted_sweep");
+    let out = tmp.file("interrupted");
+    let o = interrupted(&line(
+        "sweep --param alpha --from 0.5 --to 1.5 --steps 20000 --periods 30 --threads 1 --out",
+        &[&out.display().to_string()],
+    ));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted:"), "{err}");
+    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
+    assert!(csv.lines().count() > 1, "nothing written: {err}");
+}
+
+#[test]
+fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
+    let tmp = TempDir::new("bad_input_interrupted_sim");
+    let csv = tmp.file("interrupted_sim.csv");
+    let csv_s = csv.display().to_string();
+    // a million periods: minutes even in release, so the signal finds it running
+    let o = interrupted(&line(
+        "simulate --periods 1000000 --samples-per-period 1 --csv",
+        &[&csv_s],
+    ));
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(!err.contains("panicked"), "{err}");
@@ -779,18 +457,11 @@ fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero()
 
 #[test]
 fn partial_scenes_take_the_defaults_and_say_which() {
-    let f = tmp("partial.toml");
+    let tmp = TempDir::new("bad_input_partial");
+    let f = tmp.arg("partial.toml");
     std::fs::write(&f, "[capsule]\ngamma = 0.5\n").unwrap_or_else(|e| panic!("{e}"));
-    let o = run(
-        "capsule",
-        &[
-            "simulate",
-            "--scene",
-            &f.display().to_string(),
-            "--print-scene",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run("capsule", &["simulate", "--scene", &f, "--print-scene"]);
+    assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
     for line in [
         "gamma = 0.5",
@@ -803,10 +474,9 @@ fn partial_scenes_take_the_defaults_and_say_which() {
         assert!(text.contains(line), "--print-scene lacks `{line}`:\n{text}");
     }
     // an empty scene file is all defaults, for every binary that takes a scene
-    let empty = tmp("empty.toml");
-    std::fs::write(&empty, "").unwrap_or_else(|e| panic!("{e}"));
-    let empty_s = empty.display().to_string();
-    let rec_dir = tmp("empty_rec").display().to_string();
+    let empty_s = tmp.arg("empty.toml");
+    std::fs::write(&empty_s, "").unwrap_or_else(|e| panic!("{e}"));
+    let rec_dir = tmp.arg("empty_rec");
     for (name, args) in [
         (
             "capsule",
@@ -831,10 +501,10 @@ fn partial_scenes_take_the_defaults_and_say_which() {
 #[test]
 fn one_rule_for_periods_and_transient_with_and_without_a_scene() {
     let measured = |args: &[&str]| {
-        let o = run("capsule", &[&["simulate", "--json"][..], args].concat());
-        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}"));
+        let v = json_of(&run(
+            "capsule",
+            &[&["simulate", "--json"][..], args].concat(),
+        ));
         (
             v["scene"]["horizon"]["transient"].as_u64(),
             v["measured_periods"].as_u64(),
@@ -850,14 +520,10 @@ fn one_rule_for_periods_and_transient_with_and_without_a_scene() {
         (Some(20), Some(10))
     );
     assert_eq!(
-        measured(&[
-            "--scene",
-            "scenes/control_point.toml",
-            "--periods",
-            "30",
-            "--transient",
-            "5"
-        ]),
+        measured(&line(
+            "--scene scenes/control_point.toml --periods 30 --transient 5",
+            &[]
+        )),
         (Some(5), Some(25))
     );
     let o = run(

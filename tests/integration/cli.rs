@@ -1,51 +1,14 @@
 //! The `capsule` command as a user runs it (needs `cargo build -p capsule_cli` first, as the
-//! README's test command does; `CAPSULE_BIN` overrides the path).
+//! README's test command does; `CAPSULE_BIN` names another directory of binaries).
 
-use crate::root;
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn bin() -> PathBuf {
-    if let Ok(p) = std::env::var("CAPSULE_BIN") {
-        return PathBuf::from(p);
-    }
-    let p = root().join("target").join("debug").join("capsule");
-    assert!(
-        p.exists(),
-        "{} missing: run `cargo build -p capsule_cli` first",
-        p.display()
-    );
-    p
-}
-
-pub(crate) fn capsule(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"))
-}
-
-pub(crate) fn json(args: &[&str]) -> serde_json::Value {
-    let out = capsule(args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("not JSON: {e}"))
-}
+use crate::common::{assert_ok, assert_refused, capsule, json, line, TempDir};
 
 #[test]
 fn simulate_json_reports_what_the_issue_lists() {
-    let v = json(&[
-        "simulate",
-        "--scene",
-        "scenes/control_point.toml",
-        "--kp",
-        "0.1",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --scene scenes/control_point.toml --kp 0.1 --json",
+        &[],
+    ));
     for key in [
         "avg_progression",
         "period",
@@ -66,18 +29,10 @@ fn simulate_json_reports_what_the_issue_lists() {
 
 #[test]
 fn flags_named_after_the_paper_override_the_defaults() {
-    let v = json(&[
-        "simulate",
-        "--friction",
-        "viscous",
-        "--mu-v",
-        "0.2",
-        "--alpha",
-        "1.5",
-        "--periods",
-        "30",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --friction viscous --mu-v 0.2 --alpha 1.5 --periods 30 --json",
+        &[],
+    ));
     assert_eq!(v["scene"]["model"]["friction"]["law"], "viscous");
     assert_eq!(v["scene"]["model"]["friction"]["mu_v"], 0.2);
     assert_eq!(v["scene"]["drive"]["omega"], 0.95);
@@ -114,92 +69,50 @@ fn bad_flags_and_files_fail_with_a_clear_message() {
         ),
     ];
     for (args, words) in cases {
-        let out = capsule(args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} succeeded");
-        assert!(
-            err.contains(words),
-            "{args:?}: stderr `{err}` lacks `{words}`"
-        );
-        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert_refused(&capsule(args), 2, words, &format!("{args:?}"));
     }
 }
 
 #[test]
 fn sweep_writes_csv_json_and_svg_and_csv_history_has_rows() {
-    let dir = std::env::temp_dir().join(format!("capsule-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let prefix = dir.join("kp");
-    let out = capsule(&[
-        "sweep",
-        "--scene",
-        "scenes/control_point.toml",
-        "--param",
-        "kp",
-        "--from",
-        "-0.2",
-        "--to",
-        "0.2",
-        "--steps",
-        "5",
-        "--out",
-        prefix.to_str().unwrap_or_default(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap_or_default();
+    let dir = TempDir::new("cli_sweep");
+    let prefix = dir.arg("kp");
+    assert_ok(&capsule(&line(
+        "sweep --scene scenes/control_point.toml --param kp --from -0.2 --to 0.2 --steps 5 --out",
+        &[&prefix],
+    )));
+    let read = |ext: &str| std::fs::read_to_string(format!("{prefix}.{ext}")).unwrap_or_default();
     assert_eq!(
-        csv.lines().count(),
+        read("csv").lines().count(),
         1 + 5 * 100,
         "header + 100 Poincaré points per value"
     );
-    let js: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(prefix.with_extension("json")).unwrap_or_default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let js: serde_json::Value =
+        serde_json::from_str(&read("json")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(js.as_array().map(Vec::len), Some(5));
-    let svg = std::fs::read_to_string(prefix.with_extension("svg")).unwrap_or_default();
+    let svg = read("svg");
     assert!(svg.starts_with("<svg") && svg.contains("<path d=\"M"));
-    let hist = dir.join("h.csv");
-    let out = capsule(&[
-        "simulate",
-        "--periods",
-        "3",
-        "--csv",
-        hist.to_str().unwrap_or_default(),
-        "--samples-per-period",
-        "10",
-    ]);
+    let hist = dir.arg("h.csv");
+    let out = capsule(&line(
+        "simulate --periods 3 --samples-per-period 10 --csv",
+        &[&hist],
+    ));
     assert!(out.status.success());
     let rows = std::fs::read_to_string(&hist).unwrap_or_default();
     assert_eq!(rows.lines().count(), 1 + 1 + 3 * 10);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn simulate_record_writes_a_ros2_recording_of_the_run() {
-    let dir = std::env::temp_dir().join(format!("capsule-cli-rec-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let file = dir.join("run.mcap");
+    let dir = TempDir::new("cli_rec");
+    let file = dir.file("run.mcap");
     let path = file.to_str().unwrap_or_default();
-    let args = [
-        "simulate",
-        "--scene",
-        "scenes/fig15_forward.toml",
-        "--periods",
-        "4",
-        "--transient",
-        "2",
-    ];
-    let out = capsule(&[&args[..], &["--samples-per-period", "25", "--record", path]].concat());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let args = line(
+        "simulate --scene scenes/fig15_forward.toml --periods 4 --transient 2",
+        &[],
     );
+    let out = capsule(&[&args[..], &["--samples-per-period", "25", "--record", path]].concat());
+    assert_ok(&out);
     let info = capsule_record::info(&file).unwrap_or_else(|e| panic!("{e}"));
     let count = |topic: &str| {
         info.topics
@@ -217,5 +130,4 @@ fn simulate_record_writes_a_ros2_recording_of_the_run() {
     let again = capsule(&[&args[..], &["--record", path]].concat());
     assert!(!again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("File exists"));
-    let _ = std::fs::remove_dir_all(&dir);
 }

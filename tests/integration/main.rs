@@ -3,6 +3,7 @@
 mod attractors;
 mod bad_input;
 mod cli;
+mod common;
 mod hard_cases;
 mod paper;
 mod record;

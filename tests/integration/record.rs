@@ -7,7 +7,7 @@
 use capsule_msgs::names::{default_topics, type_names};
 use capsule_msgs::std_types::Clock;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, SetModeRequest, SetModeResponse, Time};
 use capsule_record::{
@@ -17,31 +17,8 @@ use capsule_record::{
 };
 use serde_json::Value;
 
+use crate::common::{assert_holds, assert_ok, capsule, capsule_ok, line, TempDir};
 use crate::root;
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("capsule_rec_it_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let p = dir.join(name);
-    let _ = std::fs::remove_file(&p);
-    p
-}
-
-/// Runs the built `capsule` binary (`$CAPSULE_BIN`, else target/debug).
-pub(crate) fn capsule(args: &[&str]) -> Output {
-    let bin = std::env::var_os("CAPSULE_BIN")
-        .map(|d| PathBuf::from(d).join("capsule"))
-        .unwrap_or_else(|| root().join("target/debug/capsule"));
-    assert!(
-        bin.exists(),
-        "{} missing: run `cargo build -p capsule_cli` first",
-        bin.display()
-    );
-    Command::new(bin)
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"))
-}
 
 /// Decodes with the reference readers (their own ROS 2 decoders) and returns their JSON.
 pub fn python_decode(path: &Path, reader: &str) -> Value {
@@ -139,6 +116,25 @@ fn event(kind: u8, seq: i64, mode: u8, gain: f64, accepted: Option<bool>) -> Set
     }
 }
 
+/// A writer of a recording at `path` that holds the scene `name` (text `toml`).
+pub(crate) fn scene_writer(
+    path: &Path,
+    name: &str,
+    toml: String,
+    options: &WriterOptions,
+) -> Result<RecordWriter, capsule_record::RecordError> {
+    RecordWriter::create(
+        path,
+        WriterOptions {
+            scene: Some(SceneRecord {
+                name: name.into(),
+                toml,
+            }),
+            ..options.clone()
+        },
+    )
+}
+
 /// A run of `n` states at 1 kHz with forces, clock, and two mode changes (one refused).
 fn write_run(path: &Path, n: u64, finish: bool) {
     write_run_with(path, n, finish, &WriterOptions::default(), false);
@@ -165,16 +161,7 @@ fn old_spelling(text: &str) -> String {
 /// as capsule wrote them before they were spelled as rosbag2 spells them.
 fn write_run_with(path: &Path, n: u64, finish: bool, options: &WriterOptions, old_schemas: bool) {
     let go = || -> Result<(), capsule_record::RecordError> {
-        let mut w = RecordWriter::create(
-            path,
-            WriterOptions {
-                scene: Some(SceneRecord {
-                    name: "it_scene".into(),
-                    toml: "# test\n".into(),
-                }),
-                ..options.clone()
-            },
-        )?;
+        let mut w = scene_writer(path, "it_scene", "# test\n".into(), options)?;
         let q = OfferedQos::reliable(10);
         let mut add = |topic: &str, ty: &str| {
             if old_schemas {
@@ -235,14 +222,30 @@ fn bits(x: f64) -> i64 {
     x.to_bits() as i64
 }
 
+/// The rows a reader decoded of `topic` (`topics`: the reader's `topics` object).
+fn rows(topics: &Value, topic: &str) -> Vec<Value> {
+    topics[topic]["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default()
+}
+
+/// The first column of each row of `topic`, as integers (the sequence numbers).
+fn first_column(topics: &Value, topic: &str) -> Vec<u64> {
+    rows(topics, topic)
+        .iter()
+        .filter_map(|r| r[0].as_u64())
+        .collect()
+}
+
 fn check_reader(v: &Value, reader: &str, n: u64) {
     let topics_v = &v[reader]["topics"];
     let st = &topics_v[default_topics::STATE];
     assert_eq!(st["type"], type_names::STATE, "{reader}");
     assert_eq!(st["count"], n, "{reader}");
-    let rows = st["rows"].as_array().cloned().unwrap_or_default();
-    assert_eq!(rows.len() as u64, n);
-    for (k, r) in rows.iter().enumerate() {
+    let states = rows(topics_v, default_topics::STATE);
+    assert_eq!(states.len() as u64, n);
+    for (k, r) in states.iter().enumerate() {
         let want = state(k as u64 + 1);
         assert_eq!(r[0], want.seq, "{reader} state {k}");
         assert_eq!(r[1], want.header.stamp.to_nanos(), "{reader} state {k}");
@@ -258,10 +261,7 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
         );
         assert_eq!(r[4], want.stuck, "{reader} state {k}");
     }
-    let fr = topics_v[default_topics::FORCE]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
+    let fr = rows(topics_v, default_topics::FORCE);
     assert_eq!(fr.len() as u64, n, "{reader}");
     for (k, r) in fr.iter().enumerate() {
         assert_eq!(r[0], k as u64 + 1);
@@ -271,17 +271,13 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
             "{reader} force {k}"
         );
     }
-    let cl = topics_v[default_topics::CLOCK]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
+    let cl = rows(topics_v, default_topics::CLOCK);
     assert_eq!(cl.len() as u64, n);
     assert_eq!(cl[0][0], 1_000_000);
-    let ev = topics_v[default_topics::SET_MODE_EVENT]["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
-    let ev: Vec<String> = ev.iter().map(|r| r.to_string()).collect();
+    let ev: Vec<String> = rows(topics_v, default_topics::SET_MODE_EVENT)
+        .iter()
+        .map(|r| r.to_string())
+        .collect();
     let (a, b) = (n / 3, 2 * n / 3);
     assert_eq!(
         ev,
@@ -297,7 +293,8 @@ fn check_reader(v: &Value, reader: &str, n: u64) {
 
 #[test]
 fn reference_readers_decode_every_message_with_the_published_values() {
-    let p = tmp("readers.mcap");
+    let tmp = TempDir::new("record_readers");
+    let p = tmp.file("readers.mcap");
     let n = 3000;
     write_run(&p, n, true);
     let v = python_decode(&p, "both");
@@ -330,46 +327,43 @@ fn reference_readers_decode_every_message_with_the_published_values() {
 
 #[test]
 fn info_shows_duration_topics_rates_modes_and_scene() {
-    let p = tmp("info.mcap");
+    let tmp = TempDir::new("record_info");
+    let p = tmp.file("info.mcap");
     write_run(&p, 2000, true);
-    let out = capsule(&["record", "info", &p.display().to_string()]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(text.contains("Read from:         summary"), "{text}");
-    assert!(text.contains("Scene:             it_scene"), "{text}");
-    assert!(text.contains("Duration:          1.999000010 s"), "{text}");
-    assert!(
-        text.contains("Start:             2023-11-14 22:13:20.001000000 UTC"),
-        "{text}"
+    let text = capsule_ok(&["record", "info", &p.display().to_string()]);
+    assert_holds(
+        &text,
+        &[
+            "Read from:         summary",
+            "Scene:             it_scene",
+            "Duration:          1.999000010 s",
+            "Start:             2023-11-14 22:13:20.001000000 UTC",
+        ],
     );
     assert!(
         text.contains("/capsule/state") && text.contains("count 2000 | rate 1000.5 Hz"),
         "{text}"
     );
-    assert!(
-        text.contains("set_mode FORWARD (gain 0.5): accepted -> FORWARD k_p 0.5: why"),
-        "{text}"
-    );
-    assert!(
-        text.contains("set_mode CUSTOM (gain 99): refused -> CUSTOM k_p 99: why"),
-        "{text}"
+    assert_holds(
+        &text,
+        &[
+            "set_mode FORWARD (gain 0.5): accepted -> FORWARD k_p 0.5: why",
+            "set_mode CUSTOM (gain 99): refused -> CUSTOM k_p 99: why",
+        ],
     );
 }
 
 #[test]
 fn bad_files_are_clear_errors_and_never_crash() {
-    let good = tmp("good.mcap");
+    let tmp = TempDir::new("record_bad_files");
+    let good = tmp.file("good.mcap");
     write_run(&good, 1500, true);
     let bytes = std::fs::read(&good).unwrap_or_default();
-    let truncated = tmp("truncated.mcap");
+    let truncated = tmp.file("truncated.mcap");
     std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap_or_else(|e| panic!("{e}"));
-    let text = tmp("text.mcap");
+    let text = tmp.file("text.mcap");
     std::fs::write(&text, "not an mcap file at all\n").unwrap_or_else(|e| panic!("{e}"));
-    let foreign = tmp("foreign.mcap");
+    let foreign = tmp.file("foreign.mcap");
     {
         let file = std::fs::File::create(&foreign).unwrap_or_else(|e| panic!("{e}"));
         let mut w =
@@ -390,7 +384,7 @@ fn bad_files_are_clear_errors_and_never_crash() {
             .unwrap_or_else(|e| panic!("{e}"));
         w.finish().unwrap_or_else(|e| panic!("{e}"));
     }
-    let missing = tmp("missing.mcap");
+    let missing = tmp.file("missing.mcap");
     for (file, want) in [
         (&missing, "no such file"),
         (&text, "not an MCAP file"),
@@ -426,22 +420,14 @@ fn recovered(p: &Path) -> PathBuf {
 
 #[test]
 fn recover_completes_a_cut_file_that_rosbags_then_opens() {
-    let p = tmp("cut.mcap");
+    let tmp = TempDir::new("record_recover_cut");
+    let p = tmp.file("cut.mcap");
     write_run(&p, 2400, false);
     let f = p.display().to_string();
     let before = std::fs::read(&p).unwrap_or_default();
-    let out = capsule(&["record", "recover", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["record", "recover", &f]);
     // everything was flushed before the "kill": nothing lost; a new file, the input untouched
-    assert!(
-        text.contains(&format!("recovered {} messages", 3 * 2400 + 4)),
-        "{text}"
-    );
+    assert_holds(&text, &[&format!("recovered {} messages", 3 * 2400 + 4)]);
     assert_eq!(std::fs::read(&p).unwrap_or_default(), before);
     let fixed = recovered(&p);
     let v = python_decode(&fixed, "rosbags");
@@ -457,7 +443,7 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
     let again = capsule(&["record", "recover", &f]);
     let err = String::from_utf8_lossy(&again.stderr);
     assert_eq!(again.status.code(), Some(1), "{err}");
-    assert!(err.contains("exists: not overwriting"), "{err}");
+    assert_holds(&err, &["exists: not overwriting"]);
     // --in-place replaces the input, explicitly
     let inplace = capsule(&["record", "recover", "--in-place", &f]);
     assert!(inplace.status.success());
@@ -469,8 +455,9 @@ fn recover_completes_a_cut_file_that_rosbags_then_opens() {
 
 #[test]
 fn recover_and_info_on_compressed_and_damaged_files() {
+    let tmp = TempDir::new("record_recover_damaged");
     for kind in ["zstd_fast", "lz4"] {
-        let p = tmp(&format!("cli_{kind}.mcap"));
+        let p = tmp.file(&format!("cli_{kind}.mcap"));
         let options = WriterOptions {
             compression: kind.parse().unwrap_or_default(),
             ..WriterOptions::default()
@@ -479,25 +466,20 @@ fn recover_and_info_on_compressed_and_damaged_files() {
         let f = p.display().to_string();
         let total = 3 * 3000 + 4;
         // a compressed file is not damage
-        let info = capsule(&["record", "info", &f]);
-        let text = String::from_utf8_lossy(&info.stdout);
-        assert!(info.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains(&format!("Messages:          {total}")),
-            "{text}"
-        );
+        let text = capsule_ok(&["record", "info", &f]);
+        assert_holds(&text, &[&format!("Messages:          {total}")]);
         let v = python_decode(&p, "rosbags");
         check_reader(&v, "rosbags", 3000);
         foxglove_agrees(&foxglove_decode(&p), &v, total);
         // recovering a valid compressed file keeps every message, compressed as it was
-        let out = capsule(&["record", "recover", &f]);
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains(&format!("recovered {total} messages")),
-            "{text}"
+        let text = capsule_ok(&["record", "recover", &f]);
+        assert_holds(
+            &text,
+            &[
+                &format!("recovered {total} messages"),
+                "the input was complete and intact",
+            ],
         );
-        assert!(text.contains("the input was complete and intact"), "{text}");
         let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
         let ratio = size(&recovered(&p)) as f64 / size(&p) as f64;
         assert!((0.7..1.4).contains(&ratio), "{kind}: size ratio {ratio}");
@@ -514,15 +496,10 @@ fn recover_and_info_on_compressed_and_damaged_files() {
         assert!(lost > 0);
         let mut bad = bytes.clone();
         bad[(c.chunk_start_offset + c.chunk_length * 3 / 4) as usize] ^= 0x01;
-        let b = tmp(&format!("cli_{kind}_flipped.mcap"));
+        let b = tmp.file(&format!("cli_{kind}_flipped.mcap"));
         std::fs::write(&b, &bad).unwrap_or_else(|e| panic!("{e}"));
-        let out = capsule(&["record", "recover", &b.display().to_string()]);
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{kind}: {text}");
-        assert!(
-            text.contains("damaged: skipped the chunk at offset"),
-            "{text}"
-        );
+        let text = capsule_ok(&["record", "recover", &b.display().to_string()]);
+        assert_holds(&text, &["damaged: skipped the chunk at offset"]);
         let kept = capsule_record::info(&recovered(&b))
             .map(|i| i.messages)
             .unwrap_or(0);
@@ -543,29 +520,24 @@ fn recover_and_info_on_compressed_and_damaged_files() {
 
 #[test]
 fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
-    let old = tmp("old_spelling.mcap");
+    let tmp = TempDir::new("record_old_spelling");
+    let old = tmp.file("old_spelling.mcap");
     let n = 600;
     write_run_with(&old, n, true, &WriterOptions::default(), true);
     // the old files: Foxglove's readers refuse them (the Python readers do not notice)
     let err = foxglove_try(&old).err().unwrap_or_default();
-    assert!(
-        err.contains("Expected 1 top level type definition for 'std_msgs/Header' but found 0"),
-        "{err}"
+    assert_holds(
+        &err,
+        &["Expected 1 top level type definition for 'std_msgs/Header' but found 0"],
     );
-    let fixed = tmp("old_spelling_fixed.mcap");
-    let out = capsule(&[
+    let fixed = tmp.file("old_spelling_fixed.mcap");
+    let text = capsule_ok(&[
         "record",
         "recover",
         &old.display().to_string(),
         "-o",
         &fixed.display().to_string(),
     ]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     for t in [
         type_names::STATE,
         type_names::FORCE,
@@ -591,30 +563,30 @@ fn recover_rewrites_old_schema_spelling_so_foxglove_reads_the_file() {
     }
 }
 
+/// `capsule simulate --record` of 4 periods (2 of transient) of the Fig 15 scene, with
+/// `samples` samples a period and `extra` arguments; must succeed.
+fn simulate_record(path: &Path, samples: u32, extra: &[&str]) {
+    let args = line(
+        "simulate --scene scenes/fig15_forward.toml --periods 4 --transient 2",
+        &[],
+    );
+    let samples = samples.to_string();
+    let record = path.display().to_string();
+    assert_ok(&capsule(
+        &[
+            &args[..],
+            &["--samples-per-period", &samples, "--record", &record],
+            extra,
+        ]
+        .concat(),
+    ));
+}
+
 #[test]
 fn simulate_record_is_read_by_foxglove() {
-    let p = tmp("simulate.mcap");
-    let out = capsule(&[
-        "simulate",
-        "--scene",
-        &root()
-            .join("scenes/fig15_forward.toml")
-            .display()
-            .to_string(),
-        "--periods",
-        "4",
-        "--transient",
-        "2",
-        "--samples-per-period",
-        "50",
-        "--record",
-        &p.display().to_string(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let tmp = TempDir::new("record_simulate");
+    let p = tmp.file("simulate.mcap");
+    simulate_record(&p, 50, &[]);
     let v = python_decode(&p, "rosbags");
     let fox = foxglove_decode(&p);
     foxglove_agrees(&fox, &v, 2 * (1 + 4 * 50));
@@ -624,33 +596,13 @@ fn simulate_record_is_read_by_foxglove() {
 
 #[test]
 fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
-    let p = tmp("split_sim.mcap");
+    let tmp = TempDir::new("record_simulate_split");
+    let p = tmp.file("split_sim.mcap");
     let dir = p.with_extension("");
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = capsule(&[
-        "simulate",
-        "--scene",
-        &root()
-            .join("scenes/fig15_forward.toml")
-            .display()
-            .to_string(),
-        "--periods",
-        "4",
-        "--transient",
-        "2",
-        "--samples-per-period",
-        "100",
-        "--record",
-        &p.display().to_string(),
-        "--compression",
-        "zstd_fast",
-        "--max-bag-size",
-        "40000",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    simulate_record(
+        &p,
+        100,
+        &line("--compression zstd_fast --max-bag-size 40000", &[]),
     );
     let total = 2 * (1 + 4 * 100);
     // rosbags opens the directory through its metadata.yaml (rosbag2's reader path)
@@ -669,16 +621,13 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
     }
     assert_eq!(sum, total);
     for arg in [dir.clone(), dir.join("metadata.yaml")] {
-        let info = capsule(&["record", "info", &arg.display().to_string()]);
-        let text = String::from_utf8_lossy(&info.stdout);
-        assert!(info.status.success(), "{text}");
-        assert!(
-            text.contains(&format!("Messages:          {total}")),
-            "{text}"
-        );
-        assert!(
-            text.contains(&format!("Files:             {}", files.len())),
-            "{text}"
+        let text = capsule_ok(&["record", "info", &arg.display().to_string()]);
+        assert_holds(
+            &text,
+            &[
+                &format!("Messages:          {total}"),
+                &format!("Files:             {}", files.len()),
+            ],
         );
     }
     // recovery works per file
@@ -700,7 +649,7 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
         let out = capsule(
             &[
                 &["simulate", "--periods", "4", "--transient", "2", "--record"][..],
-                &[tmp("never.mcap").display().to_string().as_str()],
+                &[tmp.file("never.mcap").display().to_string().as_str()],
                 &bad,
             ]
             .concat(),
@@ -710,7 +659,7 @@ fn simulate_record_split_and_compressed_is_a_rosbag2_bag() {
             !out.status.success() && !err.contains("panicked"),
             "{bad:?}: {err}"
         );
-        assert!(!tmp("never.mcap").exists());
+        assert!(!tmp.file("never.mcap").exists());
     }
 }
 
@@ -755,13 +704,6 @@ fn netns(timeout_s: u32, dir: &Path, script: &str) -> (Option<i32>, String) {
         String::from_utf8_lossy(&out.stderr)
     );
     (out.status.code(), all)
-}
-
-fn fresh_dir(name: &str) -> PathBuf {
-    let d = tmp(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
-    d
 }
 
 fn only_mcap(dir: &Path) -> PathBuf {
@@ -826,7 +768,7 @@ fn in_plant_recording_holds_the_same_run() {
 /// of sim time, requested early): `--check-controller` replays a scheduled switch exactly, an
 /// immediate one only to within a sample of where the recording saw the request.
 fn launcher_run_is_recorded(name: &str, in_plant: bool) {
-    let dir = fresh_dir(name);
+    let dir = TempDir::new(&format!("record_{name}"));
     let (code, all) = netns(
         240,
         &dir,
@@ -856,23 +798,11 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     for reader in ["mcap", "rosbags"] {
         let t = &v[reader]["topics"];
         // every state the plant published, in order, none twice
-        let seqs: Vec<u64> = t[default_topics::STATE]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|r| r[0].as_u64())
-            .collect();
+        let seqs = first_column(t, default_topics::STATE);
         expect_all(&seqs, published, &format!("{reader} states"));
         // every command the controller sent: one per state it answered, in order, none twice;
         // at least as many as its last status counted
-        let forces: Vec<u64> = t[default_topics::FORCE]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|r| r[0].as_u64())
-            .collect();
+        let forces = first_column(t, default_topics::FORCE);
         assert!(
             forces.windows(2).all(|w| w[0] <= w[1]),
             "{reader}: force state_seq going back"
@@ -896,10 +826,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         );
         assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
         assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
-        let ev: Vec<String> = t[default_topics::SET_MODE_EVENT]["rows"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
+        let ev: Vec<String> = rows(t, default_topics::SET_MODE_EVENT)
             .iter()
             .map(|r| {
                 format!(
@@ -926,10 +853,12 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
     let info = capsule(&["record", "info", &file.display().to_string()]);
     let info = String::from_utf8_lossy(&info.stdout);
-    assert!(info.contains("Scene:             control_point"), "{info}");
-    assert!(
-        info.contains("set_mode BACKWARD (default gain): accepted -> BACKWARD k_p -0.2"),
-        "{info}"
+    assert_holds(
+        &info,
+        &[
+            "Scene:             control_point",
+            "set_mode BACKWARD (default gain): accepted -> BACKWARD k_p -0.2",
+        ],
     );
     // refused, the mode unchanged: FORWARD, or BACKWARD if the run (faster without a recorder
     // process) had passed the scheduled switch at 4.5 s when the request came
@@ -940,13 +869,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     );
     // the lock-step recording re-drives the controller library to identical commands
     let f = file.display().to_string();
-    let out = capsule(&["replay", "--check-controller", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["replay", "--check-controller", &f]);
     assert!(
         // (the plant stops at its last sample and does not take that sample's answer)
         (text.contains(&format!("checked {published} recorded commands"))
@@ -975,7 +898,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
 
 #[test]
 fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
-    let dir = fresh_dir("sigkill_run");
+    let dir = TempDir::new("record_sigkill_run");
     let (code, all) = netns(
         120,
         &dir,
@@ -994,7 +917,7 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
         exit 0"#,
     );
     assert_eq!(code, Some(0), "{all}");
-    assert!(all.contains("recorder rc=137"), "{all}");
+    assert_holds(&all, &["recorder rc=137"]);
     let kill_ns: u64 = all
         .lines()
         .find_map(|l| l.strip_prefix("kill_ns="))
@@ -1004,24 +927,12 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
     let f = file.display().to_string();
     let before = capsule(&["record", "info", &f]);
     assert_eq!(before.status.code(), Some(1), "a killed file has no footer");
-    let out = capsule(&["record", "recover", &f]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = capsule_ok(&["record", "recover", &f]);
     let file = recovered(&file);
     let v = python_decode(&file, "rosbags");
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
     let st = &v["rosbags"]["topics"][default_topics::STATE];
-    let seqs: Vec<u64> = st["rows"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default()
-        .iter()
-        .filter_map(|r| r[0].as_u64())
-        .collect();
+    let seqs = first_column(&v["rosbags"]["topics"], default_topics::STATE);
     assert!(seqs.len() > 1000, "{} states\n{text}", seqs.len());
     // contiguous from the first sample: nothing lost before the cut
     expect_all(&seqs, seqs.len() as u64, "recovered states");
@@ -1032,15 +943,12 @@ fn sigkill_mid_recording_loses_at_most_the_last_second_after_recover() {
         .unwrap_or(0);
     let lost_s = kill_ns.saturating_sub(last_log) as f64 * 1e-9;
     assert!(lost_s <= 1.0, "lost the last {lost_s:.3} s\n{text}");
-    assert!(
-        text.contains(&format!("recovered {} messages", v_total(&v))),
-        "{text}"
-    );
+    assert_holds(&text, &[&format!("recovered {} messages", v_total(&v))]);
 }
 
 #[test]
 fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
-    let dir = fresh_dir("replay_run");
+    let dir = TempDir::new("record_replay_run");
     let original = dir.join("original.mcap");
     write_run(&original, 1500, true);
     let (code, all) = netns(
@@ -1054,7 +962,7 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
         kill -INT $R; wait $R; echo "recorder rc=$?""#,
     );
     assert_eq!(code, Some(0), "{all}");
-    assert!(all.contains("recorder rc=0"), "{all}");
+    assert_holds(&all, &["recorder rc=0"]);
     let a = capsule_record::messages(&original).unwrap_or_else(|e| panic!("{e}"));
     let b = capsule_record::messages(&dir.join("again.mcap")).unwrap_or_else(|e| panic!("{e}"));
     let by_topic = |v: &[capsule_record::messages::Message]| {
@@ -1205,8 +1113,9 @@ mod fuzz {
     fn originals() -> &'static [Vec<u8>; 2] {
         static FILES: OnceLock<[Vec<u8>; 2]> = OnceLock::new();
         FILES.get_or_init(|| {
+            let tmp = TempDir::new("record_fuzz_originals");
             [ChunkCompression::None, ChunkCompression::ZSTD_FAST].map(|c| {
-                let p = tmp(&format!("fuzz_orig_{}.mcap", c.chunk_name()));
+                let p = tmp.file(&format!("fuzz_orig_{}.mcap", c.chunk_name()));
                 let options = WriterOptions {
                     compression: c,
                     flush_interval_ns: 100_000_000,
@@ -1230,12 +1139,13 @@ mod fuzz {
             d in damage(),
         ) {
             let bad = apply(&originals()[which], &d);
-            let p = tmp(&format!("fuzz_{which}.mcap"));
+            let tmp = TempDir::new(&format!("record_fuzz_{which}"));
+            let p = tmp.file(&format!("fuzz_{which}.mcap"));
             std::fs::write(&p, &bad).unwrap_or_else(|e| panic!("{e}"));
             let t0 = std::time::Instant::now();
             let _ = capsule_record::info(&p);
             let _ = capsule_record::messages(&p);
-            let out = tmp(&format!("fuzz_{which}.recovered.mcap"));
+            let out = tmp.file(&format!("fuzz_{which}.recovered.mcap"));
             if let Ok(r) = capsule_record::recover(&p, &out) {
                 prop_assert!(r.messages <= 3 * 600 + 4, "{r:?}");
                 // what recovery wrote is a complete file every path reads

@@ -4,12 +4,13 @@
 //! before any DDS starts, so no namespace is needed.
 
 use capsule_msgs::names::{default_topics, type_names};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
-use capsule_record::{cdr, types::OfferedQos, RecordWriter, SceneRecord, WriterOptions};
+use capsule_record::{cdr, types::OfferedQos, WriterOptions};
 
-use crate::record::capsule;
+use crate::common::{capsule, TempDir};
+use crate::record::scene_writer;
 use crate::root;
 
 /// One second at 1 kHz of the control-point scene with forces no controller would send
@@ -18,16 +19,7 @@ fn tampered(path: &Path) {
     let toml = std::fs::read_to_string(root().join("scenes/control_point.toml"))
         .unwrap_or_else(|e| panic!("{e}"));
     let go = || -> Result<(), capsule_record::RecordError> {
-        let mut w = RecordWriter::create(
-            path,
-            WriterOptions {
-                scene: Some(SceneRecord {
-                    name: "control_point".into(),
-                    toml,
-                }),
-                ..WriterOptions::default()
-            },
-        )?;
+        let mut w = scene_writer(path, "control_point", toml, &WriterOptions::default())?;
         let q = OfferedQos::reliable(10);
         let s = w.add_topic(default_topics::STATE, type_names::STATE, &q)?;
         let f = w.add_topic(default_topics::FORCE, type_names::FORCE, &q)?;
@@ -56,18 +48,11 @@ fn tampered(path: &Path) {
     go().unwrap_or_else(|e| panic!("{e}"));
 }
 
-fn file(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("capsule_replay_args_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let p = dir.join(name);
-    let _ = std::fs::remove_file(&p);
-    tampered(&p);
-    p
-}
-
 #[test]
 fn non_finite_tolerance_start_beyond_the_file_and_topics_before_file_are_refused() {
-    let f = file("tampered.mcap");
+    let dir = TempDir::new("replay_args");
+    let f = dir.file("tampered.mcap");
+    tampered(&f);
     let f = f.to_str().unwrap_or_default();
     // the tampered file fails the check with a finite tolerance ...
     let out = capsule(&["replay", "--check-controller", f]);

@@ -1,14 +1,13 @@
 //! Scene files: every bundled scene loads; bad scenes are refused with file, key and reason.
 
+use crate::common::files_in;
 use crate::root;
 use capsule_plant::scene::Scene;
 
 #[test]
 fn every_bundled_scene_loads_and_runs_its_first_period() {
-    let dir = root().join("scenes");
     let mut n = 0;
-    for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
-        let path = entry.map(|e| e.path()).unwrap_or_default();
+    for path in files_in(&root().join("scenes")) {
         if path.extension().is_some_and(|e| e == "toml") {
             let text = std::fs::read_to_string(&path).unwrap_or_default();
             let mut s = Scene::from_toml_str(&text, &path.display().to_string())
@@ -22,22 +21,12 @@ fn every_bundled_scene_loads_and_runs_its_first_period() {
     assert!(n >= 8, "expected the paper's scenes, found {n}");
 }
 
-const GOOD: &str = r#"
-[capsule]
-gamma = 0.235
-beta = 3.05
-delta = 0.02
-xi = 0.05
-[friction]
-law = "coulomb"
-[drive]
-alpha = 1.6
-omega = 1.1
-"#;
-
 #[test]
 fn bad_scenes_are_refused_with_key_and_reason() {
-    assert!(Scene::from_toml_str(GOOD, "good.toml").is_ok());
+    // the control point's scene, each case one edit away from it
+    let good = std::fs::read_to_string(root().join("scenes/control_point.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(Scene::from_toml_str(&good, "good.toml").is_ok());
     let table: &[(&str, &str, &str)] = &[
         // (edit, expected key, expected words in the reason)
         (
@@ -77,7 +66,7 @@ fn bad_scenes_are_refused_with_key_and_reason() {
             "piecewise-linear",
         ),
         (
-            "omega = 1.1|omega = 1.1\n[horizon]\nperiods = 10\ntransient = 10",
+            "periods = 300\ntransient = 200|periods = 10\ntransient = 10",
             "horizon.transient",
             "less than",
         ),
@@ -99,8 +88,10 @@ fn bad_scenes_are_refused_with_key_and_reason() {
     ];
     for (edit, key, words) in table {
         let (from, to) = edit.split_once('|').unwrap_or((edit, ""));
-        assert!(GOOD.contains(from), "test table: {from}");
-        let text = GOOD.replacen(from, to, 1);
+        // the edit applies to whole lines (the description also says `gamma = 0.235`)
+        let from = format!("\n{from}");
+        assert!(good.contains(&from), "test table: {from}");
+        let text = good.replacen(&from, &format!("\n{to}"), 1);
         match Scene::from_toml_str(&text, "bad.toml") {
             Ok(_) => panic!("accepted a bad scene ({edit})"),
             Err(e) => {

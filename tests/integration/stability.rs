@@ -1,6 +1,7 @@
 //! Stability analysis: the Poincaré map's exact Jacobian against central finite differences on
 //! orbits that cross every kind of event, Floquet multipliers, Lyapunov exponents.
 
+use crate::common::{assert_ok, capsule, json, line, TempDir};
 use crate::scene;
 use capsule_analysis::floquet::{floquet, map_only, poincare_map};
 use capsule_analysis::lyapunov::{largest_by_divergence, lyapunov};
@@ -236,16 +237,10 @@ fn chaotic_scenes_have_a_positive_converging_largest_exponent() {
 
 #[test]
 fn simulate_and_sweep_report_the_stability() {
-    let v = crate::cli::json(&[
-        "simulate",
-        "--scene",
-        "scenes/control_point.toml",
-        "--kp",
-        "0.1",
-        "--periods",
-        "220",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --scene scenes/control_point.toml --kp 0.1 --periods 220 --json",
+        &[],
+    ));
     let m = v["floquet"]["largest_modulus"].as_f64().unwrap_or(f64::NAN);
     assert!(m > 0.0 && m < 1.0, "{v}");
     assert_eq!(
@@ -255,16 +250,10 @@ fn simulate_and_sweep_report_the_stability() {
     let l = v["lyapunov"]["exponents"][0].as_f64().unwrap_or(f64::NAN);
     assert!(l < 0.0, "{v}");
     // a law with memory: no stability figures, and a note that says why
-    let v = crate::cli::json(&[
-        "simulate",
-        "--scene",
-        "scenes/fig02d_seven_parameter.toml",
-        "--periods",
-        "12",
-        "--transient",
-        "10",
-        "--json",
-    ]);
+    let v = json(&line(
+        "simulate --scene scenes/fig02d_seven_parameter.toml --periods 12 --transient 10 --json",
+        &[],
+    ));
     assert!(v["lyapunov"].is_null(), "{v}");
     assert!(
         v["stability_note"]
@@ -273,32 +262,13 @@ fn simulate_and_sweep_report_the_stability() {
             .contains("memory"),
         "{v}"
     );
-    let dir = std::env::temp_dir().join(format!("capsule_stability_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let prefix = dir.join("ly");
-    let out = crate::cli::capsule(&[
-        "sweep",
-        "--scene",
-        "scenes/fig02a_coulomb.toml",
-        "--param",
-        "alpha",
-        "--from",
-        "0.5",
-        "--to",
-        "1.5",
-        "--steps",
-        "3",
-        "--periods",
-        "250",
-        "--lyapunov",
-        "--out",
-        prefix.to_str().unwrap_or_default(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let dir = TempDir::new("stability_sweep");
+    let prefix = dir.file("ly");
+    assert_ok(&capsule(&line(
+        "sweep --scene scenes/fig02a_coulomb.toml --param alpha --from 0.5 --to 1.5 --steps 3 \
+         --periods 250 --lyapunov --out",
+        &[prefix.to_str().unwrap_or_default()],
+    )));
     let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap_or_default();
     assert!(csv
         .lines()
@@ -316,15 +286,49 @@ fn simulate_and_sweep_report_the_stability() {
     assert!(first("0.5") > 0.0 && first("1.5") < 0.0, "{csv}");
     let svg = std::fs::read_to_string(prefix.with_extension("svg")).unwrap_or_default();
     assert!(svg.contains("largest Lyapunov exponent"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 mod continuation {
     use super::at;
     use capsule_analysis::continuation::{
-        continue_branch, ContinuationError, Settings, SpecialKind,
+        continue_branch, switch_at_period_doubling, Branch, ContinuationError, Settings,
+        SpecialKind, SpecialPoint,
     };
     use capsule_analysis::{run, Param};
+    use capsule_plant::scene::Scene;
+
+    /// Where the branch has special points of this kind.
+    fn values(b: &Branch, kind: SpecialKind) -> Vec<f64> {
+        b.special
+            .iter()
+            .filter(|p| p.kind == kind)
+            .map(|p| p.value)
+            .collect()
+    }
+
+    /// The period of the brute-force run of `s` at `alpha`.
+    fn period_at(s: &Scene, alpha: f64) -> Option<usize> {
+        run(&Param::Alpha.apply(s, alpha))
+            .ok()
+            .and_then(|r| r.period)
+    }
+
+    /// Continued from alpha 2 down to 0.93: the period-1 branch, its first period doubling,
+    /// and the period-2 branch switched onto there.
+    fn down_to_period_two(s: &Scene) -> (SpecialPoint, Branch) {
+        let settings = Settings::new(Param::Alpha, 0.93);
+        let b = continue_branch(s, &settings).unwrap_or_else(|e| panic!("{e}"));
+        let pd = b
+            .special
+            .iter()
+            .find(|p| p.kind == SpecialKind::PeriodDoubling)
+            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
+        println!("period-1 branch: {:?}", b.special);
+        let b2 = switch_at_period_doubling(s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(b2.period, 2);
+        println!("period-2 branch: {:?}", b2.special);
+        (pd.clone(), b2)
+    }
 
     #[test]
     fn fig2a_main_branch_period_doubles_where_the_sweep_changes_period() {
@@ -333,12 +337,7 @@ mod continuation {
             .unwrap_or_else(|e| panic!("{e}"));
         assert!(b.stopped.is_none(), "{:?}", b.stopped);
         assert_eq!(b.period, 1);
-        let pd: Vec<f64> = b
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
+        let pd = values(&b, SpecialKind::PeriodDoubling);
         assert_eq!(pd.len(), 1, "{:?}", b.special);
         let pd = pd[0];
         println!("period doubling at alpha = {pd}");
@@ -352,9 +351,8 @@ mod continuation {
                 p.multipliers
             );
         }
-        let period_at = |a: f64| run(&Param::Alpha.apply(&s, a)).ok().and_then(|r| r.period);
-        assert_eq!(period_at(pd + 0.03), Some(1));
-        assert_eq!(period_at(pd - 0.03), Some(2));
+        assert_eq!(period_at(&s, pd + 0.03), Some(1));
+        assert_eq!(period_at(&s, pd - 0.03), Some(2));
         // along the stable part the branch is the attractor the sweep finds
         let mut compared = 0;
         for p in b.points.iter().filter(|p| p.value > pd + 0.02).step_by(5) {
@@ -369,27 +367,12 @@ mod continuation {
 
     #[test]
     fn fig2a_switching_at_the_period_doubling_follows_the_period_two_orbit_down_to_0_94() {
-        use capsule_analysis::continuation::switch_at_period_doubling;
         let s = at("fig02a_coulomb.toml", Some(2.0), 0.0);
-        let settings = Settings::new(Param::Alpha, 0.93);
-        let b = continue_branch(&s, &settings).unwrap_or_else(|e| panic!("{e}"));
-        let pd = b
-            .special
-            .iter()
-            .find(|p| p.kind == SpecialKind::PeriodDoubling)
-            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
-        let b2 = switch_at_period_doubling(&s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(b2.period, 2);
+        let (pd, b2) = down_to_period_two(&s);
         assert!(b2.stopped.is_none(), "{:?}", b2.stopped);
         // the period-2 orbit is born where the period-1 orbit loses stability, and doubles again
         // near alpha 0.94, where the brute-force run is period-4 and the chaotic band begins
-        let pd2: Vec<f64> = b2
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
-        println!("period-2 branch: {:?}", b2.special);
+        let pd2 = values(&b2, SpecialKind::PeriodDoubling);
         assert!(
             pd2.len() == 1 && pd2[0] > 0.935 && pd2[0] < 0.945,
             "{pd2:?}"
@@ -426,34 +409,17 @@ mod continuation {
 
     #[test]
     fn fig2b_viscous_transitions_are_found_by_continuation_and_agree_with_the_sweep() {
-        use capsule_analysis::continuation::switch_at_period_doubling;
         // Fig 2b (Coulomb + viscous): periodic from alpha 0.942 in the paper; here period 1
         // above a period doubling near 1.33 and period 2 below it, down to a second doubling
         // near 0.95 where the chaotic band begins
         let s = at("fig02b_viscous.toml", Some(2.0), 0.0);
-        let settings = Settings::new(Param::Alpha, 0.93);
-        let b = continue_branch(&s, &settings).unwrap_or_else(|e| panic!("{e}"));
-        let pd = b
-            .special
-            .iter()
-            .find(|p| p.kind == SpecialKind::PeriodDoubling)
-            .unwrap_or_else(|| panic!("no period doubling: {:?}", b.special));
-        println!("period-1 branch: {:?}", b.special);
+        let (pd, b2) = down_to_period_two(&s);
         assert!(pd.value > 1.30 && pd.value < 1.36, "{}", pd.value);
-        let period_at = |a: f64| run(&Param::Alpha.apply(&s, a)).ok().and_then(|r| r.period);
-        assert_eq!(period_at(pd.value + 0.03), Some(1));
-        assert_eq!(period_at(pd.value - 0.03), Some(2));
-        let b2 = switch_at_period_doubling(&s, &settings, 1, pd).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(b2.period, 2);
-        let pd2: Vec<f64> = b2
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::PeriodDoubling)
-            .map(|p| p.value)
-            .collect();
-        println!("period-2 branch: {:?}", b2.special);
+        assert_eq!(period_at(&s, pd.value + 0.03), Some(1));
+        assert_eq!(period_at(&s, pd.value - 0.03), Some(2));
+        let pd2 = values(&b2, SpecialKind::PeriodDoubling);
         assert!(pd2.len() == 1 && pd2[0] > 0.94 && pd2[0] < 0.96, "{pd2:?}");
-        assert_eq!(period_at(pd2[0] + 0.01), Some(2));
+        assert_eq!(period_at(&s, pd2[0] + 0.01), Some(2));
     }
 
     #[test]
@@ -473,12 +439,7 @@ mod continuation {
             SpecialKind::PeriodDoubling | SpecialKind::Fold | SpecialKind::Torus
         )));
         // the second impact appears between k_p = 0.07 and 0.08 (the sweep's finding, README)
-        let g: Vec<f64> = b
-            .special
-            .iter()
-            .filter(|p| p.kind == SpecialKind::Grazing)
-            .map(|p| p.value)
-            .collect();
+        let g = values(&b, SpecialKind::Grazing);
         assert!(
             g.len() == 1 && g[0] > 0.07 && g[0] < 0.08,
             "{:?}",
@@ -511,27 +472,13 @@ mod continuation {
 
 #[test]
 fn continue_command_writes_the_branch_and_refuses_bad_input() {
-    let dir = std::env::temp_dir().join(format!("capsule_continue_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    let prefix = dir.join("b");
+    let dir = TempDir::new("stability_continue");
+    let prefix = dir.file("b");
     let p = prefix.to_str().unwrap_or_default();
-    let base = [
-        "continue",
-        "--scene",
-        "scenes/control_point.toml",
-        "--out",
-        p,
-    ];
-    let run = |extra: &[&str]| {
-        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
-        crate::cli::capsule(&args)
-    };
+    let base = line("continue --scene scenes/control_point.toml --out", &[p]);
+    let run = |extra: &[&str]| capsule(&[&base[..], extra].concat());
     let ok = run(&["--kp", "0.05", "--param", "kp", "--to", "0.1"]);
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
+    assert_ok(&ok);
     let out = String::from_utf8_lossy(&ok.stdout);
     assert!(out.contains("Grazing at kp = 0.07"), "{out}");
     let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap_or_default();
@@ -544,10 +491,10 @@ fn continue_command_writes_the_branch_and_refuses_bad_input() {
             "invalid value 'mu' for '--param <PARAM>'",
         ),
         (
-            &[
-                "--alpha", "0.3", "--param", "alpha", "--to", "1", "--gamma", "5", "--beta", "15",
-                "--xi", "0.01", "--omega", "0.95",
-            ][..],
+            &line(
+                "--alpha 0.3 --param alpha --to 1 --gamma 5 --beta 15 --xi 0.01 --omega 0.95",
+                &[],
+            )[..],
             "not periodic",
         ),
     ] {
@@ -558,7 +505,6 @@ fn continue_command_writes_the_branch_and_refuses_bad_input() {
             "{extra:?}: {err}"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
