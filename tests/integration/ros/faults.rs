@@ -133,13 +133,7 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
         r#"
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --record-dir "$TMP/runs" &
         L=$!
-        # until every node the launcher started runs its DDS threads (bounded: a loaded host
-        # starts them late)
-        for i in $(seq 150); do
-            n=0; for k in $(pgrep -P $L); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
-            [ $n -ge 3 ] && break; sleep 0.1
-        done
-        sleep 0.5
+        wait_nodes_of $L 3
         KIDS=$(pgrep -P $L)
         echo "children: $(echo $KIDS | wc -w)"
         kill -TERM $L
@@ -163,13 +157,7 @@ fn launcher_pins_every_thread_of_every_node_to_the_cpus_asked() {
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 20 \
             --record-dir "$TMP/runs" --cpu-affinity "$CPU" &
         L=$!
-        # until every node the launcher started runs its DDS threads (bounded: a loaded host
-        # starts them late)
-        for i in $(seq 150); do
-            n=0; for k in $(pgrep -P $L); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
-            [ $n -ge 3 ] && break; sleep 0.1
-        done
-        sleep 0.5
+        wait_nodes_of $L 3
         for k in $(pgrep -P $L); do
             for t in /proc/$k/task/*; do
                 echo "thread $(cat /proc/$k/comm)/$(tr ' ' _ < $t/comm) $(awk '/Cpus_allowed_list/ {print $2}' $t/status)"

@@ -136,12 +136,20 @@ pub fn assert_at_least(json: &str, key: &str, min: f64) {
 /// Bash functions every script can call: `start_plant ARGS...` / `start_controller ARGS...`
 /// start the node on `$SCENE` in the background (pid in `$P` / `$C`; a redirection after the call
 /// applies to the node), `stop PID...` sends SIGTERM and waits (the status is the last one's),
-/// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py).
+/// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py),
+/// `wait_nodes_of PID N` waits (at most 15 s) until N children of PID run their DDS threads.
 const PRELUDE: &str = r#"
 start_plant() { "$B/capsule_plant" --scene "$SCENE" "$@" & P=$!; }
 start_controller() { "$B/capsule_controller" --scene "$SCENE" "$@" & C=$!; }
 stop() { kill -TERM "$@"; wait "$@"; }
 peer() { python3 "$ROOT/tests/peers/cyclone_peer.py" "$@"; }
+wait_nodes_of() {
+    for i in $(seq 150); do
+        n=0; for k in $(pgrep -P "$1"); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
+        [ $n -ge "$2" ] && break; sleep 0.1
+    done
+    sleep 0.5
+}
 "#;
 
 /// [`netns`] for a script that calls `peer`: first checks that the peer can run.
