@@ -15,7 +15,7 @@ use capsule_msgs::names::topics;
 use capsule_plant::scene::PhysicalScale;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
@@ -459,7 +459,7 @@ impl GainArgs {
             gain_limit: self.gain_limit,
         };
         config.validate().map_err(|e| {
-            anyhow::anyhow!(
+            crate::error::invalid!(
                 "--{} {}: {} (--gain-limit {})",
                 e.name.replace('_', "-"),
                 e.value,

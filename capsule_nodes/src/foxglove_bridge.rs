@@ -20,7 +20,7 @@
 use capsule_msgs::names::topics;
 use std::{net::Ipv4Addr, sync::Arc};
 
-use anyhow::{bail, Context as _, Result};
+use crate::error::{bail, Context as _, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use foxglove::{ChannelBuilder, RawChannel, Schema};
 use futures::StreamExt;

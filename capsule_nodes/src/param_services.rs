@@ -11,7 +11,7 @@
 
 use std::sync::{Arc, Mutex, PoisonError};
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::Time;
 use futures::StreamExt;
 use ros2_client::{

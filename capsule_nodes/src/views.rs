@@ -20,7 +20,7 @@
 
 use std::time::Duration;
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::{
     std_types::{
         DiagnosticArray, DiagnosticStatus, JointState, KeyValue, Quaternion, StringMsg, TFMessage,
@@ -449,7 +449,7 @@ impl Views {
                     .create_publisher::<StringMsg>(&t, None)
                     .context("robot_description publisher")?;
                 p.publish(StringMsg { data: urdf(m1_kg) })
-                    .map_err(|e| anyhow::anyhow!("robot_description not published: {e:?}"))?;
+                    .context("robot_description not published")?;
                 Some(p)
             }
             None => None,

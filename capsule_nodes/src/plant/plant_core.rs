@@ -2,7 +2,7 @@
 //! validation (non-finite refused, huge saturated, late or future refused), the stale-command
 //! watchdog, SI conversion, and the samples it publishes.
 
-use anyhow::Result;
+use crate::error::Result;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
 use capsule_plant::scene::PhysicalScale;
 use capsule_plant::Snapshot;
