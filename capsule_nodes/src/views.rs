@@ -22,6 +22,7 @@ use std::time::Duration;
 
 use crate::error::{Context as _, Result};
 use capsule_msgs::{
+    names::topics,
     std_types::{
         DiagnosticArray, DiagnosticStatus, JointState, KeyValue, Quaternion, StringMsg, TFMessage,
         Transform, TransformStamped, Vector3,
@@ -48,18 +49,6 @@ pub const JOINTS: [&str; 2] = ["capsule_joint", "inner_mass_joint"];
 pub const BODY_FRAME: &str = "capsule";
 /// The inner mass's frame (from the URDF).
 pub const MASS_FRAME: &str = "inner_mass";
-
-/// Topic names (relative ones move with the namespace, as in ROS).
-pub mod names {
-    /// Joint states.
-    pub const JOINT_STATES: &str = "joint_states";
-    /// Transforms.
-    pub const TF: &str = "/tf";
-    /// URDF.
-    pub const ROBOT_DESCRIPTION: &str = "robot_description";
-    /// Diagnostics.
-    pub const DIAGNOSTICS: &str = "/diagnostics";
-}
 
 /// Parameter names of the switches.
 pub mod params {
@@ -115,28 +104,31 @@ pub struct ViewSwitches {
 impl ViewArgs {
     /// Declares the switches (read-only once running) in `table`, valued by the flags.
     pub fn declare(&self, table: ParamTable) -> ParamTable {
-        let spec = |what: &str| ParamSpec::read_only(&format!("publish {what} (set at start)"));
-        table
-            .declare(
+        // (parameter, what it publishes, switched off by its flag)
+        let switches = [
+            (
                 params::JOINT_STATES,
-                spec("joint_states (sensor_msgs/JointState)"),
-                V::Boolean(!self.no_joint_states),
-            )
-            .declare(
-                params::TF,
-                spec("/tf (capsule in odom)"),
-                V::Boolean(!self.no_tf),
-            )
-            .declare(
+                "joint_states (sensor_msgs/JointState)",
+                self.no_joint_states,
+            ),
+            (params::TF, "/tf (capsule in odom)", self.no_tf),
+            (
                 params::ROBOT_DESCRIPTION,
-                spec("robot_description (URDF, transient local)"),
-                V::Boolean(!self.no_robot_description),
-            )
-            .declare(
+                "robot_description (URDF, transient local)",
+                self.no_robot_description,
+            ),
+            (
                 params::DIAGNOSTICS,
-                spec("/diagnostics at 1 Hz"),
-                V::Boolean(!self.no_diagnostics),
-            )
+                "/diagnostics at 1 Hz",
+                self.no_diagnostics,
+            ),
+        ];
+        switches
+            .into_iter()
+            .fold(table, |table, (name, what, off)| {
+                let spec = ParamSpec::read_only(&format!("publish {what} (set at start)"));
+                table.declare(name, spec, V::Boolean(!off))
+            })
             .declare(
                 params::RATE_HZ,
                 ParamSpec::read_only("joint_states and /tf at most this often [Hz] (set at start)")
@@ -330,7 +322,7 @@ impl Diagnostics {
     pub fn create(node: &mut Node, settings: &RosSettings) -> Result<Self> {
         let topic = settings.topic(
             node,
-            names::DIAGNOSTICS,
+            topics::DIAGNOSTICS,
             type_name("diagnostic_msgs", "DiagnosticArray"),
             &qos::data(),
         )?;
@@ -427,17 +419,17 @@ impl Views {
             |name: &str, ty: MessageTypeName, q: &QosProfile| settings.topic(node, name, ty, q);
         let js_topic = on
             .joint_states
-            .then(|| topic(names::JOINT_STATES, types::joint_state(), &data))
+            .then(|| topic(topics::JOINT_STATES, types::joint_state(), &data))
             .transpose()?;
         let tf_topic = on
             .tf
-            .then(|| topic(names::TF, type_name("tf2_msgs", "TFMessage"), &tf_qos()))
+            .then(|| topic(topics::TF, type_name("tf2_msgs", "TFMessage"), &tf_qos()))
             .transpose()?;
         let rd_topic = on
             .robot_description
             .then(|| {
                 topic(
-                    names::ROBOT_DESCRIPTION,
+                    topics::ROBOT_DESCRIPTION,
                     type_name("std_msgs", "String"),
                     &latched_qos(),
                 )
