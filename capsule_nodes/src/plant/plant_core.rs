@@ -11,6 +11,32 @@ use tracing::info;
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
 
+/// A sample `s` as a `CapsuleState` in SI units (`scale`) with `header` and `seq`, its commands
+/// fresh and none refused: the plant node's messages and offline recordings alike.
+pub fn state_message(
+    s: &Snapshot,
+    scale: &PhysicalScale,
+    header: Header,
+    seq: u64,
+) -> CapsuleState {
+    let (l, v, f) = (scale.length_m(), scale.velocity_m_per_s(), scale.force_n());
+    CapsuleState {
+        header,
+        seq,
+        mass_position: s.state.x1 * l,
+        mass_velocity: s.state.y1 * v,
+        capsule_position: s.state.x2 * l,
+        capsule_velocity: s.state.y2 * v,
+        in_contact: s.contact,
+        stuck: s.stuck,
+        friction_force: s.friction_force * f,
+        contact_force: s.contact_force * f,
+        actuator_force: s.actuator_force * f,
+        command_stale: false,
+        rejected_commands: 0,
+    }
+}
+
 /// What the node needs from a simulator: hold a force until a time, and report a sample.
 pub trait PlantSim {
     /// Integrates to `tau_end` holding the non-dimensional actuator force `force`.
@@ -130,28 +156,14 @@ impl<S: PlantSim> PlantCore<S> {
 
     /// The current sample as a message (SI).
     pub fn state(&self) -> CapsuleState {
-        let s = self.sim.sample();
-        let l = self.scale.length_m();
-        let v = self.scale.velocity_m_per_s();
-        let f = self.scale.force_n();
-        CapsuleState {
-            header: Header {
-                stamp: self.stamp(),
-                frame_id: self.frame_id.clone(),
-            },
-            seq: self.step,
-            mass_position: s.state.x1 * l,
-            mass_velocity: s.state.y1 * v,
-            capsule_position: s.state.x2 * l,
-            capsule_velocity: s.state.y2 * v,
-            in_contact: s.contact,
-            stuck: s.stuck,
-            friction_force: s.friction_force * f,
-            contact_force: s.contact_force * f,
-            actuator_force: s.actuator_force * f,
-            command_stale: self.stale,
-            rejected_commands: self.rejected,
-        }
+        let header = Header {
+            stamp: self.stamp(),
+            frame_id: self.frame_id.clone(),
+        };
+        let mut msg = state_message(&self.sim.sample(), &self.scale, header, self.step);
+        msg.command_stale = self.stale;
+        msg.rejected_commands = self.rejected;
+        msg
     }
 
     /// Notes that the current sample went out at steady time `now`.
@@ -301,12 +313,24 @@ mod tests {
         }
     }
 
+    /// `p` takes a command of `force` for sample `seq`, received at `now`.
+    fn command(
+        p: &mut PlantCore<FreeMass>,
+        seq: u64,
+        force: f64,
+        now: f64,
+        lockstep: bool,
+    ) -> CommandOutcome {
+        let c = cmd(p, seq, force);
+        p.on_command(&c, now, lockstep)
+    }
+
     #[test]
     fn held_command_drives_the_step_in_si() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
         assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.001, true),
+            command(&mut p, 0, 1.0, 0.001, true),
             CommandOutcome::Accepted
         );
         p.step()?;
@@ -333,33 +357,30 @@ mod tests {
         let mut p = plant();
         p.published(0.0);
         assert_eq!(
-            p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false),
+            command(&mut p, 0, f64::NAN, 0.0, false),
             CommandOutcome::NonFinite
         );
         assert_eq!(
-            p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false),
+            command(&mut p, 0, f64::INFINITY, 0.0, false),
             CommandOutcome::NonFinite
         );
         assert_eq!(p.rejected(), 2);
         assert!(p.stale(), "nothing accepted yet");
         assert_eq!(
-            p.on_command(&cmd(&p, 0, 0.5), 0.0, false),
+            command(&mut p, 0, 0.5, 0.0, false),
             CommandOutcome::Accepted
         );
         p.step()?;
         p.step()?;
         assert_eq!(
-            p.on_command(&cmd(&p, 2, 0.7), 0.02, false),
+            command(&mut p, 2, 0.7, 0.02, false),
             CommandOutcome::Accepted
         );
         // an older command arriving late does not take over (time does not rewind)
-        assert_eq!(
-            p.on_command(&cmd(&p, 1, -3.0), 0.021, false),
-            CommandOutcome::Late
-        );
+        assert_eq!(command(&mut p, 1, -3.0, 0.021, false), CommandOutcome::Late);
         assert_eq!(p.held_force(), 0.7);
         assert_eq!(
-            p.on_command(&cmd(&p, 2, 0.7), 0.022, false),
+            command(&mut p, 2, 0.7, 0.022, false),
             CommandOutcome::Duplicate
         );
         assert_eq!(p.rejected(), 3);
@@ -377,7 +398,7 @@ mod tests {
             let k = k as u64;
             p.published(k as f64 * 0.01);
             assert_eq!(
-                p.on_command(&cmd(&p, k, f), k as f64 * 0.01, false),
+                command(&mut p, k, f, k as f64 * 0.01, false),
                 CommandOutcome::Accepted
             );
             assert_eq!(p.held_force(), 200.0f64.copysign(f));
@@ -390,7 +411,7 @@ mod tests {
         assert_eq!(p.rejected(), 0);
         let mut p = plant().with_max_force_n(0.5);
         p.published(0.0);
-        p.on_command(&cmd(&p, 0, 3.0), 0.0, false);
+        command(&mut p, 0, 3.0, 0.0, false);
         assert_eq!(p.held_force(), 0.5);
         Ok(())
     }
@@ -400,7 +421,7 @@ mod tests {
         let mut p = plant();
         p.published(0.0);
         assert_eq!(
-            p.on_command(&cmd(&p, 0, 0.1), 0.0, false),
+            command(&mut p, 0, 0.1, 0.0, false),
             CommandOutcome::Accepted
         );
         p.step()?;
@@ -414,7 +435,7 @@ mod tests {
         assert_eq!(p.held_force(), 0.1);
         for k in 1..50 {
             assert_eq!(
-                p.on_command(&cmd(&p, k, 0.2), k as f64 * 0.01, false),
+                command(&mut p, k, 0.2, k as f64 * 0.01, false),
                 CommandOutcome::Accepted,
                 "sample {k}"
             );
@@ -429,20 +450,14 @@ mod tests {
     fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(
-            p.on_command(&cmd(&p, 1, 1.0), 0.0, true),
-            CommandOutcome::Future
-        );
+        assert_eq!(command(&mut p, 1, 1.0, 0.0, true), CommandOutcome::Future);
         assert!(!p.answered());
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.0, true),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 1.0, 0.0, true), CommandOutcome::Accepted);
         assert!(p.answered());
         p.step()?;
         p.published(0.01);
         assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.01, true),
+            command(&mut p, 0, 1.0, 0.01, true),
             CommandOutcome::Duplicate
         );
         assert!(!p.answered());
@@ -454,7 +469,7 @@ mod tests {
     fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        p.on_command(&cmd(&p, 0, 2.0), 0.0, false);
+        command(&mut p, 0, 2.0, 0.0, false);
         assert!(!p.check_watchdog(0.04));
         assert_eq!(p.held_force(), 2.0);
         assert!(p.check_watchdog(0.06));
