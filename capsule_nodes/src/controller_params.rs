@@ -265,34 +265,26 @@ mod tests {
             assert_eq!(e, r.reason);
             assert_eq!(t, before);
         }
-        let e = t
-            .set_atomically(&[p(GAIN, V::Double(f64::NAN))], rules)
-            .unwrap_err();
-        assert!(e.contains("not finite"), "{e}");
-        let e = t
-            .set_atomically(&[p(MODE, V::String("sideways".into()))], rules)
-            .unwrap_err();
-        assert!(e.contains("unknown mode"), "{e}");
-        // lowering the limit below a default or the gain in effect is refused
-        let e = t
-            .set_atomically(&[p(GAIN_LIMIT, V::Double(0.1))], rules)
-            .unwrap_err();
-        assert!(e.contains("beyond gain_limit"), "{e}");
-        let e = t
-            .set_atomically(
-                &[
+        // (the set, why it is refused)
+        let refused = [
+            (vec![p(GAIN, V::Double(f64::NAN))], "not finite"),
+            (vec![p(MODE, V::String("sideways".into()))], "unknown mode"),
+            // lowering the limit below a default or the gain in effect is refused
+            (vec![p(GAIN_LIMIT, V::Double(0.1))], "beyond gain_limit"),
+            (
+                vec![
                     p(GAIN_LIMIT, V::Double(0.15)),
                     p(DIRECTION_GAIN, V::Double(0.1)),
                     p(CHAOS_GAIN, V::Double(0.1)),
                 ],
-                rules,
-            )
-            .unwrap_err();
-        assert!(e.contains("beyond the configured limit"), "{e}");
-        let e = t
-            .set_atomically(&[p(M1_KG, V::Double(0.1))], rules)
-            .unwrap_err();
-        assert!(e.contains("read-only"), "{e}");
+                "beyond the configured limit",
+            ),
+            (vec![p(M1_KG, V::Double(0.1))], "read-only"),
+        ];
+        for (set, why) in refused {
+            let e = t.set_atomically(&set, rules).unwrap_err();
+            assert!(e.contains(why), "{set:?}: {e}");
+        }
         assert_eq!(t, before);
     }
 

@@ -136,17 +136,18 @@ pub fn run_file_name(scene: &str, now_ns: u64) -> String {
 
 /// `YYYYmmddTHHMMSS.mmmZ` of nanoseconds since the epoch.
 pub fn utc_compact(ns: u64) -> String {
-    let c = capsule_record::civil::civil(ns);
-    format!(
-        "{:04}{:02}{:02}T{:02}{:02}{:02}.{:03}Z",
-        c.year,
-        c.month,
-        c.day,
-        c.hour,
-        c.minute,
-        c.second,
-        c.nanos / 1_000_000
-    )
+    use capsule_record::civil::{civil, Civil};
+    let Civil {
+        year,
+        month,
+        day,
+        hour,
+        minute,
+        second,
+        nanos,
+    } = civil(ns);
+    let ms = nanos / 1_000_000;
+    format!("{year:04}{month:02}{day:02}T{hour:02}{minute:02}{second:02}.{ms:03}Z")
 }
 
 /// Where a run's recording goes: `output` if given, else `record_dir` (created if missing) /

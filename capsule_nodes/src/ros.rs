@@ -373,13 +373,18 @@ pub mod types {
 /// QoS of the capsule topics.
 pub mod qos {
     use super::*;
+    /// A reliable, volatile, keep-last-`depth` writer's profile whose full window waits at most
+    /// `wait_ms`.
+    fn reliable(wait_ms: u64, depth: usize) -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(wait_ms)))
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth })
+    }
     /// State, force and status: reliable (so both reliable and best-effort rclcpp
     /// subscribers match), volatile, keep last 16; a full window waits at most 5 ms.
     pub fn data() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 16 })
+        reliable(5, 16)
     }
     /// Readers of state and force: best effort, keep last 16. A best-effort reader matches
     /// reliable and best-effort writers alike, and against our reliable writers it spares the
@@ -395,17 +400,11 @@ pub mod qos {
     }
     /// /clock: reliable keep-last 1 (matches rclcpp's best-effort clock subscription too).
     pub fn clock() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 1 })
+        reliable(5, 1)
     }
     /// Services: reliable, volatile, keep last 10 (rmw's services default).
     pub fn service() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 10 })
+        reliable(100, 10)
     }
 }
 
