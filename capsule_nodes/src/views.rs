@@ -52,16 +52,22 @@ pub const MASS_FRAME: &str = "inner_mass";
 
 /// Parameter names of the switches.
 pub mod params {
+    /// `views.NAME`: the views' parameters share the prefix.
+    macro_rules! view {
+        ($name:literal) => {
+            concat!("views.", $name)
+        };
+    }
     /// `views.joint_states`.
-    pub const JOINT_STATES: &str = "views.joint_states";
+    pub const JOINT_STATES: &str = view!("joint_states");
     /// `views.tf`.
-    pub const TF: &str = "views.tf";
+    pub const TF: &str = view!("tf");
     /// `views.robot_description`.
-    pub const ROBOT_DESCRIPTION: &str = "views.robot_description";
+    pub const ROBOT_DESCRIPTION: &str = view!("robot_description");
     /// `views.diagnostics`.
-    pub const DIAGNOSTICS: &str = "views.diagnostics";
+    pub const DIAGNOSTICS: &str = view!("diagnostics");
     /// `views.rate_hz`.
-    pub const RATE_HZ: &str = "views.rate_hz";
+    pub const RATE_HZ: &str = view!("rate_hz");
 }
 
 /// The switches on the command line.

@@ -257,6 +257,7 @@ impl<S: PlantSim> PlantCore<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use CommandOutcome as Outcome;
 
     /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
     /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
@@ -329,10 +330,7 @@ mod tests {
     fn held_command_drives_the_step_in_si() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(
-            command(&mut p, 0, 1.0, 0.001, true),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 1.0, 0.001, true), Outcome::Accepted);
         p.step()?;
         // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
         let s = p.state();
@@ -356,33 +354,21 @@ mod tests {
     fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(
-            command(&mut p, 0, f64::NAN, 0.0, false),
-            CommandOutcome::NonFinite
-        );
+        assert_eq!(command(&mut p, 0, f64::NAN, 0.0, false), Outcome::NonFinite);
         assert_eq!(
             command(&mut p, 0, f64::INFINITY, 0.0, false),
-            CommandOutcome::NonFinite
+            Outcome::NonFinite
         );
         assert_eq!(p.rejected(), 2);
         assert!(p.stale(), "nothing accepted yet");
-        assert_eq!(
-            command(&mut p, 0, 0.5, 0.0, false),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 0.5, 0.0, false), Outcome::Accepted);
         p.step()?;
         p.step()?;
-        assert_eq!(
-            command(&mut p, 2, 0.7, 0.02, false),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 2, 0.7, 0.02, false), Outcome::Accepted);
         // an older command arriving late does not take over (time does not rewind)
-        assert_eq!(command(&mut p, 1, -3.0, 0.021, false), CommandOutcome::Late);
+        assert_eq!(command(&mut p, 1, -3.0, 0.021, false), Outcome::Late);
         assert_eq!(p.held_force(), 0.7);
-        assert_eq!(
-            command(&mut p, 2, 0.7, 0.022, false),
-            CommandOutcome::Duplicate
-        );
+        assert_eq!(command(&mut p, 2, 0.7, 0.022, false), Outcome::Duplicate);
         assert_eq!(p.rejected(), 3);
         assert_eq!(p.state().rejected_commands, 3);
         assert_eq!(p.seq(), 2, "the plant kept stepping");
@@ -399,7 +385,7 @@ mod tests {
             p.published(k as f64 * 0.01);
             assert_eq!(
                 command(&mut p, k, f, k as f64 * 0.01, false),
-                CommandOutcome::Accepted
+                Outcome::Accepted
             );
             assert_eq!(p.held_force(), 200.0f64.copysign(f));
             p.step()?;
@@ -420,10 +406,7 @@ mod tests {
     fn a_command_stamped_in_the_future_is_refused_and_does_not_block_later_ones() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(
-            command(&mut p, 0, 0.1, 0.0, false),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 0.1, 0.0, false), Outcome::Accepted);
         p.step()?;
         p.published(0.01);
         let mut poison = cmd(&p, 1, 5.0);
@@ -431,12 +414,12 @@ mod tests {
             sec: i32::MAX,
             nanosec: 0,
         };
-        assert_eq!(p.on_command(&poison, 0.01, false), CommandOutcome::Future);
+        assert_eq!(p.on_command(&poison, 0.01, false), Outcome::Future);
         assert_eq!(p.held_force(), 0.1);
         for k in 1..50 {
             assert_eq!(
                 command(&mut p, k, 0.2, k as f64 * 0.01, false),
-                CommandOutcome::Accepted,
+                Outcome::Accepted,
                 "sample {k}"
             );
             p.step()?;
@@ -450,16 +433,13 @@ mod tests {
     fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
         let mut p = plant();
         p.published(0.0);
-        assert_eq!(command(&mut p, 1, 1.0, 0.0, true), CommandOutcome::Future);
+        assert_eq!(command(&mut p, 1, 1.0, 0.0, true), Outcome::Future);
         assert!(!p.answered());
-        assert_eq!(command(&mut p, 0, 1.0, 0.0, true), CommandOutcome::Accepted);
+        assert_eq!(command(&mut p, 0, 1.0, 0.0, true), Outcome::Accepted);
         assert!(p.answered());
         p.step()?;
         p.published(0.01);
-        assert_eq!(
-            command(&mut p, 0, 1.0, 0.01, true),
-            CommandOutcome::Duplicate
-        );
+        assert_eq!(command(&mut p, 0, 1.0, 0.01, true), Outcome::Duplicate);
         assert!(!p.answered());
         assert_eq!(p.stats.latencies.count(), 1);
         Ok(())
