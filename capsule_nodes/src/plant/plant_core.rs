@@ -302,6 +302,12 @@ mod tests {
         )
     }
 
+    /// `p` with its first sample published at 0.
+    fn published(mut p: PlantCore<FreeMass>) -> PlantCore<FreeMass> {
+        p.published(0.0);
+        p
+    }
+
     fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {
         let stamp = Time::from_nanos(p.stamp_nanos(seq));
         ActuatorForce {
@@ -328,8 +334,7 @@ mod tests {
 
     #[test]
     fn held_command_drives_the_step_in_si() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
         assert_eq!(command(&mut p, 0, 1.0, 0.001, true), Outcome::Accepted);
         p.step()?;
         // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
@@ -352,8 +357,7 @@ mod tests {
 
     #[test]
     fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
         assert_eq!(command(&mut p, 0, f64::NAN, 0.0, false), Outcome::NonFinite);
         assert_eq!(
             command(&mut p, 0, f64::INFINITY, 0.0, false),
@@ -395,8 +399,7 @@ mod tests {
         }
         assert_eq!(p.stats.saturated_commands, 3);
         assert_eq!(p.rejected(), 0);
-        let mut p = plant().with_max_force_n(0.5);
-        p.published(0.0);
+        let mut p = published(plant().with_max_force_n(0.5));
         command(&mut p, 0, 3.0, 0.0, false);
         assert_eq!(p.held_force(), 0.5);
         Ok(())
@@ -404,8 +407,7 @@ mod tests {
 
     #[test]
     fn a_command_stamped_in_the_future_is_refused_and_does_not_block_later_ones() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
         assert_eq!(command(&mut p, 0, 0.1, 0.0, false), Outcome::Accepted);
         p.step()?;
         p.published(0.01);
@@ -431,8 +433,7 @@ mod tests {
 
     #[test]
     fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
         assert_eq!(command(&mut p, 1, 1.0, 0.0, true), Outcome::Future);
         assert!(!p.answered());
         assert_eq!(command(&mut p, 0, 1.0, 0.0, true), Outcome::Accepted);
@@ -447,8 +448,7 @@ mod tests {
 
     #[test]
     fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
         command(&mut p, 0, 2.0, 0.0, false);
         assert!(!p.check_watchdog(0.04));
         assert_eq!(p.held_force(), 2.0);
