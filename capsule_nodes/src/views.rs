@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use crate::error::{Context as _, Result};
 use capsule_msgs::{
-    names::topics,
+    names::topics::views as view_topics,
     std_types::{
         DiagnosticArray, DiagnosticStatus, JointState, KeyValue, Quaternion, StringMsg, TFMessage,
         Transform, TransformStamped, Vector3,
@@ -328,7 +328,7 @@ impl Diagnostics {
     pub fn create(node: &mut Node, settings: &RosSettings) -> Result<Self> {
         let topic = settings.topic(
             node,
-            topics::DIAGNOSTICS,
+            view_topics::DIAGNOSTICS,
             type_name("diagnostic_msgs", "DiagnosticArray"),
             &qos::data(),
         )?;
@@ -425,17 +425,23 @@ impl Views {
             |name: &str, ty: MessageTypeName, q: &QosProfile| settings.topic(node, name, ty, q);
         let js_topic = on
             .joint_states
-            .then(|| topic(topics::JOINT_STATES, types::joint_state(), &data))
+            .then(|| topic(view_topics::JOINT_STATES, types::joint_state(), &data))
             .transpose()?;
         let tf_topic = on
             .tf
-            .then(|| topic(topics::TF, type_name("tf2_msgs", "TFMessage"), &tf_qos()))
+            .then(|| {
+                topic(
+                    view_topics::TF,
+                    type_name("tf2_msgs", "TFMessage"),
+                    &tf_qos(),
+                )
+            })
             .transpose()?;
         let rd_topic = on
             .robot_description
             .then(|| {
                 topic(
-                    topics::ROBOT_DESCRIPTION,
+                    view_topics::ROBOT_DESCRIPTION,
                     type_name("std_msgs", "String"),
                     &latched_qos(),
                 )
