@@ -563,17 +563,14 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut requests = server.receive_request_stream();
     let mut tick = tokio::time::interval(opts.status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = crate::ros::shutdown();
     tokio::pin!(shutdown);
     let mut plants = PlantIdentity::new(PlantIdentity::<ros2_client::Gid>::DEFAULT_HANDOVER_S);
     let mut second_plant_log = Throttle::default();
 
     loop {
         tokio::select! {
-            sig = &mut shutdown => {
-                info!("{}: shutting down", sig?);
-                break;
-            }
+            stopped = &mut shutdown => break stopped?,
             msg = states.select_next_some() => match msg {
                 Ok((state, info)) => {
                     match plants.observe(info.publisher_gid(), steady()) {

@@ -310,14 +310,11 @@ pub async fn run(
     tokio::pin!(forces);
     let mut thin = StampThinner::new(opts.max_rate_hz);
     let mut thin_force = StampThinner::new(opts.max_rate_hz);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = crate::ros::shutdown();
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
-            sig = &mut shutdown => {
-                info!("{}: shutting down", sig?);
-                break;
-            }
+            stopped = &mut shutdown => break stopped?,
             msg = states.select_next_some() => match msg {
                 Ok((s, _)) => {
                     let wanted = state_ch.has_sinks() || frame_ch.has_sinks();

@@ -471,6 +471,13 @@ pub fn node_main<O, E: Into<BoxError>>(
     exit_code(name, result)
 }
 
+/// [`shutdown_signal`], logged (`SIGTERM: shutting down`): the end of a node's loop.
+pub async fn shutdown() -> Result<()> {
+    let sig = shutdown_signal().await?;
+    tracing::info!("{sig}: shutting down");
+    Ok(())
+}
+
 /// Resolves when the process gets Ctrl-C (SIGINT) or SIGTERM.
 pub async fn shutdown_signal() -> Result<&'static str> {
     use tokio::signal::unix::{signal, SignalKind};
