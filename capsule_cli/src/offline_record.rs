@@ -4,7 +4,8 @@
 use anyhow::{Context, Result};
 use capsule_msgs::names::{default_topics, type_names};
 use capsule_msgs::std_types::Clock;
-use capsule_msgs::{CapsuleState, Header, Time};
+use capsule_msgs::{Header, Time};
+use capsule_nodes::plant::state_message;
 use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
 use capsule_record::types::OfferedQos;
@@ -43,28 +44,14 @@ pub fn write(
         &OfferedQos::reliable(1),
     )?;
     let p = &scene.physical;
-    let (l, v, f, t) = (p.length_m(), p.velocity_m_per_s(), p.force_n(), p.time_s());
     for (seq, s) in rows.iter().enumerate() {
-        let stamp = Time::from_secs_f64(s.tau * t);
+        let stamp = Time::from_secs_f64(s.tau * p.time_s());
         let log_time = start + stamp.to_nanos().max(0) as u64;
-        let msg = CapsuleState {
-            header: Header {
-                stamp,
-                frame_id: "odom".into(),
-            },
-            seq: seq as u64,
-            mass_position: s.state.x1 * l,
-            mass_velocity: s.state.y1 * v,
-            capsule_position: s.state.x2 * l,
-            capsule_velocity: s.state.y2 * v,
-            in_contact: s.contact,
-            stuck: s.stuck,
-            friction_force: s.friction_force * f,
-            contact_force: s.contact_force * f,
-            actuator_force: s.actuator_force * f,
-            command_stale: false,
-            rejected_commands: 0,
+        let header = Header {
+            stamp,
+            frame_id: "odom".into(),
         };
+        let msg = state_message(s, p, header, seq as u64);
         let seq32 = seq as u32;
         w.write(state_ch, seq32, log_time, log_time, &cdr::encode(&msg)?)?;
         w.write(

@@ -55,6 +55,19 @@ pub mod topics {
     /// JointState commands, as topic_based_ros2_control sends them (the plant's
     /// `--joint-commands`).
     pub const JOINT_COMMANDS: &str = "capsule/joint_commands";
+
+    /// The standard-type topics of the plant's views (what RViz, Foxglove, robot_state_publisher
+    /// and diagnostics aggregators read; relative ones move with the namespace, as in ROS).
+    pub mod views {
+        /// Joint states (`sensor_msgs/msg/JointState`).
+        pub const JOINT_STATES: &str = "joint_states";
+        /// Transforms (`tf2_msgs/msg/TFMessage`).
+        pub const TF: &str = "/tf";
+        /// The URDF (`std_msgs/msg/String`, transient local).
+        pub const ROBOT_DESCRIPTION: &str = "robot_description";
+        /// Diagnostics (`diagnostic_msgs/msg/DiagnosticArray`).
+        pub const DIAGNOSTICS: &str = "/diagnostics";
+    }
 }
 
 /// Topic names in the default graph (no namespace, default node names).

@@ -4,7 +4,7 @@
 use capsule_msgs::names::topics;
 use std::time::Duration;
 
-use anyhow::{bail, Context as _, Result};
+use crate::error::{bail, Context as _, Result};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use ros2_client::{service::Client, Node};
 
@@ -64,7 +64,7 @@ impl ModeClient {
                 .client
                 .async_send_request(Wire(req.clone()))
                 .await
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                .context("set_mode request not sent")?;
             match tokio::time::timeout(retry, self.client.async_receive_response(id)).await {
                 Ok(Ok(Wire(resp))) => return Ok(resp),
                 Ok(Err(e)) => bail!("set_mode response unreadable: {e:?}"),

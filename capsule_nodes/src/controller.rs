@@ -15,7 +15,7 @@ use capsule_msgs::names::topics;
 use capsule_plant::scene::PhysicalScale;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
@@ -459,7 +459,7 @@ impl GainArgs {
             gain_limit: self.gain_limit,
         };
         config.validate().map_err(|e| {
-            anyhow::anyhow!(
+            crate::error::invalid!(
                 "--{} {}: {} (--gain-limit {})",
                 e.name.replace('_', "-"),
                 e.value,
@@ -563,17 +563,14 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut requests = server.receive_request_stream();
     let mut tick = tokio::time::interval(opts.status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = crate::ros::shutdown();
     tokio::pin!(shutdown);
     let mut plants = PlantIdentity::new(PlantIdentity::<ros2_client::Gid>::DEFAULT_HANDOVER_S);
     let mut second_plant_log = Throttle::default();
 
     loop {
         tokio::select! {
-            sig = &mut shutdown => {
-                info!("{}: shutting down", sig?);
-                break;
-            }
+            stopped = &mut shutdown => break stopped?,
             msg = states.select_next_some() => match msg {
                 Ok((state, info)) => {
                     match plants.observe(info.publisher_gid(), steady()) {

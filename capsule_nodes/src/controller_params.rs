@@ -31,16 +31,9 @@ pub mod names {
     pub const ALPHA: &str = "alpha";
     /// Drive frequency omega (non-dim).
     pub const OMEGA: &str = "omega";
-    /// Sim time from /clock.
-    pub const USE_SIM_TIME: &str = "use_sim_time";
     /// Stale-state timeout [s].
     pub const STATE_TIMEOUT_S: &str = "state_timeout_s";
-    /// Physical scale: inner mass [kg].
-    pub const M1_KG: &str = "m1_kg";
-    /// Physical scale: primary stiffness [N/m].
-    pub const K1_N_PER_M: &str = "k1_n_per_m";
-    /// Physical scale: friction threshold [N].
-    pub const PF_N: &str = "pf_n";
+    pub use crate::params::names::*;
 }
 use names::*;
 
@@ -55,7 +48,7 @@ pub fn table(core: &ControllerCore, use_sim_time: bool, state_timeout_s: f64) ->
     let law = core.law();
     let config = core.config();
     let scale = core.scale();
-    ParamTable::new()
+    let table = ParamTable::new()
         .declare(
             MODE,
             ParamSpec::writable("controller mode, as in a set_mode request taking effect now")
@@ -107,22 +100,11 @@ pub fn table(core: &ControllerCore, use_sim_time: bool, state_timeout_s: f64) ->
             ParamSpec::read_only("seconds without state before the controller stops commanding")
                 .range(POSITIVE),
             V::Double(state_timeout_s),
-        )
-        .declare(
-            M1_KG,
-            ParamSpec::read_only("physical scale: inner mass m1 [kg]").range(POSITIVE),
-            V::Double(scale.m1_kg),
-        )
-        .declare(
-            K1_N_PER_M,
-            ParamSpec::read_only("physical scale: primary stiffness k1 [N/m]").range(POSITIVE),
-            V::Double(scale.k1_n_per_m),
-        )
-        .declare(
-            PF_N,
-            ParamSpec::read_only("physical scale: friction threshold P_f [N]").range(POSITIVE),
-            V::Double(scale.pf_n),
-        )
+        );
+    let values = [scale.m1_kg, scale.k1_n_per_m, scale.pf_n];
+    crate::params::declare_scale(table, values, |what| {
+        ParamSpec::read_only(what).range(POSITIVE)
+    })
 }
 
 /// The mode configuration the table holds.
@@ -265,34 +247,26 @@ mod tests {
             assert_eq!(e, r.reason);
             assert_eq!(t, before);
         }
-        let e = t
-            .set_atomically(&[p(GAIN, V::Double(f64::NAN))], rules)
-            .unwrap_err();
-        assert!(e.contains("not finite"), "{e}");
-        let e = t
-            .set_atomically(&[p(MODE, V::String("sideways".into()))], rules)
-            .unwrap_err();
-        assert!(e.contains("unknown mode"), "{e}");
-        // lowering the limit below a default or the gain in effect is refused
-        let e = t
-            .set_atomically(&[p(GAIN_LIMIT, V::Double(0.1))], rules)
-            .unwrap_err();
-        assert!(e.contains("beyond gain_limit"), "{e}");
-        let e = t
-            .set_atomically(
-                &[
+        // (the set, why it is refused)
+        let refused = [
+            (vec![p(GAIN, V::Double(f64::NAN))], "not finite"),
+            (vec![p(MODE, V::String("sideways".into()))], "unknown mode"),
+            // lowering the limit below a default or the gain in effect is refused
+            (vec![p(GAIN_LIMIT, V::Double(0.1))], "beyond gain_limit"),
+            (
+                vec![
                     p(GAIN_LIMIT, V::Double(0.15)),
                     p(DIRECTION_GAIN, V::Double(0.1)),
                     p(CHAOS_GAIN, V::Double(0.1)),
                 ],
-                rules,
-            )
-            .unwrap_err();
-        assert!(e.contains("beyond the configured limit"), "{e}");
-        let e = t
-            .set_atomically(&[p(M1_KG, V::Double(0.1))], rules)
-            .unwrap_err();
-        assert!(e.contains("read-only"), "{e}");
+                "beyond the configured limit",
+            ),
+            (vec![p(M1_KG, V::Double(0.1))], "read-only"),
+        ];
+        for (set, why) in refused {
+            let e = t.set_atomically(&set, rules).unwrap_err();
+            assert!(e.contains(why), "{set:?}: {e}");
+        }
         assert_eq!(t, before);
     }
 

@@ -20,7 +20,7 @@
 use capsule_msgs::names::topics;
 use std::{net::Ipv4Addr, sync::Arc};
 
-use anyhow::{bail, Context as _, Result};
+use crate::error::{bail, Context as _, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use foxglove::{ChannelBuilder, RawChannel, Schema};
 use futures::StreamExt;
@@ -60,66 +60,77 @@ pub fn check_host(host: &str) -> Result<Ipv4Addr> {
     }
 }
 
+/// The JSON schema of an object: its title, description (if any) and properties (JSON text).
+macro_rules! object_schema {
+    ($title:literal, $(description: $description:literal,)? $properties:literal) => {
+        concat!(
+            r#"{"title": ""#,
+            $title,
+            r#"", "#,
+            $(r#""description": ""#, $description, r#"", "#,)?
+            r#""type": "object", "properties": {"#,
+            $properties,
+            "}}"
+        )
+    };
+}
+
 /// JSON schema of the state channel.
-pub const STATE_SCHEMA: &str = r#"{
-  "title": "capsule.State",
-  "description": "One plant sample in SI: x1 inner mass, x2 capsule (positions [m] in odom), y1, y2 their velocities [m/s]",
-  "type": "object",
-  "properties": {
-    "t": {"type": "number", "description": "sample time [s] (sim time)"},
-    "seq": {"type": "integer"},
-    "x1": {"type": "number"}, "x2": {"type": "number"},
-    "y1": {"type": "number"}, "y2": {"type": "number"},
-    "x1_minus_x2": {"type": "number"}, "y1_minus_y2": {"type": "number"},
-    "force": {"type": "number", "description": "actuator force applied [N]"},
-    "friction": {"type": "number", "description": "friction force on the capsule [N]"},
-    "contact_force": {"type": "number"},
-    "in_contact": {"type": "boolean"}, "stuck": {"type": "boolean"},
-    "command_stale": {"type": "boolean"}, "rejected_commands": {"type": "integer"}
-  }
-}"#;
+pub const STATE_SCHEMA: &str = object_schema!(
+    "capsule.State",
+    description: "One plant sample in SI: x1 inner mass, x2 capsule (positions [m] in odom), y1, y2 their velocities [m/s]",
+    r#"
+  "t": {"type": "number", "description": "sample time [s] (sim time)"},
+  "seq": {"type": "integer"},
+  "x1": {"type": "number"}, "x2": {"type": "number"},
+  "y1": {"type": "number"}, "y2": {"type": "number"},
+  "x1_minus_x2": {"type": "number"}, "y1_minus_y2": {"type": "number"},
+  "force": {"type": "number", "description": "actuator force applied [N]"},
+  "friction": {"type": "number", "description": "friction force on the capsule [N]"},
+  "contact_force": {"type": "number"},
+  "in_contact": {"type": "boolean"}, "stuck": {"type": "boolean"},
+  "command_stale": {"type": "boolean"}, "rejected_commands": {"type": "integer"}
+"#
+);
 
 /// JSON schema of the force command channel.
-pub const FORCE_SCHEMA: &str = r#"{
-  "title": "capsule.ActuatorForce",
-  "description": "A force command as the controller sent it",
-  "type": "object",
-  "properties": {
-    "t": {"type": "number", "description": "stamp of the state sample it answers [s]"},
-    "state_seq": {"type": "integer"},
-    "force": {"type": "number", "description": "commanded force [N]"}
-  }
-}"#;
+pub const FORCE_SCHEMA: &str = object_schema!(
+    "capsule.ActuatorForce",
+    description: "A force command as the controller sent it",
+    r#"
+  "t": {"type": "number", "description": "stamp of the state sample it answers [s]"},
+  "state_seq": {"type": "integer"},
+  "force": {"type": "number", "description": "commanded force [N]"}
+"#
+);
 
 /// JSON schema of the controller status channel.
-pub const STATUS_SCHEMA: &str = r#"{
-  "title": "capsule.ControllerStatus",
-  "type": "object",
-  "properties": {
-    "t": {"type": "number", "description": "status time [s] (the controller's ROS time)"},
-    "mode": {"type": "integer"}, "mode_name": {"type": "string"},
-    "gain": {"type": "number"}, "commanding": {"type": "boolean"},
-    "commands_sent": {"type": "integer"}, "periods": {"type": "integer"},
-    "progression_per_period": {"type": "number", "description": "non-dimensional"},
-    "progression_per_period_m": {"type": "number"},
-    "mean_speed": {"type": "number", "description": "[m/s]"},
-    "efficiency": {"type": "number"},
-    "drive_amplitude_si": {"type": "number"}, "drive_frequency_hz": {"type": "number"}
-  }
-}"#;
+pub const STATUS_SCHEMA: &str = object_schema!(
+    "capsule.ControllerStatus",
+    r#"
+  "t": {"type": "number", "description": "status time [s] (the controller's ROS time)"},
+  "mode": {"type": "integer"}, "mode_name": {"type": "string"},
+  "gain": {"type": "number"}, "commanding": {"type": "boolean"},
+  "commands_sent": {"type": "integer"}, "periods": {"type": "integer"},
+  "progression_per_period": {"type": "number", "description": "non-dimensional"},
+  "progression_per_period_m": {"type": "number"},
+  "mean_speed": {"type": "number", "description": "[m/s]"},
+  "efficiency": {"type": "number"},
+  "drive_amplitude_si": {"type": "number"}, "drive_frequency_hz": {"type": "number"}
+"#
+);
 
 /// JSON schema of `foxglove.FrameTransform` (Foxglove's well-known schema, JSON encoding).
-pub const FRAME_SCHEMA: &str = r#"{
-  "title": "foxglove.FrameTransform",
-  "type": "object",
-  "properties": {
-    "timestamp": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
-    "parent_frame_id": {"type": "string"},
-    "child_frame_id": {"type": "string"},
-    "translation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}}},
-    "rotation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}, "w": {"type": "number"}}}
-  }
-}"#;
+pub const FRAME_SCHEMA: &str = object_schema!(
+    "foxglove.FrameTransform",
+    r#"
+  "timestamp": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
+  "parent_frame_id": {"type": "string"},
+  "child_frame_id": {"type": "string"},
+  "translation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}}},
+  "rotation": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}, "w": {"type": "number"}}}
+"#
+);
 
 /// The state sample as the state channel's JSON.
 pub fn state_json(s: &CapsuleState) -> serde_json::Value {
@@ -299,14 +310,11 @@ pub async fn run(
     tokio::pin!(forces);
     let mut thin = StampThinner::new(opts.max_rate_hz);
     let mut thin_force = StampThinner::new(opts.max_rate_hz);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = crate::ros::shutdown();
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
-            sig = &mut shutdown => {
-                info!("{}: shutting down", sig?);
-                break;
-            }
+            stopped = &mut shutdown => break stopped?,
             msg = states.select_next_some() => match msg {
                 Ok((s, _)) => {
                     let wanted = state_ch.has_sinks() || frame_ch.has_sinks();

@@ -23,7 +23,7 @@ use std::{
     time::Duration,
 };
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::Time;
 use futures::StreamExt;
 use ros2_client::Node;

@@ -21,6 +21,7 @@
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
+//! - [`error`]: the library's error, [`error::NodeError`]
 //! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method)
 
 #![warn(missing_docs)]
@@ -33,6 +34,7 @@ pub mod conflicts;
 pub mod controller;
 pub mod controller_diagnostics;
 pub mod controller_params;
+pub mod error;
 pub mod foxglove_bridge;
 pub mod graph;
 pub mod joint_commands;

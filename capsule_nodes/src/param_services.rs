@@ -11,7 +11,7 @@
 
 use std::sync::{Arc, Mutex, PoisonError};
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::Time;
 use futures::StreamExt;
 use ros2_client::{
@@ -79,34 +79,28 @@ pub fn serve(
     now: impl Fn() -> Time + Send + Sync + 'static,
 ) -> Result<(ParamHandle, mpsc::UnboundedReceiver<ParamTable>)> {
     let mapping = settings.mapping.into();
-    macro_rules! server {
-        ($name:literal, $ty:literal) => {
-            node.create_server(
-                mapping,
-                &settings.ros_name(concat!("~/", $name))?,
-                &ServiceTypeName::new("rcl_interfaces", $ty),
-                qos::service(),
-                qos::service(),
-            )
-            .context(concat!($name, " service"))?
-        };
+    // The six rcl_interfaces services: `variable: service name, type => request, response`.
+    macro_rules! servers {
+        ($($var:ident: $name:literal, $ty:literal => $req:ident, $resp:ident;)*) => {$(
+            let $var: ros2_client::Server<rcl::$req, rcl::$resp> = node
+                .create_server(
+                    mapping,
+                    &settings.ros_name(concat!("~/", $name))?,
+                    &ServiceTypeName::new("rcl_interfaces", $ty),
+                    qos::service(),
+                    qos::service(),
+                )
+                .context(concat!($name, " service"))?;
+        )*};
     }
-    let list: ros2_client::Server<rcl::ListParametersRequest, rcl::ListParametersResponse> =
-        server!("list_parameters", "ListParameters");
-    let describe: ros2_client::Server<
-        rcl::DescribeParametersRequest,
-        rcl::DescribeParametersResponse,
-    > = server!("describe_parameters", "DescribeParameters");
-    let get: ros2_client::Server<rcl::GetParametersRequest, rcl::GetParametersResponse> =
-        server!("get_parameters", "GetParameters");
-    let types: ros2_client::Server<rcl::GetParameterTypesRequest, rcl::GetParameterTypesResponse> =
-        server!("get_parameter_types", "GetParameterTypes");
-    let set: ros2_client::Server<rcl::SetParametersRequest, rcl::SetParametersResponse> =
-        server!("set_parameters", "SetParameters");
-    let set_atomic: ros2_client::Server<
-        rcl::SetParametersRequest,
-        rcl::SetParametersAtomicallyResponse,
-    > = server!("set_parameters_atomically", "SetParametersAtomically");
+    servers! {
+        list: "list_parameters", "ListParameters" => ListParametersRequest, ListParametersResponse;
+        describe: "describe_parameters", "DescribeParameters" => DescribeParametersRequest, DescribeParametersResponse;
+        get: "get_parameters", "GetParameters" => GetParametersRequest, GetParametersResponse;
+        types: "get_parameter_types", "GetParameterTypes" => GetParameterTypesRequest, GetParameterTypesResponse;
+        set: "set_parameters", "SetParameters" => SetParametersRequest, SetParametersResponse;
+        set_atomic: "set_parameters_atomically", "SetParametersAtomically" => SetParametersRequest, SetParametersAtomicallyResponse;
+    }
     let events = node
         .create_publisher::<raw::ParameterEvent>(
             &context.get_parameter_events_topic(),

@@ -18,16 +18,10 @@ pub mod names {
     pub const COMMAND_TIMEOUT_S: &str = "command_timeout_s";
     /// /clock with every N-th sample.
     pub const CLOCK_EVERY: &str = "clock_every";
-    /// Sim time from /clock (the plant is the clock: always false).
-    pub const USE_SIM_TIME: &str = "use_sim_time";
-    /// Physical scale: inner mass [kg].
-    pub const M1_KG: &str = "m1_kg";
-    /// Physical scale: primary stiffness [N/m].
-    pub const K1_N_PER_M: &str = "k1_n_per_m";
-    /// Physical scale: friction threshold [N].
-    pub const PF_N: &str = "pf_n";
     /// JointState commands on capsule/joint_commands (`--joint-commands`).
     pub const JOINT_COMMANDS: &str = "joint_commands";
+    /// Sim time from /clock (the plant is the clock: always false) and the physical scale.
+    pub use crate::params::names::*;
 }
 use names::*;
 
@@ -51,7 +45,7 @@ pub struct PlantSettings {
 /// The table of a plant started with `s`.
 pub fn table(s: &PlantSettings) -> ParamTable {
     let ro = ParamSpec::read_only;
-    ParamTable::new()
+    let table = ParamTable::new()
         .declare(SCENE, ro("scene file (model, friction, initial state, scale)"), V::String(s.scene.clone()))
         .declare(
             PACING,
@@ -77,10 +71,9 @@ pub fn table(s: &PlantSettings) -> ParamTable {
             USE_SIM_TIME,
             ro("the plant is the clock: its time is sim time by construction").constraints("false"),
             V::Boolean(false),
-        )
-        .declare(M1_KG, ro("physical scale: inner mass m1 [kg]"), V::Double(s.scale.0))
-        .declare(K1_N_PER_M, ro("physical scale: primary stiffness k1 [N/m]"), V::Double(s.scale.1))
-        .declare(PF_N, ro("physical scale: friction threshold P_f [N]"), V::Double(s.scale.2))
+        );
+    let (m1, k1, pf) = s.scale;
+    crate::params::declare_scale(table, [m1, k1, pf], ro)
 }
 
 /// Declares [`JOINT_COMMANDS`] (read-only once running), valued by the flag.

@@ -20,7 +20,7 @@ use std::{
     time::Duration,
 };
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, NodeError, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::{
     cdr,
@@ -69,7 +69,7 @@ impl StorageArgs {
         let max_duration_ns = match self.max_bag_duration {
             None => None,
             Some(s) if s.is_finite() && s > 0.0 && s <= 1e9 => Some((s * 1e9) as u64),
-            Some(s) => anyhow::bail!("--max-bag-duration {s}: must be > 0 and at most 1e9 s"),
+            Some(s) => crate::error::bail!("--max-bag-duration {s}: must be > 0 and at most 1e9 s"),
         };
         Ok(BagOptions {
             compression: self.compression,
@@ -136,17 +136,18 @@ pub fn run_file_name(scene: &str, now_ns: u64) -> String {
 
 /// `YYYYmmddTHHMMSS.mmmZ` of nanoseconds since the epoch.
 pub fn utc_compact(ns: u64) -> String {
-    let c = capsule_record::civil::civil(ns);
-    format!(
-        "{:04}{:02}{:02}T{:02}{:02}{:02}.{:03}Z",
-        c.year,
-        c.month,
-        c.day,
-        c.hour,
-        c.minute,
-        c.second,
-        c.nanos / 1_000_000
-    )
+    use capsule_record::civil::{civil, Civil};
+    let Civil {
+        year,
+        month,
+        day,
+        hour,
+        minute,
+        second,
+        nanos,
+    } = civil(ns);
+    let ms = nanos / 1_000_000;
+    format!("{year:04}{month:02}{day:02}T{hour:02}{minute:02}{second:02}.{ms:03}Z")
 }
 
 /// Where a run's recording goes: `output` if given, else `record_dir` (created if missing) /
@@ -170,14 +171,14 @@ pub fn output_path(
         }
     };
     if path.exists() {
-        anyhow::bail!("{} exists: not overwriting a recording", path.display());
+        crate::error::bail!("{} exists: not overwriting a recording", path.display());
     }
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     if !parent.is_dir() {
-        anyhow::bail!(
+        crate::error::bail!(
             "cannot record to {}: {} is not a directory",
             path.display(),
             parent.display()
@@ -359,13 +360,16 @@ impl GraphRecording {
     }
 
     /// Ends after an error: flushes what it can and says how to complete the file.
-    pub fn abandon(mut self, e: anyhow::Error) -> anyhow::Error {
+    pub fn abandon(mut self, e: NodeError) -> NodeError {
         let path = self.writer.path().to_path_buf();
         let _ = self.writer.flush();
-        e.context(format!(
-            "recording to {} stopped; `capsule record recover` completes the file",
-            path.display()
-        ))
+        NodeError::Failed {
+            what: format!(
+                "recording to {} stopped; `capsule record recover` completes the file",
+                path.display()
+            ),
+            source: e.into(),
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 
 use std::{collections::BTreeMap, net::Ipv4Addr, time::Duration};
 
-use anyhow::{bail, Context as _, Result};
+use crate::error::{bail, BoxError, Context as _, NodeError, Result};
 use clap::{Args, ValueEnum};
 use ros2_client::{
     qos::{Durability, History, WhenFull},
@@ -228,7 +228,7 @@ impl RosSettings {
     /// The resolved name as a ros2-client [`Name`].
     pub fn ros_name(&self, name: &str) -> Result<Name> {
         let full = self.resolve_name(name);
-        Name::parse(&full).map_err(|e| anyhow::anyhow!("bad ROS name {full:?}: {e:?}"))
+        Name::parse(&full).with_context(|| format!("bad ROS name {full:?}"))
     }
 
     /// The topic `name` (resolved with namespace and remapping) of `type_name` on `node`.
@@ -259,9 +259,8 @@ impl RosSettings {
     }
 
     fn bare_node(&self, context: &Context) -> Result<Node> {
-        let name = NodeName::new(&self.namespace, &self.node_name).map_err(|e| {
-            anyhow::anyhow!("bad node name {}/{}: {e:?}", self.namespace, self.node_name)
-        })?;
+        let name = NodeName::new(&self.namespace, &self.node_name)
+            .with_context(|| format!("bad node name {}/{}", self.namespace, self.node_name))?;
         let options = NodeOptions::new()
             .enable_rosout(true)
             .declare_parameter("use_sim_time", ParameterValue::Boolean(self.use_sim_time));
@@ -374,13 +373,18 @@ pub mod types {
 /// QoS of the capsule topics.
 pub mod qos {
     use super::*;
+    /// A reliable, volatile, keep-last-`depth` writer's profile whose full window waits at most
+    /// `wait_ms`.
+    fn reliable(wait_ms: u64, depth: usize) -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(wait_ms)))
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth })
+    }
     /// State, force and status: reliable (so both reliable and best-effort rclcpp
     /// subscribers match), volatile, keep last 16; a full window waits at most 5 ms.
     pub fn data() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 16 })
+        reliable(5, 16)
     }
     /// Readers of state and force: best effort, keep last 16. A best-effort reader matches
     /// reliable and best-effort writers alike, and against our reliable writers it spares the
@@ -396,17 +400,11 @@ pub mod qos {
     }
     /// /clock: reliable keep-last 1 (matches rclcpp's best-effort clock subscription too).
     pub fn clock() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 1 })
+        reliable(5, 1)
     }
     /// Services: reliable, volatile, keep last 10 (rmw's services default).
     pub fn service() -> QosProfile {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 10 })
+        reliable(100, 10)
     }
 }
 
@@ -425,10 +423,11 @@ pub fn init_logging() {
 
 /// Runs a node's future on a multi-threaded tokio runtime, its threads (and DDS's, started
 /// from them) pinned to `cpus` if given.
-pub fn block_on<T, F: std::future::Future<Output = Result<T>>>(
-    cpus: Option<&CpuList>,
-    fut: F,
-) -> Result<T> {
+pub fn block_on<T, E, F>(cpus: Option<&CpuList>, fut: F) -> Result<T, E>
+where
+    E: From<NodeError>,
+    F: std::future::Future<Output = Result<T, E>>,
+{
     if let Some(list) = cpus {
         affinity::pin_process(list).with_context(|| format!("--cpu-affinity {list}"))?;
     }
@@ -439,15 +438,44 @@ pub fn block_on<T, F: std::future::Future<Output = Result<T>>>(
         .block_on(fut)
 }
 
-/// Prints an error chain as one line (`NAME: error: ...`) and maps it to exit status 2.
-pub fn exit_code(name: &str, result: Result<()>) -> std::process::ExitCode {
+/// Prints an error chain as one line (`NAME: error: what: why: ...`) and maps it to exit
+/// status 2.
+pub fn exit_code<E: Into<BoxError>>(name: &str, result: Result<(), E>) -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{name}: error: {e:#}");
+            let e: BoxError = e.into();
+            eprintln!("{name}: error: {}", crate::error::chain(&*e));
             std::process::ExitCode::from(2)
         }
     }
+}
+
+/// The `main` of a node binary: with `--check` (`check`), prints `NAME: ok: SETTINGS` and
+/// what `would` says about the options, and exits; otherwise `run`s the node. Either way an
+/// error (of `built` or the run) is printed by [`exit_code`].
+pub fn node_main<O, E: Into<BoxError>>(
+    name: &str,
+    check: bool,
+    built: Result<(RosSettings, O), E>,
+    would: impl FnOnce(&O) -> String,
+    run: impl FnOnce(RosSettings, O) -> Result<(), E>,
+) -> std::process::ExitCode {
+    let result = built.and_then(|(settings, opts)| {
+        if check {
+            println!("{name}: ok: {}{}", settings.describe(), would(&opts));
+            return Ok(());
+        }
+        run(settings, opts)
+    });
+    exit_code(name, result)
+}
+
+/// [`shutdown_signal`], logged (`SIGTERM: shutting down`): the end of a node's loop.
+pub async fn shutdown() -> Result<()> {
+    let sig = shutdown_signal().await?;
+    tracing::info!("{sig}: shutting down");
+    Ok(())
 }
 
 /// Resolves when the process gets Ctrl-C (SIGINT) or SIGTERM.
@@ -476,7 +504,7 @@ mod tests {
     fn settings(flags: &[&str], env: RosEnv) -> Result<RosSettings> {
         let mut argv = vec!["t"];
         argv.extend_from_slice(flags);
-        let t = T::try_parse_from(argv)?;
+        let t = T::try_parse_from(argv).context("the test command line")?;
         RosSettings::resolve(&t.ros, &env, "capsule_controller")
     }
 

@@ -11,7 +11,7 @@
 
 use std::{ffi::OsString, path::PathBuf};
 
-use anyhow::{bail, Context as _, Result};
+use crate::error::{bail, invalid, Context as _, Result};
 use ros2_client::ParameterValue as V;
 use yaml_rust2::{Yaml, YamlLoader};
 
@@ -60,7 +60,7 @@ pub fn split(argv: impl IntoIterator<Item = OsString>) -> Result<(Vec<OsString>,
         while let Some(a) = args.next() {
             let a = a
                 .into_string()
-                .map_err(|a| anyhow::anyhow!("--ros-args: {a:?} is not UTF-8"))?;
+                .map_err(|a| invalid!("--ros-args: {a:?} is not UTF-8"))?;
             let mut value = |flag: &str| {
                 args.next()
                     .and_then(|v| v.into_string().ok())
@@ -91,6 +91,19 @@ pub fn split(argv: impl IntoIterator<Item = OsString>) -> Result<(Vec<OsString>,
         }
     }
     Ok((rest, cli))
+}
+
+/// The command line of a node binary: `--ros-args ...` split off, the rest parsed as `C` (clap
+/// exits on its own errors), and the ROS arguments put into its [`RosArgs`] (`ros` picks them
+/// out) for the node `default_node` unless renamed. Returns it with the parameter overrides.
+pub fn parse_node_cli<C: clap::Parser>(
+    default_node: &str,
+    ros: fn(&mut C) -> &mut RosArgs,
+) -> Result<(C, Vec<Override>)> {
+    let (argv, ros_cli) = split(std::env::args_os())?;
+    let mut cli = C::parse_from(argv);
+    let overrides = ros_cli.apply_to(ros(&mut cli), default_node)?;
+    Ok((cli, overrides))
 }
 
 impl RosCli {
@@ -249,7 +262,7 @@ fn params_file(path: &PathBuf, fqn: &str, node: &str) -> Result<Vec<Override>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("--params-file {shown}: cannot read it"))?;
     let docs = YamlLoader::load_from_str(&text)
-        .map_err(|e| anyhow::anyhow!("--params-file {shown}: not YAML: {e}"))?;
+        .with_context(|| format!("--params-file {shown}: not YAML"))?;
     let mut out = Vec::new();
     for doc in &docs {
         let Yaml::Hash(sections) = doc else {
@@ -330,7 +343,7 @@ pub fn apply_overrides(table: &mut ParamTable, overrides: &[Override], rules: Ru
         let p: Param = (o.name.clone(), value);
         scratch
             .override_with(std::slice::from_ref(&p), crate::params::no_rules)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", o.origin))?;
+            .map_err(|e| invalid!("{}: {e}", o.origin))?;
         all.retain(|(n, _)| *n != p.0);
         all.push(p);
         origins.push(o.origin.as_str());
@@ -340,7 +353,7 @@ pub fn apply_overrides(table: &mut ParamTable, overrides: &[Override], rules: Ru
     }
     table
         .override_with(&all, rules)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", origins.join(", ")))
+        .map_err(|e| invalid!("{}: {e}", origins.join(", ")))
 }
 
 #[cfg(test)]
@@ -363,7 +376,7 @@ mod tests {
 
     fn parse(args: &[&str]) -> Result<(T, Vec<Override>)> {
         let (rest, ros) = split(os(args))?;
-        let mut t = T::try_parse_from(rest)?;
+        let mut t = T::try_parse_from(rest).context("the test command line")?;
         let o = ros.apply_to(&mut t.ros, "capsule_controller")?;
         Ok((t, o))
     }
@@ -499,16 +512,15 @@ mod tests {
             "bad2.yaml",
             "/capsule_controller:\n  ros__parameters:\n    gain: [1, x]\n",
         );
-        let e = format!(
-            "{:#}",
-            parse(&[
+        let e = crate::error::chain(
+            &parse(&[
                 "c",
                 "--ros-args",
                 "--params-file",
-                &bad2.display().to_string()
+                &bad2.display().to_string(),
             ])
             .map(|_| ())
-            .unwrap_err()
+            .unwrap_err(),
         );
         assert!(
             e.contains("/capsule_controller.ros__parameters.gain") && e.contains("mixes types"),

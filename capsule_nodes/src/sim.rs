@@ -1,7 +1,7 @@
 //! [`PlantSim`] for the simulator of `capsule_plant` (whichever method the scene chooses: exact,
 //! adaptive or fixed-step).
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_plant::{ConstantForce, Simulator, Snapshot};
 
 use crate::plant::PlantSim;

@@ -20,8 +20,9 @@
 
 use std::time::Duration;
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::{
+    names::topics::views as view_topics,
     std_types::{
         DiagnosticArray, DiagnosticStatus, JointState, KeyValue, Quaternion, StringMsg, TFMessage,
         Transform, TransformStamped, Vector3,
@@ -49,30 +50,24 @@ pub const BODY_FRAME: &str = "capsule";
 /// The inner mass's frame (from the URDF).
 pub const MASS_FRAME: &str = "inner_mass";
 
-/// Topic names (relative ones move with the namespace, as in ROS).
-pub mod names {
-    /// Joint states.
-    pub const JOINT_STATES: &str = "joint_states";
-    /// Transforms.
-    pub const TF: &str = "/tf";
-    /// URDF.
-    pub const ROBOT_DESCRIPTION: &str = "robot_description";
-    /// Diagnostics.
-    pub const DIAGNOSTICS: &str = "/diagnostics";
-}
-
 /// Parameter names of the switches.
 pub mod params {
+    /// `views.NAME`: the views' parameters share the prefix.
+    macro_rules! view {
+        ($name:literal) => {
+            concat!("views.", $name)
+        };
+    }
     /// `views.joint_states`.
-    pub const JOINT_STATES: &str = "views.joint_states";
+    pub const JOINT_STATES: &str = view!("joint_states");
     /// `views.tf`.
-    pub const TF: &str = "views.tf";
+    pub const TF: &str = view!("tf");
     /// `views.robot_description`.
-    pub const ROBOT_DESCRIPTION: &str = "views.robot_description";
+    pub const ROBOT_DESCRIPTION: &str = view!("robot_description");
     /// `views.diagnostics`.
-    pub const DIAGNOSTICS: &str = "views.diagnostics";
+    pub const DIAGNOSTICS: &str = view!("diagnostics");
     /// `views.rate_hz`.
-    pub const RATE_HZ: &str = "views.rate_hz";
+    pub const RATE_HZ: &str = view!("rate_hz");
 }
 
 /// The switches on the command line.
@@ -115,28 +110,31 @@ pub struct ViewSwitches {
 impl ViewArgs {
     /// Declares the switches (read-only once running) in `table`, valued by the flags.
     pub fn declare(&self, table: ParamTable) -> ParamTable {
-        let spec = |what: &str| ParamSpec::read_only(&format!("publish {what} (set at start)"));
-        table
-            .declare(
+        // (parameter, what it publishes, switched off by its flag)
+        let switches = [
+            (
                 params::JOINT_STATES,
-                spec("joint_states (sensor_msgs/JointState)"),
-                V::Boolean(!self.no_joint_states),
-            )
-            .declare(
-                params::TF,
-                spec("/tf (capsule in odom)"),
-                V::Boolean(!self.no_tf),
-            )
-            .declare(
+                "joint_states (sensor_msgs/JointState)",
+                self.no_joint_states,
+            ),
+            (params::TF, "/tf (capsule in odom)", self.no_tf),
+            (
                 params::ROBOT_DESCRIPTION,
-                spec("robot_description (URDF, transient local)"),
-                V::Boolean(!self.no_robot_description),
-            )
-            .declare(
+                "robot_description (URDF, transient local)",
+                self.no_robot_description,
+            ),
+            (
                 params::DIAGNOSTICS,
-                spec("/diagnostics at 1 Hz"),
-                V::Boolean(!self.no_diagnostics),
-            )
+                "/diagnostics at 1 Hz",
+                self.no_diagnostics,
+            ),
+        ];
+        switches
+            .into_iter()
+            .fold(table, |table, (name, what, off)| {
+                let spec = ParamSpec::read_only(&format!("publish {what} (set at start)"));
+                table.declare(name, spec, V::Boolean(!off))
+            })
             .declare(
                 params::RATE_HZ,
                 ParamSpec::read_only("joint_states and /tf at most this often [Hz] (set at start)")
@@ -330,7 +328,7 @@ impl Diagnostics {
     pub fn create(node: &mut Node, settings: &RosSettings) -> Result<Self> {
         let topic = settings.topic(
             node,
-            names::DIAGNOSTICS,
+            view_topics::DIAGNOSTICS,
             type_name("diagnostic_msgs", "DiagnosticArray"),
             &qos::data(),
         )?;
@@ -427,17 +425,23 @@ impl Views {
             |name: &str, ty: MessageTypeName, q: &QosProfile| settings.topic(node, name, ty, q);
         let js_topic = on
             .joint_states
-            .then(|| topic(names::JOINT_STATES, types::joint_state(), &data))
+            .then(|| topic(view_topics::JOINT_STATES, types::joint_state(), &data))
             .transpose()?;
         let tf_topic = on
             .tf
-            .then(|| topic(names::TF, type_name("tf2_msgs", "TFMessage"), &tf_qos()))
+            .then(|| {
+                topic(
+                    view_topics::TF,
+                    type_name("tf2_msgs", "TFMessage"),
+                    &tf_qos(),
+                )
+            })
             .transpose()?;
         let rd_topic = on
             .robot_description
             .then(|| {
                 topic(
-                    names::ROBOT_DESCRIPTION,
+                    view_topics::ROBOT_DESCRIPTION,
                     type_name("std_msgs", "String"),
                     &latched_qos(),
                 )
@@ -449,7 +453,7 @@ impl Views {
                     .create_publisher::<StringMsg>(&t, None)
                     .context("robot_description publisher")?;
                 p.publish(StringMsg { data: urdf(m1_kg) })
-                    .map_err(|e| anyhow::anyhow!("robot_description not published: {e:?}"))?;
+                    .context("robot_description not published")?;
                 Some(p)
             }
             None => None,

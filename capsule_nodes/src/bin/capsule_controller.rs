@@ -134,27 +134,24 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let (argv, ros_cli) = match ros_args::split(std::env::args_os()) {
-        Ok(split) => split,
+    let (cli, overrides) = match ros_args::parse_node_cli::<Cli>(nodes::CONTROLLER, |c| &mut c.ros)
+    {
+        Ok(parsed) => parsed,
         Err(e) => return ros::exit_code("capsule_controller", Err(e)),
     };
-    let mut cli = Cli::parse_from(argv);
-    let overrides = ros_cli.apply_to(&mut cli.ros, nodes::CONTROLLER);
-    let result = overrides
-        .and_then(|o| build(&cli, &o))
-        .and_then(|(settings, opts)| {
-            if cli.check {
-                let (mode, kp) = (opts.core.mode(), opts.core.law().kp);
-                println!(
-                    "capsule_controller: ok: {}, {mode} k_p = {kp}",
-                    settings.describe()
-                );
-                return Ok(());
-            }
-            ros::block_on(
-                settings.cpu_affinity.clone().as_ref(),
+    let would =
+        |opts: &ControllerOptions| format!(", {} k_p = {}", opts.core.mode(), opts.core.law().kp);
+    ros::node_main(
+        "capsule_controller",
+        cli.check,
+        build(&cli, &overrides),
+        would,
+        |settings, opts| {
+            let cpus = settings.cpu_affinity.clone();
+            Ok(ros::block_on(
+                cpus.as_ref(),
                 controller::run(settings, opts),
-            )
-        });
-    ros::exit_code("capsule_controller", result)
+            )?)
+        },
+    )
 }

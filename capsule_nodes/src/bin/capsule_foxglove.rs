@@ -54,22 +54,20 @@ fn build(cli: &Cli) -> Result<(RosSettings, BridgeOptions)> {
 fn main() -> std::process::ExitCode {
     ros::init_logging();
     let cli = Cli::parse();
-    let result = build(&cli).and_then(|(settings, opts)| {
-        if cli.check {
-            println!(
-                "capsule_foxglove: ok: {}, would serve ws://127.0.0.1:{}",
-                settings.describe(),
-                opts.port
-            );
-            return Ok(());
-        }
-        ros::block_on(
-            settings.cpu_affinity.clone().as_ref(),
-            foxglove_bridge::run(settings, opts, |port| {
+    let would = |opts: &BridgeOptions| format!(", would serve ws://127.0.0.1:{}", opts.port);
+    ros::node_main(
+        "capsule_foxglove",
+        cli.check,
+        build(&cli),
+        would,
+        |settings, opts| {
+            let serving = |port| {
                 println!("capsule_foxglove: serving ws://127.0.0.1:{port}");
                 let _ = std::io::stdout().flush();
-            }),
-        )
-    });
-    ros::exit_code("capsule_foxglove", result)
+            };
+            let cpus = settings.cpu_affinity.clone();
+            let run = foxglove_bridge::run(settings, opts, serving);
+            Ok(ros::block_on(cpus.as_ref(), run)?)
+        },
+    )
 }

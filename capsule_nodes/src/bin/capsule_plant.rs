@@ -187,28 +187,28 @@ fn build(
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let (argv, ros_cli) = match ros_args::split(std::env::args_os()) {
-        Ok(split) => split,
+    let (cli, overrides) = match ros_args::parse_node_cli::<Cli>(nodes::PLANT, |c| &mut c.ros) {
+        Ok(parsed) => parsed,
         Err(e) => return ros::exit_code("capsule_plant", Err(e)),
     };
-    let mut cli = Cli::parse_from(argv);
-    let overrides = ros_cli.apply_to(&mut cli.ros, nodes::PLANT);
-    let result = overrides
-        .and_then(|o| build(&cli, &o))
-        .and_then(|(settings, core, opts)| {
-            if cli.check {
-                println!(
-                    "capsule_plant: ok: {}, {:?}, force limit {} N{}",
-                    settings.describe(),
-                    opts.pacing,
-                    core.max_force_n(),
-                    opts.record
-                        .as_ref()
-                        .map(|r| format!(", would record to {}", r.output.display()))
-                        .unwrap_or_default()
-                );
-                return Ok(());
-            }
+    let built = build(&cli, &overrides).map(|(settings, core, opts)| (settings, (core, opts)));
+    let would = |(core, opts): &(PlantCore<SimulatedPlant>, PlantOptions)| {
+        format!(
+            ", {:?}, force limit {} N{}",
+            opts.pacing,
+            core.max_force_n(),
+            opts.record
+                .as_ref()
+                .map(|r| format!(", would record to {}", r.output.display()))
+                .unwrap_or_default()
+        )
+    };
+    ros::node_main(
+        "capsule_plant",
+        cli.check,
+        built,
+        would,
+        |settings, (core, opts)| {
             let started = std::time::Instant::now();
             let (stats, last) = ros::block_on(
                 settings.cpu_affinity.clone().as_ref(),
@@ -220,6 +220,6 @@ fn main() -> std::process::ExitCode {
                     .with_context(|| format!("cannot write {path}"))?;
             }
             Ok(())
-        });
-    ros::exit_code("capsule_plant", result)
+        },
+    )
 }

@@ -86,28 +86,26 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
 fn main() -> std::process::ExitCode {
     ros::init_logging();
     let cli = Cli::parse();
-    let result = build(&cli).and_then(|(settings, opts)| {
-        if cli.check {
+    let would = |opts: &RecorderOptions| format!(", would write {}", opts.output.display());
+    ros::node_main(
+        "capsule_recorder",
+        cli.check,
+        build(&cli),
+        would,
+        |settings, opts| {
+            let report = ros::block_on(
+                settings.cpu_affinity.clone().as_ref(),
+                recorder::run(settings, opts),
+            )?;
+            let total: u64 = report.per_topic.values().sum();
             println!(
-                "capsule_recorder: ok: {}, would write {}",
-                settings.describe(),
-                opts.output.display()
+                "capsule_recorder: wrote {total} messages to {}",
+                report.path.display()
             );
-            return Ok(());
-        }
-        let report = ros::block_on(
-            settings.cpu_affinity.clone().as_ref(),
-            recorder::run(settings, opts),
-        )?;
-        let total: u64 = report.per_topic.values().sum();
-        println!(
-            "capsule_recorder: wrote {total} messages to {}",
-            report.path.display()
-        );
-        for (topic, n) in &report.per_topic {
-            println!("  {topic}: {n}");
-        }
-        Ok(())
-    });
-    ros::exit_code("capsule_recorder", result)
+            for (topic, n) in &report.per_topic {
+                println!("  {topic}: {n}");
+            }
+            Ok(())
+        },
+    )
 }

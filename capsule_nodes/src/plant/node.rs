@@ -3,7 +3,7 @@
 use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, Result};
+use crate::error::{Context as _, Result};
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::{ActuatorForce, CapsuleState, Time};
@@ -98,7 +98,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
     if opts.joint_commands && opts.pacing == Pacing::Lockstep {
-        anyhow::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+        crate::error::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
     }
     // the file first: an unwritable place is an error before anything else starts
     let recording = opts
@@ -231,7 +231,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
             .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
             .await
         {
-            anyhow::bail!(
+            crate::error::bail!(
                 "only {} of {} subscribers matched {} within {:?}",
                 graph.subscribers(writer),
                 opts.wait_subscribers,
@@ -267,7 +267,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
                 sig = &mut shutdown => {
                     match sig {
                         Ok(s) => info!("{s}: shutting down"),
-                        Err(e) => warn!("{e:#}"),
+                        Err(e) => warn!("{}", crate::error::chain(&e)),
                     }
                     stop.store(true, std::sync::atomic::Ordering::Relaxed);
                     looping.await.context("the real-time loop panicked")?

@@ -3,7 +3,7 @@
 use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
-use anyhow::Result;
+use crate::error::Result;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::CapsuleState;
 use futures::StreamExt;
@@ -203,7 +203,7 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
             sig = &mut shutdown => {
                 match sig {
                     Ok(s) => info!("{s}: shutting down"),
-                    Err(e) => warn!("{e:#}"),
+                    Err(e) => warn!("{}", crate::error::chain(&e)),
                 }
                 return Ok(());
             }

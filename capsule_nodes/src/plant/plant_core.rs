@@ -2,7 +2,7 @@
 //! validation (non-finite refused, huge saturated, late or future refused), the stale-command
 //! watchdog, SI conversion, and the samples it publishes.
 
-use anyhow::Result;
+use crate::error::Result;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
 use capsule_plant::scene::PhysicalScale;
 use capsule_plant::Snapshot;
@@ -10,6 +10,32 @@ use tracing::info;
 
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
+
+/// A sample `s` as a `CapsuleState` in SI units (`scale`) with `header` and `seq`, its commands
+/// fresh and none refused: the plant node's messages and offline recordings alike.
+pub fn state_message(
+    s: &Snapshot,
+    scale: &PhysicalScale,
+    header: Header,
+    seq: u64,
+) -> CapsuleState {
+    let (l, v, f) = (scale.length_m(), scale.velocity_m_per_s(), scale.force_n());
+    CapsuleState {
+        header,
+        seq,
+        mass_position: s.state.x1 * l,
+        mass_velocity: s.state.y1 * v,
+        capsule_position: s.state.x2 * l,
+        capsule_velocity: s.state.y2 * v,
+        in_contact: s.contact,
+        stuck: s.stuck,
+        friction_force: s.friction_force * f,
+        contact_force: s.contact_force * f,
+        actuator_force: s.actuator_force * f,
+        command_stale: false,
+        rejected_commands: 0,
+    }
+}
 
 /// What the node needs from a simulator: hold a force until a time, and report a sample.
 pub trait PlantSim {
@@ -130,28 +156,14 @@ impl<S: PlantSim> PlantCore<S> {
 
     /// The current sample as a message (SI).
     pub fn state(&self) -> CapsuleState {
-        let s = self.sim.sample();
-        let l = self.scale.length_m();
-        let v = self.scale.velocity_m_per_s();
-        let f = self.scale.force_n();
-        CapsuleState {
-            header: Header {
-                stamp: self.stamp(),
-                frame_id: self.frame_id.clone(),
-            },
-            seq: self.step,
-            mass_position: s.state.x1 * l,
-            mass_velocity: s.state.y1 * v,
-            capsule_position: s.state.x2 * l,
-            capsule_velocity: s.state.y2 * v,
-            in_contact: s.contact,
-            stuck: s.stuck,
-            friction_force: s.friction_force * f,
-            contact_force: s.contact_force * f,
-            actuator_force: s.actuator_force * f,
-            command_stale: self.stale,
-            rejected_commands: self.rejected,
-        }
+        let header = Header {
+            stamp: self.stamp(),
+            frame_id: self.frame_id.clone(),
+        };
+        let mut msg = state_message(&self.sim.sample(), &self.scale, header, self.step);
+        msg.command_stale = self.stale;
+        msg.rejected_commands = self.rejected;
+        msg
     }
 
     /// Notes that the current sample went out at steady time `now`.
@@ -245,6 +257,7 @@ impl<S: PlantSim> PlantCore<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use CommandOutcome as Outcome;
 
     /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
     /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
@@ -289,6 +302,12 @@ mod tests {
         )
     }
 
+    /// `p` with its first sample published at 0.
+    fn published(mut p: PlantCore<FreeMass>) -> PlantCore<FreeMass> {
+        p.published(0.0);
+        p
+    }
+
     fn cmd(p: &PlantCore<FreeMass>, seq: u64, force: f64) -> ActuatorForce {
         let stamp = Time::from_nanos(p.stamp_nanos(seq));
         ActuatorForce {
@@ -301,14 +320,22 @@ mod tests {
         }
     }
 
+    /// `p` takes a command of `force` for sample `seq`, received at `now`.
+    fn command(
+        p: &mut PlantCore<FreeMass>,
+        seq: u64,
+        force: f64,
+        now: f64,
+        lockstep: bool,
+    ) -> CommandOutcome {
+        let c = cmd(p, seq, force);
+        p.on_command(&c, now, lockstep)
+    }
+
     #[test]
     fn held_command_drives_the_step_in_si() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.001, true),
-            CommandOutcome::Accepted
-        );
+        let mut p = published(plant());
+        assert_eq!(command(&mut p, 0, 1.0, 0.001, true), Outcome::Accepted);
         p.step()?;
         // 1 N on 0.04 kg for 0.01 s: v = 0.25 m/s, x = 1.25 mm
         let s = p.state();
@@ -330,38 +357,22 @@ mod tests {
 
     #[test]
     fn non_finite_and_late_commands_are_refused_and_counted() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
+        let mut p = published(plant());
+        assert_eq!(command(&mut p, 0, f64::NAN, 0.0, false), Outcome::NonFinite);
         assert_eq!(
-            p.on_command(&cmd(&p, 0, f64::NAN), 0.0, false),
-            CommandOutcome::NonFinite
-        );
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, f64::INFINITY), 0.0, false),
-            CommandOutcome::NonFinite
+            command(&mut p, 0, f64::INFINITY, 0.0, false),
+            Outcome::NonFinite
         );
         assert_eq!(p.rejected(), 2);
         assert!(p.stale(), "nothing accepted yet");
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 0.5), 0.0, false),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 0.5, 0.0, false), Outcome::Accepted);
         p.step()?;
         p.step()?;
-        assert_eq!(
-            p.on_command(&cmd(&p, 2, 0.7), 0.02, false),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 2, 0.7, 0.02, false), Outcome::Accepted);
         // an older command arriving late does not take over (time does not rewind)
-        assert_eq!(
-            p.on_command(&cmd(&p, 1, -3.0), 0.021, false),
-            CommandOutcome::Late
-        );
+        assert_eq!(command(&mut p, 1, -3.0, 0.021, false), Outcome::Late);
         assert_eq!(p.held_force(), 0.7);
-        assert_eq!(
-            p.on_command(&cmd(&p, 2, 0.7), 0.022, false),
-            CommandOutcome::Duplicate
-        );
+        assert_eq!(command(&mut p, 2, 0.7, 0.022, false), Outcome::Duplicate);
         assert_eq!(p.rejected(), 3);
         assert_eq!(p.state().rejected_commands, 3);
         assert_eq!(p.seq(), 2, "the plant kept stepping");
@@ -377,8 +388,8 @@ mod tests {
             let k = k as u64;
             p.published(k as f64 * 0.01);
             assert_eq!(
-                p.on_command(&cmd(&p, k, f), k as f64 * 0.01, false),
-                CommandOutcome::Accepted
+                command(&mut p, k, f, k as f64 * 0.01, false),
+                Outcome::Accepted
             );
             assert_eq!(p.held_force(), 200.0f64.copysign(f));
             p.step()?;
@@ -388,21 +399,16 @@ mod tests {
         }
         assert_eq!(p.stats.saturated_commands, 3);
         assert_eq!(p.rejected(), 0);
-        let mut p = plant().with_max_force_n(0.5);
-        p.published(0.0);
-        p.on_command(&cmd(&p, 0, 3.0), 0.0, false);
+        let mut p = published(plant().with_max_force_n(0.5));
+        command(&mut p, 0, 3.0, 0.0, false);
         assert_eq!(p.held_force(), 0.5);
         Ok(())
     }
 
     #[test]
     fn a_command_stamped_in_the_future_is_refused_and_does_not_block_later_ones() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 0.1), 0.0, false),
-            CommandOutcome::Accepted
-        );
+        let mut p = published(plant());
+        assert_eq!(command(&mut p, 0, 0.1, 0.0, false), Outcome::Accepted);
         p.step()?;
         p.published(0.01);
         let mut poison = cmd(&p, 1, 5.0);
@@ -410,12 +416,12 @@ mod tests {
             sec: i32::MAX,
             nanosec: 0,
         };
-        assert_eq!(p.on_command(&poison, 0.01, false), CommandOutcome::Future);
+        assert_eq!(p.on_command(&poison, 0.01, false), Outcome::Future);
         assert_eq!(p.held_force(), 0.1);
         for k in 1..50 {
             assert_eq!(
-                p.on_command(&cmd(&p, k, 0.2), k as f64 * 0.01, false),
-                CommandOutcome::Accepted,
+                command(&mut p, k, 0.2, k as f64 * 0.01, false),
+                Outcome::Accepted,
                 "sample {k}"
             );
             p.step()?;
@@ -427,24 +433,14 @@ mod tests {
 
     #[test]
     fn lockstep_takes_only_the_answer_to_the_current_sample() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
-        assert_eq!(
-            p.on_command(&cmd(&p, 1, 1.0), 0.0, true),
-            CommandOutcome::Future
-        );
+        let mut p = published(plant());
+        assert_eq!(command(&mut p, 1, 1.0, 0.0, true), Outcome::Future);
         assert!(!p.answered());
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.0, true),
-            CommandOutcome::Accepted
-        );
+        assert_eq!(command(&mut p, 0, 1.0, 0.0, true), Outcome::Accepted);
         assert!(p.answered());
         p.step()?;
         p.published(0.01);
-        assert_eq!(
-            p.on_command(&cmd(&p, 0, 1.0), 0.01, true),
-            CommandOutcome::Duplicate
-        );
+        assert_eq!(command(&mut p, 0, 1.0, 0.01, true), Outcome::Duplicate);
         assert!(!p.answered());
         assert_eq!(p.stats.latencies.count(), 1);
         Ok(())
@@ -452,9 +448,8 @@ mod tests {
 
     #[test]
     fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
-        let mut p = plant();
-        p.published(0.0);
-        p.on_command(&cmd(&p, 0, 2.0), 0.0, false);
+        let mut p = published(plant());
+        command(&mut p, 0, 2.0, 0.0, false);
         assert!(!p.check_watchdog(0.04));
         assert_eq!(p.held_force(), 2.0);
         assert!(p.check_watchdog(0.06));

@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use anyhow::Result;
+use crate::error::Result;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::types::SetModeEvent;
