@@ -149,13 +149,16 @@ impl SegmentMeter {
     }
 }
 
-/// Subscribes to the state topic (for the demo).
+/// Subscribes to the state topic (for the demo and `switch-attractor`, which measure the run
+/// from every sample): a reliable reader 2,000 samples deep (2 s at 1 kHz), as the recorder's,
+/// so that a client stalled on a loaded host still sees each drive period's samples.
 pub fn state_subscription(
     node: &mut Node,
     settings: &RosSettings,
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
     let topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
-    node.create_subscription::<CapsuleState>(&topic, Some(qos::data_reader()))
+    let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 2000 });
+    node.create_subscription::<CapsuleState>(&topic, Some(reader_qos))
         .context("state subscription")
 }
 
