@@ -38,6 +38,8 @@ pub mod nodes {
     pub const CONTROLLER: &str = controller!();
     /// The recorder node.
     pub const RECORDER: &str = "capsule_recorder";
+    /// The Foxglove live view.
+    pub const FOXGLOVE: &str = "capsule_foxglove";
 }
 
 /// Topic and service names as the nodes declare them.

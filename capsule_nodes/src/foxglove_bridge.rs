@@ -290,7 +290,7 @@ pub async fn run(
     let frame_ch = channel(FRAME_TOPIC, FRAME_SCHEMA)?;
     let force_ch = channel(&force_name, FORCE_SCHEMA)?;
     let server = foxglove::WebSocketServer::new()
-        .name("capsule_foxglove")
+        .name(capsule_msgs::names::nodes::FOXGLOVE)
         .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
         .start()
         .await

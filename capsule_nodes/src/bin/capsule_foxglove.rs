@@ -2,11 +2,13 @@
 
 use std::io::Write as _;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
+use capsule_msgs::names::nodes;
 use capsule_nodes::{
     foxglove_bridge::{self, BridgeOptions},
     ranges,
     ros::{self, RosArgs, RosEnv, RosSettings},
+    ros_args::{self, Override},
 };
 use clap::Parser;
 
@@ -38,9 +40,18 @@ struct Cli {
     ros: RosArgs,
 }
 
-fn build(cli: &Cli) -> Result<(RosSettings, BridgeOptions)> {
+fn build(cli: &Cli, overrides: &[Override]) -> Result<(RosSettings, BridgeOptions)> {
     foxglove_bridge::check_host(&cli.host)?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_foxglove")?;
+    // names, namespace and remaps apply (`--ros-args -r __ns:=/robot1`); it has no parameters
+    if let Some(o) = overrides.first() {
+        bail!(
+            "{}: {} has no parameter {:?} (its settings are flags: --help)",
+            o.origin,
+            nodes::FOXGLOVE,
+            o.name
+        );
+    }
+    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::FOXGLOVE)?;
     Ok((
         settings,
         BridgeOptions {
@@ -53,12 +64,15 @@ fn build(cli: &Cli) -> Result<(RosSettings, BridgeOptions)> {
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
+    let (cli, overrides) = match ros_args::parse_node_cli::<Cli>(nodes::FOXGLOVE, |c| &mut c.ros) {
+        Ok(parsed) => parsed,
+        Err(e) => return ros::exit_code(nodes::FOXGLOVE, Err(e)),
+    };
     let would = |opts: &BridgeOptions| format!(", would serve ws://127.0.0.1:{}", opts.port);
     ros::node_main(
-        "capsule_foxglove",
+        nodes::FOXGLOVE,
         cli.check,
-        build(&cli),
+        build(&cli, &overrides),
         would,
         |settings, opts| {
             let serving = |port| {

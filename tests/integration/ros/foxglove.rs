@@ -121,6 +121,19 @@ fn the_foxglove_bridge_refuses_a_non_loopback_bind() {
     }
 }
 
+#[test]
+fn the_foxglove_bridge_takes_ros_names_and_refuses_parameters() {
+    let run = netns(
+        30,
+        r#"
+        $B/capsule_foxglove --check --ros-args -r __ns:=/robot1 -r __node:=viewer
+        $B/capsule_foxglove --check --ros-args -p foo:=1; echo "rc=$?""#,
+    );
+    run.assert_ok();
+    run.assert_stdout(&["capsule_foxglove: ok: node /robot1/viewer", "rc=2"]);
+    run.assert_stderr(&["--ros-args -p foo:=1: capsule_foxglove has no parameter \"foo\""]);
+}
+
 /// Every `topic.field` path a panel of `value` plots.
 fn plot_paths(value: &serde_json::Value, out: &mut Vec<String>) {
     match value {
