@@ -25,12 +25,19 @@ fn switch_attractor_moves_period_3_to_period_1_in_lockstep_and_releases_the_gain
                --max-tries 3 --before-periods 40 --after-periods 30 --timeout-s 250 &
            R=$!
            $B/capsule_plant --scene "$S" --pacing lockstep --command-timeout-s 60 --until-s 100 \
-               --wait-subscribers 2 &
+               --wait-subscribers 2 --record-output $TMP/switch.mcap &
            P=$!
            wait $R; rc=$?
-           kill -TERM $P $C; wait; exit $rc"#,
+           kill -TERM $P $C; wait
+           # the recorded run, pulses and all, re-driven through the controller library
+           $B/capsule replay --check-controller $TMP/switch.mcap || exit 1
+           exit $rc"#,
     );
     run.assert_ok();
+    run.assert_stdout(&[
+        "ok: the controller reproduces the recorded commands",
+        "(1 mode requests, 0 answered differently",
+    ]);
     let line = run.line("SWITCH ");
     // period 3 before, period 1 after (state and status), back to the previous mode, the gain
     // released
