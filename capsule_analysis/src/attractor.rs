@@ -168,7 +168,7 @@ impl Trajectory {
     }
 
     /// The period the last points repeat with for `repeats` cycles (at most
-    /// [`EARLY_MAX_PERIOD`]), if they do.
+    /// `EARLY_MAX_PERIOD`), if they do.
     pub fn settled(&self, tol: f64, repeats: u32) -> Option<usize> {
         let reps = repeats.max(1) as usize;
         let window = (reps * EARLY_MAX_PERIOD + 1).min(self.points.len());

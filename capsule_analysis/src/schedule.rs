@@ -1,5 +1,5 @@
 //! A feedback-gain schedule over drive periods: a gain before, an optional pulse of another gain
-//! for some periods, and a gain after (the paper's Fig 20 and intermittent control, its ref. [21]).
+//! for some periods, and a gain after (the paper's Fig 20 and intermittent control, its ref. \[21\]).
 
 use crate::run::PaperLaw;
 use capsule_controller::FeedbackLaw;

@@ -216,7 +216,7 @@ impl ModeConfig {
 /// stops when the plant does.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Staleness {
-    /// How long without a sample before the state counts as stale [s].
+    /// How long without a sample before the state counts as stale \[s\].
     pub timeout: f64,
     last: Option<f64>,
 }

@@ -4,7 +4,7 @@
 //! interface package (`package.xml`, `CMakeLists.txt`) that colcon builds for rclcpp / rclpy,
 //! and the structs here serialise field for field, in the same order, to the same CDR layout.
 //! A test parses the interface files and checks every struct against them, so the two cannot
-//! drift. The interface texts are embedded ([`CapsuleState::MSG_TEXT`], ...) so that
+//! drift. The interface texts are embedded (`CapsuleState::MSG_TEXT`, ...) so that
 //! recorders can write `ros2msg` schemas.
 
 #![warn(missing_docs)]
@@ -75,11 +75,11 @@ pub struct CapsuleState {
     pub header: Header,
     /// Sample counter.
     pub seq: u64,
-    /// Inner mass position [m].
+    /// Inner mass position \[m\].
     pub mass_position: f64,
     /// Inner mass velocity [m/s].
     pub mass_velocity: f64,
-    /// Capsule position [m].
+    /// Capsule position \[m\].
     pub capsule_position: f64,
     /// Capsule velocity [m/s].
     pub capsule_velocity: f64,
@@ -87,11 +87,11 @@ pub struct CapsuleState {
     pub in_contact: bool,
     /// Capsule sticks to the ground.
     pub stuck: bool,
-    /// Friction force on the capsule [N].
+    /// Friction force on the capsule \[N\].
     pub friction_force: f64,
-    /// Secondary-spring contact force [N].
+    /// Secondary-spring contact force \[N\].
     pub contact_force: f64,
-    /// Actuator force applied on the inner mass over the last step [N].
+    /// Actuator force applied on the inner mass over the last step \[N\].
     pub actuator_force: f64,
     /// Watchdog fired: no fresh command, zero force applied.
     pub command_stale: bool,
@@ -106,7 +106,7 @@ pub struct ActuatorForce {
     pub header: Header,
     /// Seq of the state sample this command answers (lock-step key).
     pub state_seq: u64,
-    /// Force on the inner mass [N].
+    /// Force on the inner mass \[N\].
     pub force: f64,
 }
 
@@ -125,9 +125,9 @@ pub struct ControllerStatus {
     pub drive_amplitude: f64,
     /// Drive frequency `omega` (non-dim).
     pub drive_frequency: f64,
-    /// Drive amplitude [N].
+    /// Drive amplitude \[N\].
     pub drive_amplitude_si: f64,
-    /// Drive frequency [Hz].
+    /// Drive frequency \[Hz\].
     pub drive_frequency_hz: f64,
     /// False when the controller stopped commanding (stale state).
     pub commanding: bool,
@@ -137,7 +137,7 @@ pub struct ControllerStatus {
     pub periods: u32,
     /// Running progression per period (non-dim).
     pub progression_per_period: f64,
-    /// Running progression per period [m].
+    /// Running progression per period \[m\].
     pub progression_per_period_m: f64,
     /// Running mean capsule speed [m/s].
     pub mean_speed: f64,

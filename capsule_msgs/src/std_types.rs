@@ -21,11 +21,11 @@ pub struct JointState {
     pub header: Header,
     /// Joint names.
     pub name: Vec<String>,
-    /// Positions [m] (prismatic joints).
+    /// Positions \[m\] (prismatic joints).
     pub position: Vec<f64>,
     /// Velocities [m/s].
     pub velocity: Vec<f64>,
-    /// Efforts [N].
+    /// Efforts \[N\].
     pub effort: Vec<f64>,
 }
 
@@ -66,7 +66,7 @@ impl Quaternion {
 /// `geometry_msgs/Transform`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Transform {
-    /// Translation [m].
+    /// Translation \[m\].
     pub translation: Vector3,
     /// Rotation.
     pub rotation: Quaternion,

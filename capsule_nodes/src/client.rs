@@ -10,7 +10,7 @@ use ros2_client::{service::Client, Node};
 
 use crate::ros::{qos, types, RosSettings, Wire};
 
-/// The `effective_from` of a request to switch at sim time `at_s` [s] (0 = now): refused
+/// The `effective_from` of a request to switch at sim time `at_s` \[s\] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used
 /// to saturate into a time that never comes, accepted as "never".
 pub fn effective_from(at_s: f64) -> Result<Time> {
@@ -84,17 +84,17 @@ pub struct SegmentResult {
     pub periods: f64,
     /// Mean progression per drive period, non-dimensional.
     pub per_period: f64,
-    /// Mean progression per drive period [m].
+    /// Mean progression per drive period \[m\].
     pub per_period_m: f64,
 }
 
 /// Watches the state topic and measures each segment's progression between sim times.
 pub struct SegmentMeter {
-    /// (mode, measure from [s], measure to [s]) per segment.
+    /// (mode, measure from \[s\], measure to \[s\]) per segment.
     pub windows: Vec<(String, f64, f64)>,
-    /// Drive period [s].
+    /// Drive period \[s\].
     pub period_s: f64,
-    /// Length scale [m].
+    /// Length scale \[m\].
     pub length_m: f64,
     marks: Vec<(Option<f64>, Option<f64>)>,
 }

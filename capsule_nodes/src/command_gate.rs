@@ -37,7 +37,7 @@ impl CommandGate {
         }
     }
 
-    /// The force limit [N].
+    /// The force limit \[N\].
     pub fn max_force_n(&self) -> f64 {
         self.max_force_n
     }
@@ -47,7 +47,7 @@ impl CommandGate {
         self.log.seen()
     }
 
-    /// The force to apply for a finite command of `force_n` [N] answering `seq`: itself, or
+    /// The force to apply for a finite command of `force_n` \[N\] answering `seq`: itself, or
     /// saturated at the limit (counted, logged rate-limited).
     pub fn limit(&mut self, force_n: f64, seq: u64) -> f64 {
         if force_n.abs() <= self.max_force_n {

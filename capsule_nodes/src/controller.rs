@@ -61,7 +61,7 @@ pub struct ControllerCore {
 }
 
 impl ControllerCore {
-    /// A controller in `mode` with gain `kp`, drive `alpha`, `omega`, and the stale timeout [s].
+    /// A controller in `mode` with gain `kp`, drive `alpha`, `omega`, and the stale timeout \[s\].
     pub fn new(
         scale: PhysicalScale,
         alpha: f64,
@@ -266,7 +266,7 @@ impl ControllerCore {
         }
     }
 
-    /// Handles a state sample received at steady time `now` [s]; returns the command to publish.
+    /// Handles a state sample received at steady time `now` \[s\]; returns the command to publish.
     ///
     /// Samples older than the newest one seen are ignored (a late sample must not rewind the
     /// controller); a repeat of the newest seq (a lock-step plant re-sending) gets the same

@@ -31,7 +31,7 @@ pub mod names {
     pub const ALPHA: &str = "alpha";
     /// Drive frequency omega (non-dim).
     pub const OMEGA: &str = "omega";
-    /// Stale-state timeout [s].
+    /// Stale-state timeout \[s\].
     pub const STATE_TIMEOUT_S: &str = "state_timeout_s";
     pub use crate::params::names::*;
 }

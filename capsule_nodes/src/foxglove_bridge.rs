@@ -11,7 +11,7 @@
 //! - the controller's status (`/capsule_controller/status`): mode, gain, commands sent,
 //!   progression per period, mean speed;
 //! - the force commands (`/capsule/actuator_force`): `t` (the stamp of the sample answered),
-//!   `state_seq`, `force` [N] as commanded (the state's `force` is the one applied);
+//!   `state_seq`, `force` \[N\] as commanded (the state's `force` is the one applied);
 //! - [`FRAME_TOPIC`]: a `foxglove.FrameTransform` of the capsule body in `odom` (the 3D panel).
 //!
 //! State, frame and commands are thinned by their stamps to at most `--max-rate-hz`, and nothing is

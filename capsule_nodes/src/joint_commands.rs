@@ -1,6 +1,6 @@
 //! Commands as `topic_based_ros2_control` sends them: a `sensor_msgs/JointState` on
 //! `capsule/joint_commands` (the plant's `--joint-commands`), whose `effort` of the inner-mass
-//! joint ([`JOINT`]) is the actuator force [N].
+//! joint ([`JOINT`]) is the actuator force \[N\].
 //!
 //! The joint is found by name; `effort` must hold one value per name (sensor_msgs/JointState's
 //! rule; `topic_based_ros2_control` sends it so when every joint of its `ros2_control` block has

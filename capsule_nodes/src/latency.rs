@@ -56,7 +56,7 @@ impl LatencyHistogram {
     /// Largest relative error of a reported percentile (half a bucket).
     pub const RELATIVE_ERROR: f64 = 0.5 / SUB as f64;
 
-    /// Adds a latency [s] (negative ones, from clock steps, count as zero).
+    /// Adds a latency \[s\] (negative ones, from clock steps, count as zero).
     pub fn record(&mut self, seconds: f64) {
         let ns = (seconds.max(0.0) * 1e9).round() as u64;
         self.counts[index(ns)] += 1;
@@ -69,7 +69,7 @@ impl LatencyHistogram {
         self.count
     }
 
-    /// The `q`-quantile [s] (order statistic `round((n-1) q)`, to within the resolution),
+    /// The `q`-quantile \[s\] (order statistic `round((n-1) q)`, to within the resolution),
     /// `None` if empty.
     pub fn quantile(&self, q: f64) -> Option<f64> {
         if self.count == 0 {
@@ -106,7 +106,7 @@ impl LatencyHistogram {
         }
     }
 
-    /// The largest latency [s], exact; `None` if empty.
+    /// The largest latency \[s\], exact; `None` if empty.
     pub fn max(&self) -> Option<f64> {
         (self.count > 0).then_some(self.max_ns as f64 / 1e9)
     }

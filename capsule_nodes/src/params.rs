@@ -100,11 +100,11 @@ pub struct ParamTable {
 pub mod names {
     /// Sim time from /clock.
     pub const USE_SIM_TIME: &str = "use_sim_time";
-    /// Physical scale: inner mass [kg].
+    /// Physical scale: inner mass \[kg\].
     pub const M1_KG: &str = "m1_kg";
     /// Physical scale: primary stiffness [N/m].
     pub const K1_N_PER_M: &str = "k1_n_per_m";
-    /// Physical scale: friction threshold [N].
+    /// Physical scale: friction threshold \[N\].
     pub const PF_N: &str = "pf_n";
 }
 

@@ -33,7 +33,7 @@ pub struct PlantIdentity<Id> {
 }
 
 impl<Id: Copy + Eq> PlantIdentity<Id> {
-    /// How long [s] the current plant must be silent before another writer takes over. Well
+    /// How long \[s\] the current plant must be silent before another writer takes over. Well
     /// above a sample period and a lock-step re-send (20 ms), well below a process restart.
     pub const DEFAULT_HANDOVER_S: f64 = 0.05;
 
@@ -46,7 +46,7 @@ impl<Id: Copy + Eq> PlantIdentity<Id> {
         }
     }
 
-    /// Attributes a sample from writer `id` received at steady time `now` [s].
+    /// Attributes a sample from writer `id` received at steady time `now` \[s\].
     pub fn observe(&mut self, id: Id, now: f64) -> Source {
         match self.current {
             None => {

@@ -12,9 +12,9 @@ pub mod names {
     pub const SCENE: &str = "scene";
     /// Pacing: realtime or lockstep.
     pub const PACING: &str = "pacing";
-    /// Sample rate [Hz].
+    /// Sample rate \[Hz\].
     pub const RATE_HZ: &str = "rate_hz";
-    /// Watchdog timeout [s].
+    /// Watchdog timeout \[s\].
     pub const COMMAND_TIMEOUT_S: &str = "command_timeout_s";
     /// /clock with every N-th sample.
     pub const CLOCK_EVERY: &str = "clock_every";
@@ -32,13 +32,13 @@ pub struct PlantSettings {
     pub scene: String,
     /// `realtime` or `lockstep`.
     pub pacing: String,
-    /// Sample rate [Hz].
+    /// Sample rate \[Hz\].
     pub rate_hz: f64,
-    /// Watchdog timeout [s].
+    /// Watchdog timeout \[s\].
     pub command_timeout_s: f64,
     /// /clock with every N-th sample.
     pub clock_every: u64,
-    /// Physical scale (m1 [kg], k1 [N/m], P_f [N]).
+    /// Physical scale (m1 \[kg\], k1 [N/m], P_f \[N\]).
     pub scale: (f64, f64, f64),
 }
 

@@ -6,13 +6,13 @@
 //!
 //! Use: `#[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]`.
 
-/// Longest duration any flag takes [s] (about 11.6 days): far inside what a `Duration` holds.
+/// Longest duration any flag takes \[s\] (about 11.6 days): far inside what a `Duration` holds.
 pub const MAX_SECONDS: f64 = 1e6;
-/// Longest period any millisecond flag takes [ms] (one minute).
+/// Longest period any millisecond flag takes \[ms\] (one minute).
 pub const MAX_MILLIS: u64 = 60_000;
 /// Largest magnitude of a gain, a physical constant or a model parameter given as a flag.
 pub const MAX_MAGNITUDE: f64 = 1e12;
-/// Lowest and highest sample rate of the plant node [Hz] (the scene's rule for node.rate_hz).
+/// Lowest and highest sample rate of the plant node \[Hz\] (the scene's rule for node.rate_hz).
 pub const RATE_HZ: (f64, f64) = capsule_plant::scene::NODE_RATE_HZ;
 /// Most subscribers any node waits for.
 pub const MAX_SUBSCRIBERS: u64 = 1000;

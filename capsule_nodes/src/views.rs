@@ -85,7 +85,7 @@ pub struct ViewArgs {
     /// Do not publish /diagnostics
     #[arg(long)]
     pub no_diagnostics: bool,
-    /// joint_states and /tf at most this often [Hz] (every n-th sample, n = rate / this,
+    /// joint_states and /tf at most this often \[Hz\] (every n-th sample, n = rate / this,
     /// rounded, at least 1): a viewer needs far less than the loop's 1-10 kHz, and each write
     /// costs DDS a wake-up
     #[arg(long, default_value_t = 100.0)]

@@ -11,8 +11,8 @@
 //! - capsule, without friction: `F = -f_c`; it sticks (`y2 = 0` exactly) while `|F| <= f_b` and
 //!   slips otherwise with `gamma y2' = F - f_s(y2, ...)`.
 //!
-//! Friction laws (Table 1 of the paper, garbled in the seed text; reconstructed from ref. [14],
-//! Liu, Pavlovskaia, Wiercigroch 2013, and the seven-parameter model of ref. [27], Wojewoda et al.
+//! Friction laws (Table 1 of the paper, garbled in the seed text; reconstructed from ref. \[14\],
+//! Liu, Pavlovskaia, Wiercigroch 2013, and the seven-parameter model of ref. \[27\], Wojewoda et al.
 //! 2008). `s = sign(y2)`, `v_s` the Stribeck velocity, `y2d = y2(tau - tau_d)`:
 //!
 //! | law | sliding friction `f_s` | threshold `f_b` | in stick |

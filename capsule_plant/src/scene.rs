@@ -312,10 +312,10 @@ impl Default for NodeSettings {
     }
 }
 
-/// The plant node's sample rate range [Hz]: from one sample per 1000 s to 1 MHz (a period that
+/// The plant node's sample rate range \[Hz\]: from one sample per 1000 s to 1 MHz (a period that
 /// every clock and `Duration` holds).
 pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
-/// The plant node's command timeout range [s].
+/// The plant node's command timeout range \[s\].
 pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
 
 /// What the controller node takes from a scene: the physical scale, the drive and the gain.
@@ -658,10 +658,10 @@ impl Scene {
         self.solver
     }
 
-    /// The plant node's sample rate range [Hz]: from one sample per 1000 s to 1 MHz (a period that
+    /// The plant node's sample rate range \[Hz\]: from one sample per 1000 s to 1 MHz (a period that
     /// every clock and `Duration` holds).
     pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
-    /// The plant node's command timeout range [s].
+    /// The plant node's command timeout range \[s\].
     pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
 
     /// What the controller node takes from the scene.

@@ -11,7 +11,7 @@
 //!   `metadata.yaml`, as rosbag2 users configure recordings.
 //! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
-//!   file; [`open`] checks a file before reading it.
+//!   file; `open` checks a file before reading it.
 //! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
 //!   old schema blocks ([`fix_schemas`]).
 //!

@@ -27,7 +27,7 @@ pub struct Message {
 }
 
 /// Every message of a complete recording in log-time order (stable: file order on ties), with the checks of
-/// [`info`]: missing, non-MCAP, cut and foreign-schema files are errors.
+/// `info`: missing, non-MCAP, cut and foreign-schema files are errors.
 pub fn messages(path: &Path) -> Result<Vec<Message>, RecordError> {
     let (_, _) = open_checked(path)?;
     let bytes = std::fs::read(path).map_err(|e| RecordError::io(path, e))?;

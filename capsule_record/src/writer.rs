@@ -167,7 +167,7 @@ pub struct WriteSummary {
 }
 
 /// Writes one recording. Call [`RecordWriter::finish`] to end it properly; a writer dropped
-/// without it (or a killed process) leaves a file that [`crate::recover`] completes.
+/// without it (or a killed process) leaves a file that [`crate::recover()`] completes.
 pub struct RecordWriter {
     path: PathBuf,
     mcap: mcap::Writer<BufWriter<File>>,

@@ -21,9 +21,9 @@
 //! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
 //! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
 //!
-//! The node in parts: [`plant_core`] (the logic, unit-tested against a stand-in model),
-//! [`stats`] (loop statistics and the summary), [`options`], [`recording`] (in-plant MCAP),
-//! [`node`] (DDS endpoints and [`run`]) and [`pacing`] (the two loops).
+//! The node in parts: `plant_core` (the logic, unit-tested against a stand-in model),
+//! `stats` (loop statistics and the summary), `options`, `recording` (in-plant MCAP),
+//! `node` (DDS endpoints and [`run`]) and `pacing` (the two loops).
 
 mod node;
 mod options;

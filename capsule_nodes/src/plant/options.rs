@@ -17,7 +17,7 @@ pub enum Pacing {
 pub struct PlantOptions {
     /// Pacing.
     pub pacing: Pacing,
-    /// Stop at this sim time [s] (`None`: run until a signal).
+    /// Stop at this sim time \[s\] (`None`: run until a signal).
     pub until_s: Option<f64>,
     /// Lock-step: re-send an unanswered sample this often.
     pub retransmit: Duration,
@@ -27,7 +27,7 @@ pub struct PlantOptions {
     pub wait_subscribers: usize,
     /// Publish /clock with every this many samples (1: every sample).
     pub clock_every: u64,
-    /// Record the graph in this process (see [`InPlantRecording`]).
+    /// Record the graph in this process (see `InPlantRecording`).
     pub record: Option<InPlantRecordOptions>,
     /// The ROS parameters served (see [`crate::plant_params`]).
     pub params: crate::params::ParamTable,

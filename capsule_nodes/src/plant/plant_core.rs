@@ -82,7 +82,7 @@ pub struct PlantCore<S: PlantSim> {
 }
 
 impl<S: PlantSim> PlantCore<S> {
-    /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` [s].
+    /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` \[s\].
     pub fn new(sim: S, scale: PhysicalScale, rate_hz: f64, command_timeout: f64) -> Self {
         PlantCore {
             sim,
@@ -103,14 +103,14 @@ impl<S: PlantSim> PlantCore<S> {
         }
     }
 
-    /// The same plant saturating commands at `max_force_n` [N] (finite, > 0) instead of the
+    /// The same plant saturating commands at `max_force_n` \[N\] (finite, > 0) instead of the
     /// default [`DEFAULT_MAX_FORCE_PF`] `P_f`.
     pub fn with_max_force_n(mut self, max_force_n: f64) -> Self {
         self.gate = CommandGate::new(max_force_n);
         self
     }
 
-    /// The force limit [N].
+    /// The force limit \[N\].
     pub fn max_force_n(&self) -> f64 {
         self.gate.max_force_n()
     }
@@ -130,7 +130,7 @@ impl<S: PlantSim> PlantCore<S> {
         Time::from_nanos(self.stamp_nanos(self.step))
     }
 
-    /// Force held now [N].
+    /// Force held now \[N\].
     pub fn held_force(&self) -> f64 {
         if self.stale {
             0.0

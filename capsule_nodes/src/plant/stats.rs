@@ -83,7 +83,7 @@ impl LoopStats {
         }
     }
 
-    /// `(p50, p99, max)` of the latencies [s] (to within [`LatencyHistogram::RELATIVE_ERROR`];
+    /// `(p50, p99, max)` of the latencies \[s\] (to within [`LatencyHistogram::RELATIVE_ERROR`];
     /// max exact), `None` if none.
     pub fn percentiles(&self) -> Option<(f64, f64, f64)> {
         let l = &self.latencies;
