@@ -347,6 +347,16 @@ fn changes(a: &BranchPoint, ta: [f64; 3], b: &BranchPoint, tb: [f64; 3]) -> Vec<
 /// `settings.to`. An error before the first point; after it, a branch with `stopped` saying
 /// where and why it ended early.
 pub fn continue_branch(scene: &Scene, settings: &Settings) -> Result<Branch, ContinuationError> {
+    continue_branch_observed(scene, settings, &mut |_| true)
+}
+
+/// [`continue_branch`], handing each new point to `on_point` (progress); when it answers
+/// `false` (the user interrupted), the branch so far is returned with `stopped` saying so.
+pub fn continue_branch_observed(
+    scene: &Scene,
+    settings: &Settings,
+    on_point: &mut dyn FnMut(&BranchPoint) -> bool,
+) -> Result<Branch, ContinuationError> {
     let param = settings.param;
     let p0 = param.value(scene);
     let r = run(scene).map_err(StabilityError::from)?;
@@ -357,7 +367,7 @@ pub fn continue_branch(scene: &Scene, settings: &Settings) -> Result<Branch, Con
         });
     };
     let f = r.final_state;
-    continue_from(scene, settings, k, [f.x1 - f.x2, f.y1, f.y2], p0)
+    continue_observed(scene, settings, k, [f.x1 - f.x2, f.y1, f.y2], p0, on_point)
 }
 
 /// Continue the period-`k` orbit through (approximately) `x` at parameter value `p0` towards
@@ -368,6 +378,18 @@ pub fn continue_from(
     k: usize,
     x: [f64; 3],
     p0: f64,
+) -> Result<Branch, ContinuationError> {
+    continue_observed(scene, settings, k, x, p0, &mut |_| true)
+}
+
+/// [`continue_from`] with [`continue_branch_observed`]'s `on_point`.
+fn continue_observed(
+    scene: &Scene,
+    settings: &Settings,
+    k: usize,
+    x: [f64; 3],
+    p0: f64,
+    on_point: &mut dyn FnMut(&BranchPoint) -> bool,
 ) -> Result<Branch, ContinuationError> {
     let param = settings.param;
     let prob = Problem { scene, param, k };
@@ -433,7 +455,12 @@ pub fn continue_from(
                         branch.special.push(sp);
                     }
                 }
+                let go_on = on_point(&pt);
                 branch.points.push(pt);
+                if !go_on {
+                    branch.stopped = Some(format!("{} = {}: interrupted", param.name(), un[3]));
+                    break;
+                }
                 u = un;
                 t = tn;
                 test = tn_test;

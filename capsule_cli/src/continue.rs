@@ -4,9 +4,10 @@
 
 use crate::scene_args::SceneArgs;
 use crate::svg;
+use crate::work;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::continuation::{
-    continue_branch, switch_at_period_doubling, Branch, Settings, SpecialKind,
+    continue_branch_observed, switch_at_period_doubling, Branch, BranchPoint, Settings, SpecialKind,
 };
 use capsule_analysis::{sweep, Param};
 use capsule_nodes::ranges;
@@ -65,7 +66,22 @@ pub fn main(args: Args) -> Result<()> {
     settings.max_step = args.max_arc_step;
     settings.max_points = args.max_points;
     let t0 = std::time::Instant::now();
-    let branch = continue_branch(&scene, &settings).with_context(|| {
+    // a bar on a terminal; Ctrl-C ends the branch at the next point, written as far as it got
+    let bar = indicatif::ProgressBar::new(settings.max_points as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} points (most), {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    work::catch_ctrl_c();
+    let mut on_point = |p: &BranchPoint| {
+        bar.inc(1);
+        bar.set_message(format!("{} = {:.6}", param.name(), p.value));
+        !work::interrupted()
+    };
+    let branch = continue_branch_observed(&scene, &settings, &mut on_point);
+    bar.finish_and_clear();
+    work::release_ctrl_c();
+    let branch = branch.with_context(|| {
         format!(
             "continuing {} from {} = {}",
             scene.name,
@@ -74,7 +90,7 @@ pub fn main(args: Args) -> Result<()> {
         )
     })?;
     let mut doubled = Vec::new();
-    if args.switch {
+    if args.switch && branch.stopped.is_none() {
         for sp in branch
             .special
             .iter()

@@ -411,6 +411,35 @@ fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
 }
 
 #[test]
+fn an_interrupted_continuation_writes_the_branch_so_far_and_exits_non_zero() {
+    let tmp = TempDir::new("bad_input_interrupted_continuation");
+    let out = tmp.file("branch");
+    // the period-3 isola of Fig 18 in steps 40 times below the default: thousands of points
+    let scene = root().join("scenes/switch_alpha15.toml");
+    let o = interrupted(&line(
+        "continue --param alpha --to 1.75 --arc-step 0.0005 --max-arc-step 0.0005 --scene",
+        &[
+            &scene.display().to_string(),
+            "--out",
+            &out.display().to_string(),
+        ],
+    ));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(": interrupted; the branch so far is written"),
+        "{err}"
+    );
+    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
+    assert!(csv.lines().count() > 2, "nothing written: {err}");
+    let json = std::fs::read_to_string(out.with_extension("json")).unwrap_or_default();
+    assert!(
+        json.contains("interrupted") && json.contains("\"closed\": false"),
+        "{json}"
+    );
+}
+
+#[test]
 fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
     let tmp = TempDir::new("bad_input_interrupted_sim");
     let csv = tmp.file("interrupted_sim.csv");
