@@ -323,6 +323,15 @@ class Pump:
             time.sleep(0.005)
         return seen
 
+    def until(self, grown, seconds, send=None, timeout=5.0):
+        """run(SECONDS, SEND), then on in steps of 0.1 s until GROWN(last state) holds, at most
+        TIMEOUT s more (a loaded host may deliver late): the states seen."""
+        seen = self.run(seconds, send)
+        end = time.time() + timeout
+        while not (seen and grown(seen[-1])) and time.time() < end:
+            seen += self.run(0.1, send)
+        return seen
+
     def first_state(self, w, timeout=15.0, match_timeout=5.0):
         """Reads for 1 s and until the first state, at most TIMEOUT s (discovery can take
         seconds on a loaded host), then until W matches a reader (a write before that is
@@ -352,7 +361,7 @@ class Pump:
         count must have grown and no non-finite force reached the simulation. Returns the
         counts before and after."""
         before = self.latest.rejected_commands
-        seen = self.run(0.3, send) + self.run(0.3)
+        seen = self.until(lambda s: s.rejected_commands > before, 0.3, send) + self.run(0.3)
         after = seen[-1].rejected_commands if seen else before
         if after <= before:
             fail(f"{what} not counted as refused ({before} -> {after})")
@@ -379,8 +388,16 @@ def cmd_force(args):
     applied = pump.applied(send(args.force), args.force, f"{args.force} N")
     # a late command (stamped before the last accepted one) must not take over
     last_ok = pump.latest.rejected_commands
-    w.write(force_command(T.Time(sec=0, nanosec=1), 0, -args.force))
-    seen = pump.run(0.3, send(args.force))
+    late = force_command(T.Time(sec=0, nanosec=1), 0, -args.force)
+    resend_at = [time.time()]
+
+    def send_and_late(st):
+        # the late command, again every 0.5 s until its refusal shows (a write can be lost)
+        if time.time() >= resend_at[0]:
+            w.write(late)
+            resend_at[0] = time.time() + 0.5
+        send(args.force)(st)
+    seen = pump.until(lambda st: st.rejected_commands > last_ok, 0.3, send_and_late)
     if seen[-1].rejected_commands <= last_ok:
         fail("a late (old-stamped) command was not refused")
     if any(abs(s.actuator_force + args.force) < 1e-12 for s in seen):
