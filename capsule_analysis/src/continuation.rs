@@ -259,17 +259,23 @@ impl Problem<'_> {
     }
 
     /// The unit tangent at a solution, oriented like `prev`.
-    #[allow(clippy::needless_range_loop)]
     fn tangent(&self, e: &Eval, prev: [f64; 4]) -> Option<[f64; 4]> {
-        let mut a = [[0.0; 4]; 4];
-        for i in 0..3 {
-            a[i] = [e.gx[i][0], e.gx[i][1], e.gx[i][2], e.gp[i]];
-        }
-        a[3] = prev;
-        let t = solve4(a, [0.0, 0.0, 0.0, 1.0])?;
-        let n = t.iter().map(|v| v * v).sum::<f64>().sqrt();
-        Some(t.map(|v| v / n))
+        unit_tangent(&e.gx, &e.gp, prev)
     }
+}
+
+/// The unit null vector of `[gx | gp]` oriented like `prev` (bordered by `prev`); `None` where
+/// the bordered matrix is singular (a branch point, or `prev` orthogonal to the branch).
+#[allow(clippy::needless_range_loop)]
+fn unit_tangent(gx: &[[f64; 3]; 3], gp: &[f64; 3], prev: [f64; 4]) -> Option<[f64; 4]> {
+    let mut a = [[0.0; 4]; 4];
+    for i in 0..3 {
+        a[i] = [gx[i][0], gx[i][1], gx[i][2], gp[i]];
+    }
+    a[3] = prev;
+    let t = solve4(a, [0.0, 0.0, 0.0, 1.0])?;
+    let n = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+    Some(t.map(|v| v / n))
 }
 
 fn point(value: f64, x: [f64; 3], lin: &crate::floquet::Linearization) -> BranchPoint {
@@ -619,6 +625,23 @@ mod tests {
         let mut s = a;
         s[3] = s[2];
         assert!(solve4(s, b).is_none());
+    }
+
+    #[test]
+    fn the_tangent_is_the_null_vector_and_none_at_a_branch_point() {
+        // G = (x0 - p, x1, x2): the branch is x0 = p, its tangent (1, 0, 0, 1) / sqrt 2
+        let gx = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let gp = [-1.0, 0.0, 0.0];
+        let t = unit_tangent(&gx, &gp, [0.0, 0.0, 0.0, 1.0]).unwrap_or_else(|| panic!("singular?"));
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        for (got, want) in t.iter().zip([h, 0.0, 0.0, h]) {
+            assert!((got - want).abs() < 1e-15, "{t:?}");
+        }
+        // a rank-2 [gx | gp] (a branch point: two rows alike): no tangent, and the
+        // continuation stops there with "singular Jacobian (tangent)" and the branch so far
+        let gx = [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+        let gp = [-1.0, -1.0, 0.0];
+        assert_eq!(unit_tangent(&gx, &gp, [0.0, 0.0, 0.0, 1.0]), None);
     }
 
     #[test]
