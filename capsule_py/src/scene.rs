@@ -60,14 +60,16 @@ pub fn parse(toml_text: &str) -> PyResult<Scene> {
     Scene::from_toml_str(toml_text, "scene").map_err(refused)
 }
 
-/// The resolved scene as a complete scene file: `path` (a file) or `text` (scene TOML) or the
-/// defaults, with `overrides` (keyword -> value) applied as the `capsule` command applies its flags.
+/// The resolved scene as a complete scene file: `path` (a file) or `text` (scene TOML, named
+/// `source` in errors, `<text>` by default) or the defaults, with `overrides` (keyword -> value)
+/// applied as the `capsule` command applies its flags.
 #[pyfunction]
-#[pyo3(signature = (path=None, text=None, overrides=None))]
+#[pyo3(signature = (path=None, text=None, overrides=None, source=None))]
 pub fn resolve_scene(
     path: Option<std::path::PathBuf>,
     text: Option<String>,
     overrides: Option<&Bound<'_, PyDict>>,
+    source: Option<String>,
 ) -> PyResult<String> {
     let (base, source) = match (&path, text) {
         (Some(_), Some(_)) => {
@@ -89,10 +91,10 @@ pub fn resolve_scene(
                 file,
             )
         }
-        (None, Some(t)) => (
-            Scene::from_toml_str(&t, "<text>").map_err(refused)?,
-            "<text>".to_string(),
-        ),
+        (None, Some(t)) => {
+            let source = source.unwrap_or_else(|| "<text>".to_string());
+            (Scene::from_toml_str(&t, &source).map_err(refused)?, source)
+        }
         (None, None) => (Scene::default(), "defaults".to_string()),
     };
     let Some(overrides) = overrides.filter(|d| !d.is_empty()) else {

@@ -61,3 +61,8 @@ fn pytest(file: &str, deadline: Duration) {
 fn bindings_agree_with_the_command() {
     pytest("test_bindings.py", Duration::from_secs(600));
 }
+
+#[test]
+fn studies_survive_killed_workers_and_clients() {
+    pytest("test_study.py", Duration::from_secs(600));
+}

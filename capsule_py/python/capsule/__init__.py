@@ -68,22 +68,26 @@ class Scene:
     ``defaults with keyword arguments: capsule.gamma: must be > 0 (got -1)``.
     """
 
-    __slots__ = ("_toml",)
+    __slots__ = ("_toml", "_source")
 
     def __init__(self, path: Union[str, "os.PathLike[str]", None] = None, *,
                  text: Optional[str] = None, **overrides: Any) -> None:
         p = os.fspath(path) if path is not None else None
         self._toml: str = _capsule.resolve_scene(p, text, overrides)
+        # what errors of later overrides name: the file, the text or the defaults
+        self._source: str = p if p is not None else ("<text>" if text is not None else "defaults")
 
     @classmethod
-    def _of(cls, toml_text: str) -> "Scene":
+    def _of(cls, toml_text: str, source: str = "defaults") -> "Scene":
         s = cls.__new__(cls)
         s._toml = toml_text
+        s._source = source
         return s
 
     def replace(self, **overrides: Any) -> "Scene":
         """This scene with keyword overrides applied (the same rules as the constructor)."""
-        return Scene._of(_capsule.resolve_scene(None, self._toml, overrides))
+        return Scene._of(_capsule.resolve_scene(None, self._toml, overrides, self._source),
+                         self._source)
 
     def to_toml(self) -> str:
         """The complete scene file (every default written out); reading it back gives this scene."""
@@ -115,7 +119,7 @@ class Scene:
                 f"alpha={d['drive']['alpha']}, omega={d['drive']['omega']}, kp={d['control']['kp']})")
 
     def __reduce__(self):  # pickled as its text (Dask ships scenes to workers)
-        return (Scene._of, (self._toml,))
+        return (Scene._of, (self._toml, self._source))
 
 
 def _toml_table(text: str) -> Dict[str, Any]:
@@ -128,7 +132,7 @@ def _toml_table(text: str) -> Dict[str, Any]:
 
 def _scene(scene: SceneLike, overrides: Dict[str, Any]) -> str:
     if isinstance(scene, Scene):
-        return scene.replace(**overrides)._toml if overrides else scene._toml
+        return scene.replace(**overrides).to_toml() if overrides else scene.to_toml()
     p = os.fspath(scene) if scene is not None else None
     return _capsule.resolve_scene(p, None, overrides)
 
