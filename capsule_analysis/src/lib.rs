@@ -9,6 +9,7 @@ pub mod basin;
 pub mod basin_summary;
 pub mod continuation;
 pub mod floquet;
+pub mod identity;
 pub mod lyapunov;
 pub mod run;
 pub mod schedule;

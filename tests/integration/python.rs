@@ -66,3 +66,8 @@ fn bindings_agree_with_the_command() {
 fn studies_survive_killed_workers_and_clients() {
     pytest("test_study.py", Duration::from_secs(600));
 }
+
+#[test]
+fn the_fig19_notebook_runs() {
+    pytest("test_notebook.py", Duration::from_secs(600));
+}
