@@ -78,7 +78,7 @@ pub enum Character {
     QuasiPeriodic,
     /// Largest Lyapunov exponent clearly positive.
     Chaotic,
-    /// Not periodic, exponent unknown (a law with memory).
+    /// Not periodic, exponent not computable (a law with memory, a linearization that failed).
     Aperiodic,
 }
 

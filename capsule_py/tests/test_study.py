@@ -82,7 +82,7 @@ def test_a_store_of_another_study_is_refused(tmp_path):
 
 def test_a_study_gives_the_bindings_numbers_for_every_kind(tmp_path):
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address="127.0.0.1:0") as cluster:
         addr = cluster.scheduler_address
         df = ps.run(tmp_path / "sim", grid={"alpha": [1.2, 1.5], "kp": [0.0, 0.1]},
                     scheduler=addr, periods=90)
@@ -111,7 +111,7 @@ def test_a_worker_killed_mid_way_loses_no_point(tmp_path):
     store = tmp_path / "s"
     n = 48
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1",
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address="127.0.0.1:0") as cluster, \
             distributed.Client(cluster) as client:
         result = {}
 

@@ -344,7 +344,7 @@ def _connect(scheduler: Optional[str], workers: int, threads_per_worker: int):
     from distributed import Client, LocalCluster
     if scheduler is None:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker,
-                               processes=True, host="127.0.0.1", dashboard_address=None,
+                               processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0",
                                # the Rust thread pool of a sweep or basin map: one per Dask thread
                                env={"RAYON_NUM_THREADS": str(threads_per_worker)})
         return Client(cluster), cluster
