@@ -1,7 +1,7 @@
 """Type stubs of the `capsule` package (editors complete from these)."""
 
 import os
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -46,4 +46,11 @@ def continue_branch(param: str, to: float, scene: SceneLike = None, *, arc_step:
 def floquet(scene: SceneLike = None, *, x: Optional[Sequence[float]] = None,
             period: Optional[int] = None, **overrides: Any) -> Dict[str, Any]: ...
 def lyapunov(scene: SceneLike = None, **overrides: Any) -> Dict[str, Any]: ...
-def study(*args: Any, **kwargs: Any) -> Any: ...
+def study(store: Union[str, os.PathLike], *, kind: str = "simulate",
+          grid: Optional[Dict[str, Sequence[float]]] = None,
+          points: Optional[Sequence[Dict[str, float]]] = None, scene: SceneLike = None,
+          options: Optional[Dict[str, Any]] = None, scheduler: Optional[str] = None,
+          workers: int = 2, threads_per_worker: int = 1, batch: Optional[int] = None,
+          max_points: int = 100000, progress: Optional[Callable[[int, int], None]] = None,
+          **overrides: Any) -> Any:
+    """A parameter study on Dask (capsule.parameter_study.run); returns a pandas DataFrame."""
