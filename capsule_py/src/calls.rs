@@ -295,7 +295,7 @@ pub fn basins<'py>(
 
 /// Pseudo-arclength continuation of the periodic orbit the scene settles on
 /// ([`continue_branch_observed`]): the branch's JSON as `capsule continue` writes it. Ctrl-C
-/// ends the branch at the next point (`stopped` says so).
+/// ends the branch at the next point and raises `Interrupted` with the branch so far.
 #[pyfunction]
 #[pyo3(signature = (scene, param_name, to, arc_step=0.01, max_arc_step=0.02, max_points=5000))]
 pub fn continue_branch(
@@ -326,7 +326,7 @@ pub fn continue_branch(
     settings.step = arc_step;
     settings.max_step = max_arc_step;
     settings.max_points = max_points;
-    let (branch, _signal) = interrupt::run(py, |cancel| {
+    let (branch, signal) = interrupt::run(py, |cancel| {
         continue_branch_observed(&scene, &settings, &mut |_| !cancel.load(Ordering::Relaxed))
     });
     let branch = branch.map_err(|e| {
@@ -337,7 +337,16 @@ pub fn continue_branch(
             p.value(&scene)
         ))
     })?;
-    to_json(&branch)
+    let text = to_json(&branch)?;
+    match signal {
+        Some(s) => Err(interrupted(
+            py,
+            s,
+            format!("interrupted: {} branch points done", branch.points.len()),
+            Some(text),
+        )),
+        None => Ok(text),
+    }
 }
 
 /// Floquet multipliers of the period-`period` orbit through `x` = (x1 - x2, y1, y2) at drive

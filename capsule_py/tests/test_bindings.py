@@ -263,3 +263,23 @@ def test_scenes_pickle_as_their_text():
     t = pickle.loads(pickle.dumps(s))
     assert t == s and t["kp"] == 0.05
 
+
+
+@pytest.mark.parametrize("call,check", [
+    ("capsule.basins(alpha=1.5, kp=0.05, grid=(400, 400))",
+     "e.partial['grid']['pending'] > 0 and len(e.partial['attractors']) > 0"),
+    ("capsule.continue_branch('alpha', 0.95, alpha=2.0, arc_step=1e-5, max_arc_step=1e-5, "
+     "max_points=1000000)",
+     "len(e.partial['values']) > 1 and 'interrupt' in (e.partial['stopped'] or '')"),
+])
+def test_ctrl_c_stops_basins_and_continuation_with_what_finished(call, check):
+    script = (f"import capsule\ntry:\n    {call}\nexcept capsule.Interrupted as e:\n"
+              f"    assert {check}, e.partial\n    print('interrupted')\n    raise SystemExit(3)\n")
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    t_sig = time.time()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 3 and "interrupted" in out, out + err
+    assert time.time() - t_sig < 30

@@ -269,11 +269,22 @@ def continue_branch(param: str, to: float, scene: SceneLike = None, *, arc_step:
     Returns the branch as ``capsule continue`` writes its JSON (``param``, ``period``,
     ``points``, ``special`` bifurcations, ``stopped``, ``closed``) plus arrays over the points:
     ``values``, ``x`` (``(n, 3)``: x1 - x2, y1, y2 at drive phase 0), ``stable``,
-    ``largest_modulus``. Ctrl-C ends the branch at the next point (``stopped`` says so).
+    ``largest_modulus``. Ctrl-C ends the branch at the next point and raises
+    :class:`Interrupted` whose ``partial`` is the branch so far, in this form.
     """
     toml_text = _scene(scene, overrides)
-    out = json.loads(_capsule.continue_branch(toml_text, param, float(to), float(arc_step),
-                                              float(max_arc_step), int(max_points)))
+    try:
+        text = _capsule.continue_branch(toml_text, param, float(to), float(arc_step),
+                                        float(max_arc_step), int(max_points))
+    except Interrupted as e:
+        if e.partial is not None:
+            e.partial = _branch_out(e.partial)
+        raise
+    return _branch_out(text)
+
+
+def _branch_out(text: str) -> Dict[str, Any]:
+    out = json.loads(text)
     pts = out["points"]
     out["values"] = np.array([p["value"] for p in pts], dtype=float)
     out["x"] = np.array([p["x"] for p in pts], dtype=float).reshape(-1, 3)
