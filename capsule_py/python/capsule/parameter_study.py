@@ -232,7 +232,8 @@ def run_batch(store: str, batch: int, kind: str, names: List[str], ids: List[int
     """Computes a batch of points and writes STORE/parts/batch-NNNNNN.parquet whole (a temporary
     name, then an atomic rename); returns (batch, points, seconds). A point that fails is a row
     with its error; the batch is written either way."""
-    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
     t0 = time.perf_counter()
     recs = []
     for pid, row in zip(ids, rows):
@@ -245,11 +246,13 @@ def run_batch(store: str, batch: int, kind: str, names: List[str], ids: List[int
         except (capsule.SceneError, capsule.SimulationError, ValueError) as e:
             rec["error"] = f"{type(e).__name__}: {e}"
         recs.append(rec)
-    df = pd.DataFrame.from_records(recs)
+    # every record has the same columns: the kind's, or none of them when every point failed
+    columns = list(dict.fromkeys(k for r in recs for k in r))
+    table = pa.Table.from_pylist([{k: r.get(k) for k in columns} for r in recs])
     parts = pathlib.Path(store) / "parts"
     final = parts / f"batch-{batch:06d}.parquet"
     tmp = parts / f".batch-{batch:06d}.{os.getpid()}.tmp"
-    df.to_parquet(tmp, index=False)
+    pq.write_table(table, tmp)
     os.replace(tmp, final)
     return batch, len(ids), time.perf_counter() - t0
 
@@ -425,13 +428,21 @@ def run(store: "os.PathLike[str] | str", *, kind: str = "simulate",
         if progress:
             progress(finished, len(rows))
         from distributed import as_completed
-        futures = [client.submit(run_batch, str(store.resolve()), b, kind, names, batches[b],
-                                 [rows[i] for i in batches[b]], base.to_toml(), opts,
-                                 key=f"capsule-study-{meta['fingerprint']}-{b}", pure=False,
-                                 retries=2)
-                   for b in todo]
+        # one submission for all batches (client.map), each under a key of its own
+        n_todo = len(todo)
+        futures = client.map(run_batch, [str(store.resolve())] * n_todo, todo, [kind] * n_todo,
+                             [names] * n_todo, [batches[b] for b in todo],
+                             [[rows[i] for i in batches[b]] for b in todo],
+                             [base.to_toml()] * n_todo, [opts] * n_todo,
+                             key=[f"capsule-study-{meta['fingerprint']}-{b}" for b in todo],
+                             pure=False, retries=2) if todo else []
+        # counted as they finish, without fetching the results (the batch files are the
+        # results; a round trip per result would cost milliseconds per task)
+        sizes = {f.key: len(batches[b]) for f, b in zip(futures, todo)}
         for fut in as_completed(futures):
-            _, n, _ = fut.result()
+            if fut.status != "finished":
+                fut.result()  # raises the task's error
+            n = sizes[fut.key]
             finished += n
             if progress:
                 progress(finished, len(rows))
