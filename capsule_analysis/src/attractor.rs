@@ -58,9 +58,41 @@ pub struct Attractor {
     pub impacts_per_period: f64,
     /// Capsule advance per drive period.
     pub avg_progression: f64,
-    /// `[x1 - x2, y1 - y2, y1]`: one cycle starting at its lowest `y1` for a periodic attractor,
-    /// the last points of the run otherwise.
+    /// `[x1 - x2, y1 - y2, y1]`: one cycle starting at its lowest `y1` for a periodic attractor
+    /// (the exact orbit when Newton's method found it, [`crate::identity::refine`]), the last
+    /// points of the run otherwise.
     pub poincare: Vec<[f64; 3]>,
+    /// For a run that neither settled nor diverged: its largest Lyapunov exponent per drive
+    /// period ([`crate::identity::largest_exponent`]), which tells chaos from quasi-periodic or
+    /// slowly converging motion ([`Character`]); `None` for a periodic attractor or where the
+    /// exponents are not defined (a law with memory).
+    pub largest_lyapunov: Option<f64>,
+}
+
+/// What kind of attractor it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Character {
+    /// Periodic, of this period.
+    Periodic(usize),
+    /// Largest Lyapunov exponent near zero: quasi-periodic, or converging too slowly to settle.
+    QuasiPeriodic,
+    /// Largest Lyapunov exponent clearly positive.
+    Chaotic,
+    /// Not periodic, exponent not computable (a law with memory, a linearization that failed).
+    Aperiodic,
+}
+
+impl Attractor {
+    /// Its character: periodic, or by its largest Lyapunov exponent
+    /// ([`crate::identity::CHAOS_EXPONENT`]).
+    pub fn character(&self) -> Character {
+        match (self.period, self.largest_lyapunov) {
+            (Some(k), _) => Character::Periodic(k),
+            (None, Some(l)) if l > crate::identity::CHAOS_EXPONENT => Character::Chaotic,
+            (None, Some(_)) => Character::QuasiPeriodic,
+            (None, None) => Character::Aperiodic,
+        }
+    }
 }
 
 /// How a run was stopped.
@@ -192,6 +224,7 @@ impl Trajectory {
                     impacts_per_period: f64::from(hits) / m as f64,
                     avg_progression: (self.x2[n] - self.x2[from]) / m as f64,
                     poincare: self.points[n - kept..n].to_vec(),
+                    largest_lyapunov: None,
                 }
             }
         }
@@ -208,7 +241,65 @@ impl Trajectory {
             impacts_per_period: f64::from(hits) / k as f64,
             avg_progression: (self.x2[n] - self.x2[n - k]) / k as f64,
             poincare: canonical(&last[k - d..]),
+            largest_lyapunov: None,
         }
+    }
+}
+
+/// Looser period tolerance for a run that did not settle: a cycle seen at it is handed to
+/// Newton's method, which finds the orbit a slowly converging run approaches.
+const LOOSE_TOL: f64 = 1e-3;
+
+/// Periods a run goes on before it may stop again once its repeating cycle turned out to lie
+/// near an unstable orbit (a transient that leaves it slowly).
+const RECHECK_AFTER: u32 = 50;
+
+/// A settled run's attractor (see [`crate::identity`]): the exact stable orbit Newton's method
+/// finds near its cycle, or the cycle as seen where Newton finds nothing (a law with memory, a
+/// grazing orbit); `None` when the orbit found is unstable: the run is still in a transient.
+fn identify_settled(scene: &Scene, run: &Trajectory, k: usize) -> Option<Attractor> {
+    let a = run.cycle(run.len(), k);
+    let n = run.len();
+    let d = a.poincare.len();
+    // the run's own last cycle (the attractor's is rotated and may be reduced)
+    match crate::identity::refine(scene, &run.points[n - d..n]) {
+        None => Some(a),
+        Some(r) if r.largest_modulus < 1.0 => Some(Attractor {
+            period: Some(r.period),
+            poincare: r.cycle,
+            ..a
+        }),
+        Some(_) => None,
+    }
+}
+
+/// A run that reached the horizon: a periodic attractor as [`identify_settled`] finds it; else
+/// the stable orbit Newton's method finds from a cycle seen at a looser tolerance (a run that
+/// converges too slowly to settle); else the run's largest Lyapunov exponent, with the tail's
+/// progression and impacts (a repeating cycle near an unstable orbit counts as unsettled).
+fn identify_unsettled(scene: &Scene, run: &Trajectory, seen: Attractor, tail: usize) -> Attractor {
+    let n = run.len();
+    if let Some(k) = seen.period {
+        // a repeating cycle near an unstable orbit is a transient: judged as unsettled below
+        if let Some(a) = identify_settled(scene, run, seen.poincare.len().min(k).max(1)) {
+            return a;
+        }
+    }
+    if let Some(k) = detect_period(&run.points[tail..], LOOSE_TOL) {
+        if let Some(r) = crate::identity::refine(scene, &run.points[n - k..n]) {
+            if r.largest_modulus < 1.0 {
+                return Attractor {
+                    period: Some(r.period),
+                    poincare: r.cycle,
+                    ..run.cycle(n, k)
+                };
+            }
+        }
+    }
+    Attractor {
+        period: None,
+        largest_lyapunov: crate::identity::largest_exponent(scene, run.snapshot().state),
+        ..run.classify(tail, n, 0.0)
     }
 }
 
@@ -222,7 +313,11 @@ pub fn settle(
 ) -> Result<Outcome, SimError> {
     let mut run = Trajectory::new(scene)?;
     let max = config.max_periods.max(1);
+    // the law from the end of the schedule on: the orbit a run settles on is this law's
+    let mut at_end = scene.clone();
+    at_end.control.kp = schedule.after;
     let mut follow = Follow::default();
+    let mut quiet_until = 0;
     for n in 0..max {
         run.step(&schedule.law(scene, n), 0, &mut |_| {})?;
         // a gain that still changes ahead can move the orbit: no early stop before it settles
@@ -232,9 +327,17 @@ pub fn settle(
         let p = run.points[run.len() - 1];
         let stop = match follow.step(known, &p, config) {
             Some(i) => Some((known.attractors[i].clone(), Stop::Recognised(i))),
-            None => run
-                .settled(config.tol, config.repeats)
-                .map(|k| (run.cycle(run.len(), k), Stop::Settled)),
+            None if n < quiet_until => None,
+            None => match run.settled(config.tol, config.repeats) {
+                None => None,
+                Some(k) => match identify_settled(&at_end, &run, k) {
+                    Some(a) => Some((a, Stop::Settled)),
+                    None => {
+                        quiet_until = n + RECHECK_AFTER;
+                        None
+                    }
+                },
+            },
         };
         if let Some((attractor, stop)) = stop {
             return Ok(Outcome {
@@ -247,8 +350,9 @@ pub fn settle(
     }
     // the horizon: classify the last third as a run's measured periods would be
     let tail = run.len() - (run.len() / 3).max(1);
+    let seen = run.classify(tail, run.len(), config.tol);
     Ok(Outcome {
-        attractor: run.classify(tail, run.len(), config.tol),
+        attractor: identify_unsettled(&at_end, &run, seen, tail),
         stop: Stop::Horizon,
         periods_run: max,
         work: run.work(),
@@ -352,12 +456,13 @@ impl Catalogue {
     /// Two periodic attractors whose cycles agree within this (max norm) are one.
     pub const SAME_TOL: f64 = 1e-4;
 
-    /// The index of the attractor `a` is, if known. Every non-periodic outcome is one class.
+    /// The index of the attractor `a` is, if known. The non-periodic outcomes form one class
+    /// per [`Character`] (chaotic, quasi-periodic, unknown).
     pub fn find(&self, a: &Attractor) -> Option<usize> {
         self.attractors
             .iter()
             .position(|b| match (a.period, b.period) {
-                (None, None) => true,
+                (None, None) => a.character() == b.character(),
                 (Some(_), Some(_)) => same_cycle(&a.poincare, &b.poincare, Self::SAME_TOL),
                 _ => false,
             })
@@ -371,12 +476,14 @@ impl Catalogue {
         })
     }
 
-    /// Indices in a stable order (by period, the non-periodic class last, then by progression,
-    /// fastest first) and a label for each: `P3` for the only period-3 attractor, `P3a`,
-    /// `P3b` when there are several, `chaos` for the non-periodic class.
+    /// Indices in a stable order (by period, then the non-periodic classes, then by
+    /// progression, fastest first) and a label for each: `P3` for the only period-3 attractor,
+    /// `P3a`, `P3b` when there are several; `QP` (quasi-periodic or slowly converging: largest
+    /// Lyapunov exponent near zero), `chaos` (clearly positive) and `aperiodic` (not known) for
+    /// the runs that did not settle.
     pub fn ordered(&self) -> Vec<(usize, String)> {
         let mut idx: Vec<usize> = (0..self.attractors.len()).collect();
-        let key = |i: usize| self.attractors[i].period.unwrap_or(usize::MAX);
+        let key = |i: usize| self.attractors[i].character();
         idx.sort_by(|&a, &b| {
             key(a).cmp(&key(b)).then(
                 self.attractors[b]
@@ -386,9 +493,11 @@ impl Catalogue {
         });
         let mut out = Vec::with_capacity(idx.len());
         for (pos, &i) in idx.iter().enumerate() {
-            let label = match self.attractors[i].period {
-                None => "chaos".to_string(),
-                Some(k) => {
+            let label = match self.attractors[i].character() {
+                Character::QuasiPeriodic => "QP".to_string(),
+                Character::Chaotic => "chaos".to_string(),
+                Character::Aperiodic => "aperiodic".to_string(),
+                Character::Periodic(k) => {
                     let same: Vec<usize> = idx
                         .iter()
                         .copied()
@@ -505,14 +614,28 @@ mod tests {
             impacts_per_period: 1.0,
             avg_progression: prog,
             poincare: vec![[0.0, 0.0, y]; period.unwrap_or(1)],
+            largest_lyapunov: period.is_none().then_some(0.3),
         };
         let mut cat = Catalogue::default();
         cat.insert(&at(Some(3), 0.1, 0.0));
         cat.insert(&at(None, 0.0, 0.0));
         cat.insert(&at(Some(1), 0.5, 0.0));
         cat.insert(&at(Some(3), 0.2, 1.0));
+        // a second non-periodic class: quasi-periodic (largest exponent near zero)
+        cat.insert(&Attractor {
+            largest_lyapunov: Some(1e-3),
+            ..at(None, 0.1, 0.0)
+        });
+        // and a chaotic run is the same class as the first
+        assert_eq!(
+            cat.find(&Attractor {
+                largest_lyapunov: Some(0.9),
+                ..at(None, 0.4, 2.0)
+            }),
+            Some(1)
+        );
         let labels: Vec<String> = cat.ordered().into_iter().map(|(_, l)| l).collect();
-        assert_eq!(labels, ["P1", "P3a", "P3b", "chaos"]);
+        assert_eq!(labels, ["P1", "P3a", "P3b", "QP", "chaos"]);
         assert_eq!(
             cat.ordered()[1].0,
             3,

@@ -6,11 +6,14 @@
 pub mod accuracy;
 pub mod attractor;
 pub mod basin;
+pub mod basin_summary;
 pub mod continuation;
 pub mod floquet;
+pub mod identity;
 pub mod lyapunov;
 pub mod run;
 pub mod schedule;
+pub mod stability;
 pub mod sweep;
 pub mod switch;
 

@@ -6,11 +6,11 @@ use crate::scene_args::SceneArgs;
 use crate::svg;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins, BasinMap, BasinWork, Cell, Grid, Plane};
+use capsule_analysis::basin::{basins, BasinMap, Cell, Grid, Plane};
+use capsule_analysis::basin_summary::summary;
 use capsule_analysis::{GainSchedule, Param};
 use capsule_plant::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -112,89 +112,6 @@ pub fn pair<T: std::str::FromStr>(flag: &str, text: &str) -> Result<(T, T)> {
             .map_err(|_| anyhow::anyhow!("--{flag} `{text}`: `{s}` is not a valid number"))
     };
     Ok((num(a)?, num(b)?))
-}
-
-/// One map's summary as printed with `--json`.
-#[derive(Debug, Serialize)]
-pub struct Summary {
-    /// The attractors in legend order.
-    pub attractors: Vec<AttractorOut>,
-    /// The grid.
-    pub grid: GridOut,
-    /// The work done.
-    pub work: WorkOut,
-}
-
-/// An attractor with its label and share of the grid.
-#[derive(Debug, Serialize)]
-pub struct AttractorOut {
-    label: String,
-    period: Option<usize>,
-    impacts_per_period: f64,
-    avg_progression: f64,
-    poincare: Vec<[f64; 3]>,
-    fraction: f64,
-}
-
-/// The grid as printed.
-#[derive(Debug, Serialize)]
-pub struct GridOut {
-    plane: [&'static str; 2],
-    nx: usize,
-    ny: usize,
-    x_range: [f64; 2],
-    y_range: [f64; 2],
-    pending: usize,
-}
-
-/// The work as printed.
-#[derive(Debug, Serialize)]
-pub struct WorkOut {
-    #[serde(flatten)]
-    totals: BasinWork,
-    wall_s: f64,
-    ms_per_state: f64,
-    max_periods: u32,
-    known_tol: f64,
-}
-
-/// A map's summary, labels in legend order.
-pub fn summary(map: &BasinMap, wall_s: f64, cfg: &SettleConfig) -> Summary {
-    let g = &map.grid;
-    let attractors = map
-        .catalogue
-        .ordered()
-        .into_iter()
-        .map(|(i, label)| {
-            let a = &map.catalogue.attractors[i];
-            AttractorOut {
-                label,
-                period: a.period,
-                impacts_per_period: a.impacts_per_period,
-                avg_progression: a.avg_progression,
-                poincare: a.poincare.clone(),
-                fraction: map.fraction(i),
-            }
-        })
-        .collect();
-    Summary {
-        attractors,
-        grid: GridOut {
-            plane: [g.plane.x.name(), g.plane.y.name()],
-            nx: g.nx,
-            ny: g.ny,
-            x_range: [g.x_range.0, g.x_range.1],
-            y_range: [g.y_range.0, g.y_range.1],
-            pending: map.pending(),
-        },
-        work: WorkOut {
-            totals: map.work,
-            wall_s,
-            ms_per_state: 1e3 * wall_s / map.work.runs.max(1) as f64,
-            max_periods: cfg.max_periods,
-            known_tol: cfg.known_tol,
-        },
-    }
 }
 
 /// The grid from the flags, checked.

@@ -6,8 +6,7 @@ use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
 use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
-use capsule_analysis::floquet::{floquet, Floquet};
-use capsule_analysis::lyapunov::{lyapunov, Lyapunov};
+use capsule_analysis::stability::{self, RunStability};
 use capsule_analysis::{run_scheduled_until, GainSchedule, Pulse, RunReport};
 use capsule_nodes::ranges;
 use capsule_plant::scene::Scene;
@@ -98,30 +97,9 @@ struct Output<'a> {
     schedule: &'a GainSchedule,
     #[serde(flatten)]
     report: &'a RunReport,
-    /// Floquet multipliers of the periodic orbit found (periodic results only).
-    floquet: Option<Floquet>,
-    /// Lyapunov spectrum over the measured periods.
-    lyapunov: Option<Lyapunov>,
-    /// Why `floquet` or `lyapunov` is missing, if it is.
-    stability_note: Option<String>,
+    #[serde(flatten)]
+    stability: &'a RunStability,
     wall_time_s: f64,
-}
-
-/// The stability of the run's attractor: multipliers if periodic, the Lyapunov spectrum, and a
-/// note for what could not be computed (a law with memory, a grazing orbit).
-fn stability(scene: &Scene, r: &RunReport) -> (Option<Floquet>, Option<Lyapunov>, Option<String>) {
-    let mut notes = Vec::new();
-    let fl = r.period.and_then(|k| {
-        let f = r.final_state;
-        floquet(scene, [f.x1 - f.x2, f.y1, f.y2], k)
-            .map_err(|e| notes.push(format!("floquet: {e}")))
-            .ok()
-    });
-    let ly = lyapunov(scene)
-        .map_err(|e| notes.push(format!("lyapunov: {e}")))
-        .ok();
-    let note = (!notes.is_empty()).then(|| notes.join("; "));
-    (fl, ly, note)
 }
 
 pub fn main(args: Args) -> Result<()> {
@@ -181,37 +159,24 @@ pub fn main(args: Args) -> Result<()> {
             scene.horizon.periods
         );
     };
-    let (floquet, lyapunov, stability_note) = if schedule.pulse.is_none()
-        && schedule.after == scene.control.kp
-    {
-        stability(&scene, &report)
-    } else {
-        // the run ends under the gain after the schedule: the orbit's multipliers are those of
-        // that gain; the exponents of a run whose law changes midway are not defined
-        let mut after = scene.clone();
-        after.control.kp = schedule.after;
-        let (fl, _, note) = stability(&after, &report);
-        let skip = "lyapunov: not computed under a gain schedule (the law changes during the run)";
-        (
-            fl,
-            None,
-            Some(note.map_or(skip.to_string(), |n| format!("{n}; {skip}"))),
-        )
-    };
+    let stability = stability::of_run(&scene, &schedule, &report);
+    let RunStability {
+        floquet,
+        lyapunov,
+        stability_note,
+    } = &stability;
     if args.json {
         let out = Output {
             scene: &scene,
             schedule: &schedule,
             report: &report,
-            floquet,
-            lyapunov,
-            stability_note,
+            stability: &stability,
             wall_time_s: wall,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
-        if let Some(f) = &floquet {
+        if let Some(f) = floquet {
             let mus: Vec<String> = f
                 .multipliers
                 .iter()
@@ -234,7 +199,7 @@ pub fn main(args: Args) -> Result<()> {
                 }
             );
         }
-        if let Some(l) = &lyapunov {
+        if let Some(l) = lyapunov {
             let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
             println!(
                 "lyapunov       {} per unit tau (largest over half the run {:.6})",
@@ -242,7 +207,7 @@ pub fn main(args: Args) -> Result<()> {
                 l.largest_half_run
             );
         }
-        if let Some(n) = &stability_note {
+        if let Some(n) = stability_note {
             println!("stability      {n}");
         }
         if let Some(p) = schedule.pulse {

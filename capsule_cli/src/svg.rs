@@ -685,9 +685,13 @@ pub fn label_colour(label: &str) -> String {
         "5" => (140, 86, 75),
         "6" => (148, 60, 170),
         _ if label == "chaos" => (120, 170, 220),
+        // quasi-periodic or slowly converging: a grey apart from "failed" black
+        _ if label == "QP" => (150, 150, 150),
         _ => (100, 100, 100),
     };
-    let shade = match label.chars().last() {
+    // only the a, b, c suffix of a periodic label lightens it
+    let periodic = label.starts_with('P') && label[1..].starts_with(|c: char| c.is_ascii_digit());
+    let shade = match label.chars().last().filter(|_| periodic) {
         Some(c @ 'b'..='z') => (c as u8 - b'a') as f64 * 0.35,
         _ => 0.0,
     };

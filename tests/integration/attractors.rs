@@ -66,6 +66,82 @@ fn fig19_period_one_basin_grows_with_the_gain() {
 }
 
 #[test]
+fn fig19_gain_0_05_has_one_period_six_attractor_whatever_the_phase_it_is_reached_at() {
+    // The paper: k_p 0.05 turns period 3 into period 6. The period-6 orbit has a multiplier of
+    // 0.998, so runs approach it so slowly that their last cycles differed by up to 1e-2 and were
+    // listed as P6a, P6b, P6c, ... and "chaos"; Newton's method on the Poincaré map finds the one
+    // orbit they all approach.
+    let m = map(&coulomb(1.5, 0.05), 40);
+    let labels: Vec<String> = m.catalogue.ordered().into_iter().map(|(_, l)| l).collect();
+    let six: Vec<usize> = (0..m.catalogue.attractors.len())
+        .filter(|&i| m.catalogue.attractors[i].period == Some(6))
+        .collect();
+    assert_eq!(six.len(), 1, "labels {labels:?}");
+    assert!(labels.contains(&"P6".to_string()), "labels {labels:?}");
+    let p6 = &m.catalogue.attractors[six[0]];
+    assert!(m.fraction(six[0]) > 0.2, "P6 share {}", m.fraction(six[0]));
+    // its cycle is the exact orbit: six periods map its first point onto itself, and one
+    // period onto the next point (the cycle is in order, whatever phase it was reached at)
+    let s = coulomb(1.5, 0.05);
+    let x = |p: &[f64; 3]| [p[0], p[2], p[2] - p[1]];
+    let back = capsule_analysis::floquet::map_only(&s, x(&p6.poincare[0]), 6)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let next = capsule_analysis::floquet::map_only(&s, x(&p6.poincare[0]), 1)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let d = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max);
+    assert!(d(back, x(&p6.poincare[0])) < 1e-8, "{back:?}");
+    assert!(d(next, x(&p6.poincare[1])) < 1e-8, "{next:?}");
+    // no non-periodic class takes more than a sliver, and it is not called chaos
+    let chaos = labels.iter().any(|l| l == "chaos");
+    assert!(!chaos, "labels {labels:?}");
+}
+
+#[test]
+fn a_run_held_near_an_unstable_orbit_is_quasi_periodic_not_periodic_nor_chaos() {
+    // the period-3 orbit at alpha 1.5, k_p 0.05 is just past its period doubling (a multiplier
+    // of modulus 1.0005): a run started on it repeats with period 3 to 1e-6 for hundreds of
+    // periods, but it is no attractor; its largest Lyapunov exponent is near zero
+    let s = coulomb(1.5, 0.05);
+    let near = [
+        [0.652863, -1.848207, -1.265976],
+        [0.439382, 2.415634, 2.395457],
+        [0.340639, -0.424285, -0.129855],
+    ];
+    let p3 = capsule_analysis::identity::refine(&s, &near).unwrap_or_else(|| panic!("no orbit"));
+    assert_eq!(p3.period, 3);
+    assert!(
+        p3.largest_modulus > 1.0 && p3.largest_modulus < 1.01,
+        "{}",
+        p3.largest_modulus
+    );
+    let mut on = s.clone();
+    let q = p3.cycle[0];
+    on.initial = State {
+        x1: q[0],
+        y1: q[2],
+        x2: 0.0,
+        y2: q[2] - q[1],
+    };
+    let cfg = SettleConfig::for_scene(&on);
+    let o = capsule_analysis::attractor::settle(
+        &on,
+        &GainSchedule::constant(0.05),
+        &cfg,
+        &capsule_analysis::attractor::Catalogue::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(o.attractor.period, None, "{:?}", o.attractor.period);
+    let l = o.attractor.largest_lyapunov.unwrap_or(f64::NAN);
+    assert!(
+        l.abs() < capsule_analysis::identity::CHAOS_EXPONENT,
+        "largest exponent {l}"
+    );
+    let mut cat = capsule_analysis::attractor::Catalogue::default();
+    let i = cat.insert(&o.attractor);
+    assert_eq!(cat.ordered(), vec![(i, "QP".to_string())]);
+}
+
+#[test]
 fn fig18_period_three_basin_shrinks_toward_alpha_1_654() {
     let shares: Vec<f64> = [1.3, 1.5, 1.64]
         .iter()

@@ -6,6 +6,7 @@ mod cli;
 mod common;
 mod hard_cases;
 mod paper;
+mod python;
 mod record;
 mod replay_args;
 mod ros;
