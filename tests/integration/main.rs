@@ -9,6 +9,7 @@ mod paper;
 mod record;
 mod replay_args;
 mod ros;
+mod rosidl;
 mod scenes;
 mod solver;
 mod stability;
