@@ -4,6 +4,8 @@
 #   - procps (pgrep, used by the launcher test)
 #   - python3 + the Eclipse Cyclone DDS binding (PyPI `cyclonedds`, ships its C library): the
 #     interop peer tests/peers/cyclone_peer.py
+#   - ROS 2's interface tools (Debian: python3-rosidl, rosidl-core, librcutils-dev, the
+#     rosidl runtime/introspection headers, a C compiler): tests/peers/rosidl_check.py
 #   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
 #     tests/peers/foxglove_ws_client.py
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
@@ -14,6 +16,12 @@ need_apt=()
 command -v ip >/dev/null 2>&1 || need_apt+=(iproute2)
 command -v pgrep >/dev/null 2>&1 || need_apt+=(procps)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip)
+/usr/bin/python3 -c "import rosidl_adapter, rosidl_parser, rosidl_generator_c" >/dev/null 2>&1 \
+  || need_apt+=(python3-rosidl rosidl-core)
+[ -f /usr/include/rcutils/rcutils/allocator.h ] || need_apt+=(librcutils-dev)
+[ -d /usr/include/rosidl_typesupport_introspection_c ] \
+  || need_apt+=(librosidl-typesupport-introspection-c-cpp-dev)
+command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
 if [ "${#need_apt[@]}" -gt 0 ]; then
   echo "ros-setup: apt-get install ${need_apt[*]}"
   apt-get update -qq

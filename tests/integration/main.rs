@@ -10,6 +10,7 @@ mod python;
 mod record;
 mod replay_args;
 mod ros;
+mod rosidl;
 mod scenes;
 mod solver;
 mod stability;
