@@ -6,6 +6,8 @@
 #     interop peer tests/peers/cyclone_peer.py
 #   - ROS 2's interface tools (Debian: python3-rosidl, rosidl-core, librcutils-dev, the
 #     rosidl runtime/introspection headers, a C compiler): tests/peers/rosidl_check.py
+#   - eProsima Fast DDS 2.9 (Debian libfastrtps-dev) and a C++ compiler: the Fast DDS peer
+#     tests/peers/fastdds/, as an rclcpp node on rmw_fastrtps_cpp (the ROS 2 default)
 #   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
 #     tests/peers/foxglove_ws_client.py
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
@@ -22,6 +24,8 @@ command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip)
 [ -d /usr/include/rosidl_typesupport_introspection_c ] \
   || need_apt+=(librosidl-typesupport-introspection-c-cpp-dev)
 command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
+[ -f /usr/include/fastdds/dds/domain/DomainParticipant.hpp ] || need_apt+=(libfastrtps-dev)
+command -v c++ >/dev/null 2>&1 || need_apt+=(g++)
 if [ "${#need_apt[@]}" -gt 0 ]; then
   echo "ros-setup: apt-get install ${need_apt[*]}"
   apt-get update -qq

@@ -136,13 +136,15 @@ pub fn assert_at_least(json: &str, key: &str, min: f64) {
 /// Bash functions every script can call: `start_plant ARGS...` / `start_controller ARGS...`
 /// start the node on `$SCENE` in the background (pid in `$P` / `$C`; a redirection after the call
 /// applies to the node), `stop PID...` sends SIGTERM and waits (the status is the last one's),
-/// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py),
+/// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py), `fpeer ARGS...`
+/// the Fast DDS C++ peer (tests/peers/fastdds/, see [`fastdds_peer`]),
 /// `wait_nodes_of PID N` waits (at most 15 s) until N children of PID run their DDS threads.
 const PRELUDE: &str = r#"
 start_plant() { "$B/capsule_plant" --scene "$SCENE" "$@" & P=$!; }
 start_controller() { "$B/capsule_controller" --scene "$SCENE" "$@" & C=$!; }
 stop() { kill -TERM "$@"; wait "$@"; }
 peer() { python3 "$ROOT/tests/peers/cyclone_peer.py" "$@"; }
+fpeer() { "$FASTDDS_PEER" "$@"; }
 wait_nodes_of() {
     for i in $(seq 150); do
         n=0; for k in $(pgrep -P "$1"); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done
@@ -162,10 +164,49 @@ pub fn netns_with_peer(timeout_s: u32, script: &str) -> Run {
     netns(timeout_s, script)
 }
 
+/// The Fast DDS C++ peer (tests/peers/fastdds/fastdds_peer.cpp against Debian's
+/// libfastrtps-dev), compiled once per test run into the test target directory.
+pub fn fastdds_peer() -> PathBuf {
+    static BUILT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
+    let built = BUILT.get_or_init(|| {
+        let src = root().join("tests/peers/fastdds");
+        let exe = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fastdds_peer");
+        let out = Command::new("c++")
+            .args(["-std=c++17", "-O1", "-Wall", "-Werror", "-o"])
+            .arg(&exe)
+            .arg(src.join("fastdds_peer.cpp"))
+            .args(["-lfastrtps", "-lfastcdr"])
+            .output()
+            .map_err(|e| format!("cannot run c++: {e}"))?;
+        if out.status.success() {
+            Ok(exe)
+        } else {
+            Err(String::from_utf8_lossy(&out.stderr).into_owned())
+        }
+    });
+    match built {
+        Ok(exe) => exe.clone(),
+        Err(e) => panic!(
+            "the Fast DDS peer does not build (run .ci/ros-setup.sh for libfastrtps-dev):\n{e}"
+        ),
+    }
+}
+
+/// [`netns`] for a script that calls `fpeer`: builds the Fast DDS peer first.
+pub fn netns_with_fastdds_peer(timeout_s: u32, script: &str) -> Run {
+    let exe = fastdds_peer();
+    netns_env(timeout_s, script, &[("FASTDDS_PEER", exe.as_os_str())])
+}
+
 /// Runs a bash script in a fresh loopback-only namespace for at most `timeout_s`.
 /// `$B` is the binary directory, `$ROOT` the workspace, `$SCENE` the control-point scene and
 /// `$TMP` a scratch directory; the functions of [`PRELUDE`] are defined.
 pub fn netns(timeout_s: u32, script: &str) -> Run {
+    netns_env(timeout_s, script, &[])
+}
+
+/// [`netns`] with extra environment variables.
+fn netns_env(timeout_s: u32, script: &str, envs: &[(&str, &std::ffi::OsStr)]) -> Run {
     let b = bin_dir();
     let tmp = std::env::temp_dir().join(format!("capsule_ros_{}_{}", std::process::id(), unique()));
     std::fs::create_dir_all(&tmp)
@@ -182,6 +223,7 @@ pub fn netns(timeout_s: u32, script: &str) -> Run {
         .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         .env_remove("RMW_IMPLEMENTATION")
         .env_remove("RUST_LOG")
+        .envs(envs.iter().copied())
         .output()
         .unwrap_or_else(|e| panic!("cannot run netns_run.sh: {e}"));
     let _ = std::fs::remove_dir_all(&tmp);

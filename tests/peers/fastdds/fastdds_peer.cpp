@@ -1,0 +1,525 @@
+// eProsima Fast DDS (Debian libfastrtps-dev 2.9) peer of the capsule graph, as an rclcpp node on
+// rmw_fastrtps_cpp sees it: topics rt/..., services rq/<service>Request and rr/<service>Reply,
+// DDS type names pkg::msg::dds_::Name_, XCDR1, and rmw_fastrtps's request/reply correlation (the
+// request's related_sample_identity carries the client's reply reader GUID; the reply's
+// related_sample_identity is the request's sample identity).
+//
+// Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
+//   fastdds_peer state [--samples N]          read rt/capsule/state, check it, print JSON
+//   fastdds_peer force --force F              command the plant (no controller): F applied,
+//                                             NaN refused, zero after silence
+//   fastdds_peer set-mode MODE GAIN [--service S]
+//                                             call /capsule_controller/set_mode, print the answer
+//   fastdds_peer params --node N [--set NAME=DOUBLE]...
+//                                             list, get and set parameters as `ros2 param` does
+//   fastdds_peer bad KIND [--service S]       bad input, then a good call (must be answered):
+//                                             KIND = identity (no reply reader GUID, unknown
+//                                             sequence), cyclone (the request in the
+//                                             rmw_cyclonedds layout on the same topic), layout
+//                                             (the ActuatorForce name with another layout)
+// Fast DDS uses UDPv4 on 127.0.0.1 only (builtin transports off, interface whitelist).
+// Exit status 0 = the checks held; 1 = a check failed (the reason on stderr).
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/rtps/common/WriteParams.h>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+
+#include "types.hpp"
+
+using namespace eprosima::fastdds::dds;
+using eprosima::fastrtps::rtps::GUID_t;
+using eprosima::fastrtps::rtps::WriteParams;
+using Clock = std::chrono::steady_clock;
+
+[[noreturn]] static void fail(const std::string& why) {
+  std::fprintf(stderr, "fastdds_peer: %s\n", why.c_str());
+  std::exit(1);
+}
+
+/// Now + S seconds.
+static Clock::time_point after(double s) {
+  return Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+static double secs(const builtin_interfaces::msg::Time& t) { return t.sec + 1e-9 * t.nanosec; }
+
+static std::string json_str(const std::string& s) {
+  std::string o = "\"";
+  for (char ch : s) {
+    if (ch == '"' || ch == '\\') o += '\\';
+    if (static_cast<unsigned char>(ch) < 0x20) { o += ' '; continue; }
+    o += ch;
+  }
+  return o + "\"";
+}
+
+static std::string num(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream o;
+  o.precision(17);
+  o << v;
+  return o.str();
+}
+
+/// One participant on loopback only, with the topics, writers and readers it made.
+class Peer {
+ public:
+  Peer() {
+    DomainParticipantQos qos;
+    qos.name("fastdds_peer");
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->interfaceWhiteList.push_back("127.0.0.1");
+    qos.transport().user_transports.push_back(udp);
+    qos.transport().use_builtin_transports = false;
+    const char* dom = std::getenv("ROS_DOMAIN_ID");
+    int domain = dom ? std::atoi(dom) : 0;
+    dp_ = DomainParticipantFactory::get_instance()->create_participant(domain, qos);
+    if (!dp_) fail("cannot create a Fast DDS participant");
+    pub_ = dp_->create_publisher(PUBLISHER_QOS_DEFAULT);
+    sub_ = dp_->create_subscriber(SUBSCRIBER_QOS_DEFAULT);
+  }
+  ~Peer() {
+    dp_->delete_contained_entities();
+    DomainParticipantFactory::get_instance()->delete_participant(dp_);
+  }
+
+  template <class T>
+  Topic* topic(const std::string& name) {
+    TypeSupport ts(new RosType<T>());
+    std::string type = T::dds_name();
+    // two C++ layouts under one DDS type name (bad input) need two registrations' names apart
+    if (types_.count(type) == 0) {
+      if (ts.register_type(dp_) != ReturnCode_t::RETCODE_OK) fail("cannot register " + type);
+      types_[type] = true;
+    }
+    auto it = topics_.find(name);
+    if (it != topics_.end()) return it->second;
+    Topic* t = dp_->create_topic(name, type, TOPIC_QOS_DEFAULT);
+    if (!t) fail("cannot create topic " + name);
+    topics_[name] = t;
+    return t;
+  }
+
+  /// A writer with the rmw default QoS (reliable, volatile, keep last 10).
+  template <class T>
+  DataWriter* writer(const std::string& name) {
+    DataWriterQos q = DATAWRITER_QOS_DEFAULT;
+    q.reliability().kind = RELIABLE_RELIABILITY_QOS;
+    q.durability().kind = VOLATILE_DURABILITY_QOS;
+    q.history().kind = KEEP_LAST_HISTORY_QOS;
+    q.history().depth = 10;
+    DataWriter* w = pub_->create_datawriter(topic<T>(name), q);
+    if (!w) fail("cannot create a writer on " + name);
+    return w;
+  }
+
+  template <class T>
+  DataReader* reader(const std::string& name, int depth = 10) {
+    DataReaderQos q = DATAREADER_QOS_DEFAULT;
+    q.reliability().kind = RELIABLE_RELIABILITY_QOS;
+    q.durability().kind = VOLATILE_DURABILITY_QOS;
+    q.history().kind = KEEP_LAST_HISTORY_QOS;
+    q.history().depth = depth;
+    DataReader* r = sub_->create_datareader(topic<T>(name), q);
+    if (!r) fail("cannot create a reader on " + name);
+    return r;
+  }
+
+  DomainParticipant* dp_;
+
+ private:
+  Publisher* pub_;
+  Subscriber* sub_;
+  std::map<std::string, bool> types_;
+  std::map<std::string, Topic*> topics_;
+};
+
+/// Takes every sample waiting in R (valid data only).
+template <class T>
+static std::vector<T> take_all(DataReader* r) {
+  std::vector<T> out;
+  T s;
+  SampleInfo info;
+  while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
+    if (info.valid_data) out.push_back(s);
+  }
+  return out;
+}
+
+static void wait_matched(DataWriter* w, double timeout_s, const std::string& what) {
+  auto end = after(timeout_s);
+  PublicationMatchedStatus st;
+  while (Clock::now() < end) {
+    w->get_publication_matched_status(st);
+    if (st.current_count > 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  fail("no subscriber matched " + what + " within " + num(timeout_s) + " s");
+}
+
+static void wait_matched(DataReader* r, double timeout_s, const std::string& what) {
+  auto end = after(timeout_s);
+  SubscriptionMatchedStatus st;
+  while (Clock::now() < end) {
+    r->get_subscription_matched_status(st);
+    if (st.current_count > 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  fail("no publisher matched " + what + " within " + num(timeout_s) + " s");
+}
+
+/// A service client in rmw_fastrtps's mapping.
+template <class Req, class Rep>
+class Client {
+ public:
+  Client(Peer& p, const std::string& service, double timeout_s)
+      : service_(service), timeout_(timeout_s) {
+    std::string s = service[0] == '/' ? service.substr(1) : service;
+    w_ = p.writer<Req>("rq/" + s + "Request");
+    r_ = p.reader<Rep>("rr/" + s + "Reply", 100);
+    wait_matched(w_, timeout_, "rq/" + s + "Request");
+    wait_matched(r_, timeout_, "rr/" + s + "Reply");
+  }
+
+  /// Sends REQ (again every 0.5 s: a first write can race discovery) until its reply comes.
+  Rep call(Req req) {
+    auto end = after(timeout_);
+    while (Clock::now() < end) {
+      WriteParams wp;
+      wp.related_sample_identity().writer_guid(r_->guid());
+      if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
+      auto sent = wp.sample_identity();
+      auto resend = std::min(end, after(0.5));
+      while (Clock::now() < resend) {
+        Rep rep;
+        SampleInfo info;
+        while (r_->take_next_sample(&rep, &info) == ReturnCode_t::RETCODE_OK) {
+          if (!info.valid_data) continue;
+          const auto& rel = info.related_sample_identity;
+          bool ours = rel.writer_guid() == r_->guid() || rel.writer_guid() == w_->guid();
+          if (ours && rel.sequence_number() == sent.sequence_number()) return rep;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    fail("no " + service_ + " reply within " + num(timeout_) + " s");
+  }
+
+  /// Writes REQ with the given write parameters; says how a reply in WAIT s was addressed:
+  /// "none", "request" (related to the request's own sample identity: rmw_fastrtps's fallback
+  /// when the request names no reply reader) or "other".
+  std::string write_raw(Req req, WriteParams& wp, double wait_s) {
+    if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
+    auto sent = wp.sample_identity();
+    auto end = after(wait_s);
+    while (Clock::now() < end) {
+      Rep rep;
+      SampleInfo info;
+      while (r_->take_next_sample(&rep, &info) == ReturnCode_t::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        const auto& rel = info.related_sample_identity;
+        bool to_request = rel.writer_guid() == w_->guid() &&
+                          rel.sequence_number() == sent.sequence_number();
+        return to_request ? "request" : "other";
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return "none";
+  }
+
+ private:
+  std::string service_;
+  double timeout_;
+  DataWriter* w_;
+  DataReader* r_;
+};
+
+static std::map<std::string, std::string> flags(int argc, char** argv, int from,
+                                                std::vector<std::string>* sets = nullptr) {
+  std::map<std::string, std::string> f;
+  for (int i = from; i < argc; i++) {
+    std::string a = argv[i];
+    if (a.rfind("--", 0) != 0 || i + 1 >= argc) fail("bad argument " + a);
+    if (a == "--set" && sets) sets->push_back(argv[++i]);
+    else f[a.substr(2)] = argv[++i];
+  }
+  return f;
+}
+
+static double flag(const std::map<std::string, std::string>& f, const std::string& k, double d) {
+  auto it = f.find(k);
+  return it == f.end() ? d : std::strtod(it->second.c_str(), nullptr);
+}
+
+// --- state: the plant's samples as published
+static int cmd_state(int argc, char** argv) {
+  auto f = flags(argc, argv, 2);
+  size_t n = static_cast<size_t>(flag(f, "samples", 200));
+  double timeout = flag(f, "timeout", 20);
+  Peer p;
+  DataReader* r = p.reader<capsule_msgs::msg::CapsuleState>("rt/capsule/state", 1000);
+  std::vector<capsule_msgs::msg::CapsuleState> got;
+  auto end = after(timeout);
+  while (got.size() < n && Clock::now() < end) {
+    for (auto& s : take_all<capsule_msgs::msg::CapsuleState>(r)) got.push_back(s);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  if (got.size() < n) fail("got " + std::to_string(got.size()) + " of " + std::to_string(n) +
+                           " state samples");
+  for (size_t i = 0; i < got.size(); i++) {
+    const auto& s = got[i];
+    if (!std::isfinite(s.mass_position) || !std::isfinite(s.capsule_position) ||
+        !std::isfinite(s.actuator_force))
+      fail("a state with non-finite values");
+    if (s.header.frame_id != "odom") fail("frame_id " + s.header.frame_id);
+    if (i > 0 && (s.seq <= got[i - 1].seq || secs(s.header.stamp) <= secs(got[i - 1].header.stamp)))
+      fail("seq or stamp not increasing");
+  }
+  double rate = (got.back().seq - got.front().seq) /
+                (secs(got.back().header.stamp) - secs(got.front().header.stamp));
+  for (const auto& s : got)
+    if (std::fabs(secs(s.header.stamp) - s.seq / rate) > 1e-6) fail("stamps are not seq / rate");
+  double lo = 1e300, hi = -1e300;
+  for (const auto& s : got) { lo = std::min(lo, s.mass_position); hi = std::max(hi, s.mass_position); }
+  std::printf("{\"samples\": %zu, \"rate_hz\": %s, \"first_seq\": %llu, \"mass_travel_m\": %s}\n",
+              got.size(), num(rate).c_str(), static_cast<unsigned long long>(got.front().seq),
+              num(hi - lo).c_str());
+  return 0;
+}
+
+// --- force: commanding the plant, as a controller on rmw_fastrtps would
+static int cmd_force(int argc, char** argv) {
+  auto f = flags(argc, argv, 2);
+  double force = flag(f, "force", 0.05);
+  Peer p;
+  DataReader* r = p.reader<capsule_msgs::msg::CapsuleState>("rt/capsule/state", 1000);
+  DataWriter* w = p.writer<capsule_msgs::msg::ActuatorForce>("rt/capsule/actuator_force");
+  wait_matched(w, 15, "rt/capsule/actuator_force");
+  capsule_msgs::msg::CapsuleState latest;
+  bool have = false;
+  // answers the newest state with F for S seconds; returns the states seen
+  auto pump = [&](double value, double seconds) {
+    std::vector<capsule_msgs::msg::CapsuleState> seen;
+    auto end = after(seconds);
+    while (Clock::now() < end) {
+      for (auto& s : take_all<capsule_msgs::msg::CapsuleState>(r)) {
+        latest = s;
+        have = true;
+        seen.push_back(s);
+      }
+      if (have) {
+        capsule_msgs::msg::ActuatorForce cmd;
+        cmd.header.stamp = latest.header.stamp;
+        cmd.header.frame_id = "";
+        cmd.state_seq = latest.seq;
+        cmd.force = value;
+        w->write(&cmd);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return seen;
+  };
+  pump(force, 1.0);
+  if (!have) fail("no state from the plant");
+  auto seen = pump(force, 1.5);
+  size_t applied = 0;
+  for (const auto& s : seen)
+    if (std::fabs(s.actuator_force - force) < 1e-12) applied++;
+  if (applied == 0) fail("the force " + num(force) + " N was never applied");
+  uint32_t before = latest.rejected_commands;
+  auto nan_seen = pump(std::nan(""), 1.0);
+  uint32_t after = latest.rejected_commands;
+  for (const auto& s : nan_seen)
+    if (!std::isfinite(s.actuator_force)) fail("a NaN command was applied");
+  // silence: the watchdog falls back to zero
+  std::vector<capsule_msgs::msg::CapsuleState> quiet;
+  auto end = Clock::now() + std::chrono::seconds(3);
+  bool zero = false;
+  while (Clock::now() < end && !zero) {
+    for (auto& s : take_all<capsule_msgs::msg::CapsuleState>(r))
+      if (s.actuator_force == 0.0 && s.command_stale) zero = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!zero) fail("the force did not fall back to zero after the commands stopped");
+  std::printf("{\"applied_samples\": %zu, \"refused_before\": %u, \"refused_after\": %u, "
+              "\"stale_fallback\": true}\n", applied, before, after);
+  return 0;
+}
+
+static void print_set_mode(const capsule_msgs::srv::SetMode_Response& r) {
+  std::printf("{\"accepted\": %s, \"mode\": %u, \"gain\": %s, \"reason\": %s}\n",
+              r.accepted ? "true" : "false", r.mode, num(r.gain).c_str(),
+              json_str(r.reason).c_str());
+}
+
+static capsule_msgs::srv::SetMode_Request set_mode_request(int mode, double gain) {
+  capsule_msgs::srv::SetMode_Request q;
+  q.mode = static_cast<uint8_t>(mode);
+  q.gain = gain;
+  return q;
+}
+
+// --- set-mode: the controller's service in rmw_fastrtps's mapping
+static int cmd_set_mode(int argc, char** argv) {
+  if (argc < 4) fail("set-mode MODE GAIN");
+  int mode = std::atoi(argv[2]);
+  double gain = std::strtod(argv[3], nullptr);
+  auto f = flags(argc, argv, 4);
+  std::string service = f.count("service") ? f["service"] : "capsule_controller/set_mode";
+  Peer p;
+  Client<capsule_msgs::srv::SetMode_Request, capsule_msgs::srv::SetMode_Response> c(
+      p, service, flag(f, "timeout", 20));
+  print_set_mode(c.call(set_mode_request(mode, gain)));
+  return 0;
+}
+
+static std::string value_json(const rcl_interfaces::msg::ParameterValue& v) {
+  switch (v.type) {
+    case 1: return v.bool_value ? "true" : "false";
+    case 2: return std::to_string(v.integer_value);
+    case 3: return num(v.double_value);
+    case 4: return json_str(v.string_value);
+    default: return "null";
+  }
+}
+
+// --- params: rcl_interfaces services as `ros2 param list/get/set` call them
+static int cmd_params(int argc, char** argv) {
+  std::vector<std::string> sets;
+  auto f = flags(argc, argv, 2, &sets);
+  std::string node = f.count("node") ? f["node"] : "/capsule_controller";
+  if (node[0] == '/') node = node.substr(1);
+  double timeout = flag(f, "timeout", 20);
+  Peer p;
+  using namespace rcl_interfaces::srv;
+  Client<ListParameters_Request, ListParameters_Response> list(p, node + "/list_parameters", timeout);
+  Client<GetParameters_Request, GetParameters_Response> get(p, node + "/get_parameters", timeout);
+  Client<SetParameters_Request, SetParameters_Response> set(p, node + "/set_parameters", timeout);
+  auto names = list.call({}).result.names;
+  if (names.empty()) fail("no parameters listed");
+  GetParameters_Request gq;
+  gq.names = names;
+  auto values = get.call(gq).values;
+  if (values.size() != names.size()) fail("get_parameters answered a different count");
+  std::string out = "{\"names\": {";
+  for (size_t i = 0; i < names.size(); i++)
+    out += (i ? ", " : "") + json_str(names[i]) + ": " + value_json(values[i]);
+  out += "}, \"set\": [";
+  for (size_t i = 0; i < sets.size(); i++) {
+    auto eq = sets[i].find('=');
+    if (eq == std::string::npos) fail("--set NAME=DOUBLE");
+    SetParameters_Request sq;
+    rcl_interfaces::msg::Parameter prm;
+    prm.name = sets[i].substr(0, eq);
+    prm.value.type = 3;
+    prm.value.double_value = std::strtod(sets[i].c_str() + eq + 1, nullptr);
+    sq.parameters.push_back(prm);
+    auto res = set.call(sq).results;
+    if (res.size() != 1) fail("set_parameters answered " + std::to_string(res.size()) + " results");
+    GetParameters_Request g1;
+    g1.names = {prm.name};
+    auto now = get.call(g1).values;
+    out += std::string(i ? ", " : "") + "{\"name\": " + json_str(prm.name) + ", \"successful\": " +
+           (res[0].successful ? "true" : "false") + ", \"reason\": " + json_str(res[0].reason) +
+           ", \"now\": " + (now.size() == 1 ? value_json(now[0]) : "null") + "}";
+  }
+  std::printf("%s]}\n", out.c_str());
+  return 0;
+}
+
+/// The SetMode request in rmw_cyclonedds's layout: a 16-byte header (client GUID half,
+/// sequence number) before the fields, under the same DDS type name.
+struct SetModeRequestCyclone {
+  uint64_t client_guid = 0;
+  int64_t sequence = 0;
+  uint8_t mode = 0;
+  double gain = 0;
+  builtin_interfaces::msg::Time effective_from;
+  int32_t pulse_periods = 0, target_period = 0, max_tries = 0;
+  ROS_STRUCT(SetModeRequestCyclone, "capsule_msgs::srv::dds_::SetMode_Request_", client_guid,
+             sequence, mode, gain, effective_from, pulse_periods, target_period, max_tries)
+};
+
+// --- bad: malformed identity, the other rmw's mapping, another layout; then a good call
+static int cmd_bad(int argc, char** argv) {
+  if (argc < 3) fail("bad KIND");
+  std::string kind = argv[2];
+  auto f = flags(argc, argv, 3);
+  std::string service = f.count("service") ? f["service"] : "capsule_controller/set_mode";
+  double timeout = flag(f, "timeout", 20);
+  if (kind == "identity") {
+    // a request whose related sample identity names no reader and an impossible sequence
+    Peer p;
+    Client<capsule_msgs::srv::SetMode_Request, capsule_msgs::srv::SetMode_Response> c(
+        p, service, timeout);
+    WriteParams wp;
+    eprosima::fastrtps::rtps::SampleIdentity bogus;
+    bogus.writer_guid(GUID_t::unknown());
+    bogus.sequence_number(eprosima::fastrtps::rtps::SequenceNumber_t(-1, 0));
+    wp.related_sample_identity(bogus);
+    std::string reply = c.write_raw(set_mode_request(1, 0.2), wp, 2.0);
+    std::printf("{\"bad\": \"identity\", \"reply\": \"%s\"}\n", reply.c_str());
+    print_set_mode(c.call(set_mode_request(2, 0.1)));
+  } else if (kind == "cyclone") {
+    Peer p;
+    DataWriter* w = p.writer<SetModeRequestCyclone>(
+        "rq/" + service + "Request");
+    wait_matched(w, timeout, "rq/" + service + "Request");
+    SetModeRequestCyclone q;
+    q.client_guid = 0x1234;
+    q.sequence = 1;
+    q.mode = 2;
+    q.gain = 0.1;
+    for (int i = 0; i < 5; i++) {
+      w->write(&q);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    std::printf("{\"bad\": \"cyclone\", \"sent\": 5}\n");
+  } else if (kind == "layout") {
+    Peer p;
+    DataWriter* w = p.writer<capsule_msgs::msg::ActuatorForceOtherLayout>(
+        "rt/capsule/actuator_force");
+    wait_matched(w, timeout, "rt/capsule/actuator_force");
+    capsule_msgs::msg::ActuatorForceOtherLayout q;
+    q.note = "not an ActuatorForce";
+    q.force = 7.0;
+    for (int i = 0; i < 20; i++) {
+      w->write(&q);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    std::printf("{\"bad\": \"layout\", \"sent\": 20}\n");
+  } else {
+    fail("unknown bad input kind " + kind);
+  }
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  if (argc < 2) fail("usage: fastdds_peer state|force|set-mode|params|bad ...");
+  std::string cmd = argv[1];
+  if (cmd == "state") return cmd_state(argc, argv);
+  if (cmd == "force") return cmd_force(argc, argv);
+  if (cmd == "set-mode") return cmd_set_mode(argc, argv);
+  if (cmd == "params") return cmd_params(argc, argv);
+  if (cmd == "bad") return cmd_bad(argc, argv);
+  fail("unknown command " + cmd);
+}
