@@ -20,6 +20,13 @@ import capsule
 CONTROL = "scenes/control_point.toml"
 
 
+def default_sigint():
+    """In the child: SIGINT back to its default. A shell starts background jobs with SIGINT
+    ignored, and Python then installs no KeyboardInterrupt handler: the Ctrl-C tests would
+    depend on how the test command was launched."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def same(a, b, path="$"):
     """Deep equality of the command's JSON and the bindings' output (arrays as lists; the
     command's null for -inf exponents)."""
@@ -233,7 +240,8 @@ SCRIPT = textwrap.dedent("""
 
 
 def test_ctrl_c_stops_a_long_sweep_with_what_finished():
-    p = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, text=True,
+                         preexec_fn=default_sigint)
     time.sleep(3.0)
     t_sig = time.time()
     p.send_signal(signal.SIGINT)
@@ -248,7 +256,8 @@ def test_ctrl_c_stops_a_long_sweep_with_what_finished():
 def test_ctrl_c_stops_a_long_simulate():
     script = ("import capsule\ntry:\n    capsule.simulate(alpha=0.6, periods=4000000)\n"
               "except capsule.Interrupted as e:\n    print('interrupted', e)\n    raise SystemExit(3)\n")
-    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                         preexec_fn=default_sigint)
     time.sleep(2.0)
     t_sig = time.time()
     p.send_signal(signal.SIGINT)
@@ -276,7 +285,7 @@ def test_ctrl_c_stops_basins_and_continuation_with_what_finished(call, check):
     script = (f"import capsule\ntry:\n    {call}\nexcept capsule.Interrupted as e:\n"
               f"    assert {check}, e.partial\n    print('interrupted')\n    raise SystemExit(3)\n")
     p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     time.sleep(3.0)
     t_sig = time.time()
     p.send_signal(signal.SIGINT)
