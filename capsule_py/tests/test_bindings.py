@@ -27,6 +27,23 @@ def default_sigint():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+def interrupt(script, after_s):
+    """Runs SCRIPT in a child Python, sends it SIGINT after AFTER_S seconds; returns its exit
+    status, stdout, stderr and how long it took to stop. The child never outlives the test."""
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
+    try:
+        time.sleep(after_s)
+        t_sig = time.time()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=60)
+        return p.returncode, out, err, time.time() - t_sig
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+
+
 def same(a, b, path="$"):
     """Deep equality of the command's JSON and the bindings' output (arrays as lists; the
     command's null for -inf exponents)."""
@@ -240,14 +257,8 @@ SCRIPT = textwrap.dedent("""
 
 
 def test_ctrl_c_stops_a_long_sweep_with_what_finished():
-    p = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, text=True,
-                         preexec_fn=default_sigint)
-    time.sleep(3.0)
-    t_sig = time.time()
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=60)
-    took = time.time() - t_sig
-    assert p.returncode == 3, out
+    code, out, err, took = interrupt(SCRIPT, 3.0)
+    assert code == 3, out + err
     n = int(out.split()[1])
     assert 0 < n < 200000, out
     assert took < 30, f"Ctrl-C took {took:.1f} s to stop the sweep"
@@ -256,14 +267,9 @@ def test_ctrl_c_stops_a_long_sweep_with_what_finished():
 def test_ctrl_c_stops_a_long_simulate():
     script = ("import capsule\ntry:\n    capsule.simulate(alpha=0.6, periods=4000000)\n"
               "except capsule.Interrupted as e:\n    print('interrupted', e)\n    raise SystemExit(3)\n")
-    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
-                         preexec_fn=default_sigint)
-    time.sleep(2.0)
-    t_sig = time.time()
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=60)
-    assert p.returncode == 3 and "interrupted" in out, out
-    assert time.time() - t_sig < 5
+    code, out, err, took = interrupt(script, 2.0)
+    assert code == 3 and "interrupted" in out, out + err
+    assert took < 5
 
 
 def test_scenes_pickle_as_their_text():
@@ -284,11 +290,6 @@ def test_scenes_pickle_as_their_text():
 def test_ctrl_c_stops_basins_and_continuation_with_what_finished(call, check):
     script = (f"import capsule\ntry:\n    {call}\nexcept capsule.Interrupted as e:\n"
               f"    assert {check}, e.partial\n    print('interrupted')\n    raise SystemExit(3)\n")
-    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
-    time.sleep(3.0)
-    t_sig = time.time()
-    p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=60)
-    assert p.returncode == 3 and "interrupted" in out, out + err
-    assert time.time() - t_sig < 30
+    code, out, err, took = interrupt(script, 3.0)
+    assert code == 3 and "interrupted" in out, out + err
+    assert took < 30
