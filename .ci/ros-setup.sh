@@ -10,6 +10,8 @@
 #     tests/peers/fastdds/, as an rclcpp node on rmw_fastrtps_cpp (the ROS 2 default)
 #   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
 #     tests/peers/foxglove_ws_client.py
+#   - colcon (PyPI colcon-core, colcon-cargo, colcon-ros-cargo, colcon-package-information) and
+#     cargo-ament-build (crates.io): `colcon build` of capsule_nodes, tests/integration/ros/colcon.rs
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
 # `cargo build --workspace` (the tests start the node binaries from target/debug).
 set -euo pipefail
@@ -42,6 +44,18 @@ if ! python3 -c "import websockets" >/dev/null 2>&1; then
   echo "ros-setup: pip install websockets"
   python3 -m pip install --quiet --disable-pip-version-check websockets==15.0.1 \
     || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages websockets==15.0.1
+fi
+
+if ! command -v colcon >/dev/null 2>&1 || ! python3 -c "import colcon_ros_cargo" >/dev/null 2>&1; then
+  echo "ros-setup: pip install colcon-core colcon-cargo colcon-ros-cargo"
+  pkgs=(colcon-core==0.21.3 colcon-cargo==0.2.0 colcon-ros-cargo==0.2.0 colcon-package-information==0.4.1 colcon-package-selection==0.2.10 colcon-recursive-crawl==0.2.3)
+  python3 -m pip install --quiet --disable-pip-version-check "${pkgs[@]}" \
+    || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages "${pkgs[@]}"
+  hash -r
+fi
+if ! cargo ament-build --help >/dev/null 2>&1; then
+  echo "ros-setup: cargo install cargo-ament-build"
+  cargo install --quiet --locked cargo-ament-build@0.1.11
 fi
 
 # the namespace recipe must work here (root, kernel support); fail early with the reason

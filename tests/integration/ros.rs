@@ -8,6 +8,7 @@
 
 mod harness;
 
+mod colcon;
 mod fastdds;
 mod fault_matrix;
 mod faults;

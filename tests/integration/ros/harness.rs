@@ -156,12 +156,23 @@ wait_nodes_of() {
 
 /// [`netns`] for a script that calls `peer`: first checks that the peer can run.
 pub fn netns_with_peer(timeout_s: u32, script: &str) -> Run {
+    assert_cyclone_peer_runs();
+    netns(timeout_s, script)
+}
+
+/// [`netns_with_peer`] with the node binaries (`$B`) taken from `bin` instead of target/debug.
+pub fn netns_with_peer_from(bin: &Path, timeout_s: u32, script: &str) -> Run {
+    assert_cyclone_peer_runs();
+    netns_env(timeout_s, script, &[("B", bin.as_os_str())])
+}
+
+/// Fails with the set-up command when the Cyclone DDS Python peer cannot run.
+fn assert_cyclone_peer_runs() {
     let ok = Command::new("python3")
         .args(["-c", "import cyclonedds"])
         .status()
         .is_ok_and(|s| s.success());
     assert!(ok, "python3 with cyclonedds needed: run .ci/ros-setup.sh");
-    netns(timeout_s, script)
 }
 
 /// The Fast DDS C++ peer (tests/peers/fastdds/fastdds_peer.cpp against Debian's
