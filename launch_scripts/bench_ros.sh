@@ -13,6 +13,7 @@
 #   rt10k  the same at 10 kHz for 5 s
 #   lock   lock-step closed loop: steps per second of wall time
 #   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
+# BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
@@ -64,11 +65,17 @@ PY
 
 run_case() { # name seconds plant-args [node-args]
   local out
+  case " ${BENCH_CASES:-$1} " in *" $1 "*) ;; *) return 0 ;; esac
   out=$(SECS="$2" PLANT_ARGS="$3" NODE_ARGS="${4:-}" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$case_script")
   report "$1" "$out"
 }
 cpu=$(awk '/Cpus_allowed_list/ {print $2}' /proc/self/status | tr ',' '\n' | tail -1 | sed 's/.*-//')
 
+for c in ${BENCH_CASES:-}; do
+  case "$c" in rt1k|rt1k-cpu1|rt10k|rt10k-cpu1|lock|lock-cpu1) ;;
+    *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt1k-cpu1 rt10k rt10k-cpu1 lock lock-cpu1)" >&2; exit 2 ;;
+  esac
+done
 echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
 run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"

@@ -421,8 +421,10 @@ pub fn init_logging() {
         .try_init();
 }
 
-/// Runs a node's future on a multi-threaded tokio runtime, its threads (and DDS's, started
-/// from them) pinned to `cpus` if given.
+/// Runs a node's future on a single-threaded tokio runtime (the thread that calls this), its
+/// threads (and DDS's, started from them) pinned to `cpus` if given. One runtime thread: a
+/// sample that DDS's thread hands over wakes that thread directly, where a multi-threaded
+/// runtime wakes whichever worker is idle, often on the other CPU (docs/ros.md, lock-step).
 pub fn block_on<T, E, F>(cpus: Option<&CpuList>, fut: F) -> Result<T, E>
 where
     E: From<NodeError>,
@@ -431,7 +433,7 @@ where
     if let Some(list) = cpus {
         affinity::pin_process(list).with_context(|| format!("--cpu-affinity {list}"))?;
     }
-    tokio::runtime::Builder::new_multi_thread()
+    tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .context("cannot start the tokio runtime")?
