@@ -10,7 +10,7 @@ use crate::work;
 use anyhow::{Context, Result};
 use capsule_analysis::accuracy::{best_of, ladder, rate_ladder, Point};
 use capsule_analysis::{sweep, Param};
-use capsule_nodes::ranges;
+use capsule_args::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::{Capsule, Friction, Method, Model, SolverConfig};
 use clap::ValueEnum;

@@ -10,7 +10,7 @@ use capsule_analysis::continuation::{
     continue_branch_observed, switch_at_period_doubling, Branch, BranchPoint, Settings, SpecialKind,
 };
 use capsule_analysis::{sweep, Param};
-use capsule_nodes::ranges;
+use capsule_args::ranges;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -71,7 +71,8 @@ enum Command {
     Bench(bench::Args),
     /// Look into a recorded run (info) or complete a cut one (recover).
     Record(record::Args),
-    /// Publish a recording back onto ROS 2 at its pace, or check the controller against it.
+    /// Publish a recording back onto ROS 2 at its pace, or check the controller against it
+    /// (runs capsule_replay, from capsule_nodes).
     Replay(replay::Args),
 }
 

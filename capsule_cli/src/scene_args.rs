@@ -4,7 +4,7 @@
 use crate::Refused;
 use anyhow::{bail, Result};
 use capsule_analysis::Param;
-use capsule_nodes::{ranges, scene_file::SceneFile};
+use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_plant::model::{K_S, MU_V, TAU_D, V_S};
 use capsule_plant::scene::Scene;
 use capsule_plant::{Friction, Method, SolverConfig, State};

@@ -8,7 +8,7 @@ use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
 use capsule_analysis::stability::{self, RunStability};
 use capsule_analysis::{run_scheduled_until, GainSchedule, Pulse, RunReport};
-use capsule_nodes::ranges;
+use capsule_args::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::Snapshot;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -46,7 +46,7 @@ pub struct Args {
     print_scene: bool,
     /// With --record: compression and splitting
     #[command(flatten)]
-    storage: capsule_nodes::recorder::StorageArgs,
+    storage: capsule_args::storage::StorageArgs,
 }
 
 /// A gain schedule on top of the scene's `--kp`: a pulse of another gain for some drive
@@ -110,7 +110,7 @@ pub fn main(args: Args) -> Result<()> {
         return Ok(());
     }
     args.work.check(&scene, 1)?;
-    let storage = args.storage.options()?;
+    let storage = args.storage.options();
     let mut rows: Vec<Snapshot> = Vec::new();
     let sampled = args.csv.is_some() || args.record.is_some();
     let samples = if sampled { args.samples_per_period } else { 0 };

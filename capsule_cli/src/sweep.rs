@@ -8,7 +8,7 @@ use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
 use capsule_analysis::lyapunov::{lyapunov_sweep, Lyapunov};
 use capsule_analysis::{sweep, sweep_following, Param, SweepPoint};
-use capsule_nodes::ranges;
+use capsule_args::ranges;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! flag that long runs check between pieces of work.
 
 use crate::Refused;
-use capsule_nodes::ranges;
+use capsule_args::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::{Method, Snapshot};
 use std::path::Path;

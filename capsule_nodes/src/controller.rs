@@ -11,6 +11,7 @@
 //! time (sim time under `use_sim_time`). The stale-state watchdog runs on a steady clock,
 //! because sim time stops when the plant does.
 
+use capsule_args::ranges;
 use capsule_msgs::names::topics;
 use capsule_plant::scene::PhysicalScale;
 use std::time::{Duration, Instant};
@@ -31,7 +32,6 @@ use crate::{
     command_feedback::CommandFeedback,
     conflicts::TopicRule,
     plant_identity::{PlantIdentity, Source},
-    ranges,
     ros::{qos, types, RosSettings, Wire},
     throttle::Throttle,
 };

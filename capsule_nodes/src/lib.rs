@@ -4,8 +4,6 @@
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps)
 //! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
-//! - [`scene_file`]: reading a scene file once, the same way in every binary
-//! - [`ranges`]: the documented range of every numeric flag, checked at parse time
 //! - [`latency`]: loop latency percentiles in constant memory
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
@@ -44,11 +42,9 @@ pub mod params;
 pub mod plant;
 pub mod plant_identity;
 pub mod plant_params;
-pub mod ranges;
 pub mod recorder;
 pub mod ros;
 pub mod ros_args;
-pub mod scene_file;
 pub mod sim;
 pub mod throttle;
 pub mod views;

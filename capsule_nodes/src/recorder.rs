@@ -25,7 +25,7 @@ use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::{
     cdr,
     types::{OfferedQos, SetModeEvent},
-    BagOptions, BagWriter, ChannelId, ChunkCompression, SceneRecord, WriterOptions,
+    BagOptions, BagWriter, ChannelId, SceneRecord, WriterOptions,
 };
 use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
@@ -41,42 +41,6 @@ pub fn service_event_topic(controller_node: &str) -> String {
 /// ROS type of the service-event topic as recorded.
 pub fn service_event_type() -> MessageTypeName {
     MessageTypeName::new("capsule_msgs", "SetModeEvent")
-}
-
-/// How a recording is stored, as rosbag2 users configure it: the flags `capsule_recorder`,
-/// `capsule_plant` (in-process recording) and `capsule simulate --record` share.
-#[derive(Debug, Clone, clap::Args)]
-pub struct StorageArgs {
-    /// Chunk compression: none, zstd, zstd_fast, zstd_small or lz4 (rosbag2's MCAP presets)
-    #[arg(long, default_value = "none", value_parser = parse_compression)]
-    pub compression: ChunkCompression,
-    /// Split the recording into NAME/NAME_0.mcap, NAME_1.mcap, ... with a rosbag2
-    /// metadata.yaml, starting the next file at about this many bytes
-    #[arg(long, value_name = "BYTES", value_parser = clap::value_parser!(u64).range(1..))]
-    pub max_bag_size: Option<u64>,
-    /// Split the same way once a file spans this many seconds of recorded time
-    #[arg(long, value_name = "S")]
-    pub max_bag_duration: Option<f64>,
-}
-
-fn parse_compression(s: &str) -> Result<ChunkCompression, String> {
-    s.parse()
-}
-
-impl StorageArgs {
-    /// The storage options, or why the flags are refused.
-    pub fn options(&self) -> Result<BagOptions> {
-        let max_duration_ns = match self.max_bag_duration {
-            None => None,
-            Some(s) if s.is_finite() && s > 0.0 && s <= 1e9 => Some((s * 1e9) as u64),
-            Some(s) => crate::error::bail!("--max-bag-duration {s}: must be > 0 and at most 1e9 s"),
-        };
-        Ok(BagOptions {
-            compression: self.compression,
-            max_bytes: self.max_bag_size,
-            max_duration_ns,
-        })
-    }
 }
 
 /// What to record and where.

@@ -12,6 +12,7 @@
 //! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
 //!   file; `open` checks a file before reading it.
+//! - [`sample::state_message`]: a simulator sample as the `CapsuleState` the plant publishes.
 //! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
 //!   old schema blocks ([`fix_schemas`]).
 //!
@@ -26,6 +27,7 @@ pub mod info;
 pub mod messages;
 mod open;
 pub mod recover;
+pub mod sample;
 pub mod scan;
 pub mod types;
 pub mod writer;

@@ -597,7 +597,7 @@ proptest! {
         any::<i64>().prop_map(|v| v.to_string()),
         "[-+.e0-9a-z]{0,8}",
     ]) {
-        use capsule_nodes::ranges;
+        use capsule_args::ranges;
         if let Ok(v) = ranges::positive(ranges::MAX_SECONDS)(&text) {
             prop_assert!(v > 0.0 && v <= ranges::MAX_SECONDS);
             prop_assert!(Duration::try_from_secs_f64(v).is_ok());

@@ -5,13 +5,13 @@ use capsule_plant::scene::PhysicalScale;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
+use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_nodes::{
     controller::{self, ControllerCore, ControllerOptions, GainArgs},
-    controller_params, ranges,
+    controller_params,
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args,
-    scene_file::SceneFile,
 };
 use clap::Parser;
 

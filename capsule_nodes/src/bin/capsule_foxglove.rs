@@ -3,10 +3,10 @@
 use std::io::Write as _;
 
 use anyhow::{bail, Result};
+use capsule_args::ranges;
 use capsule_msgs::names::nodes;
 use capsule_nodes::{
     foxglove_bridge::{self, BridgeOptions},
-    ranges,
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args::{self, Override},
 };

@@ -4,12 +4,12 @@ use capsule_msgs::names::nodes;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _, Result};
+use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
     plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
-    plant_params, ranges, recorder,
+    plant_params, recorder,
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args,
-    scene_file::SceneFile,
     sim::SimulatedPlant,
     views,
 };
@@ -74,7 +74,7 @@ struct Cli {
     flush_ms: u64,
     /// In-process recording: compression and splitting
     #[command(flatten)]
-    storage: recorder::StorageArgs,
+    storage: StorageArgs,
     /// Write a JSON summary (loop statistics, last sample) to this file at the end
     #[arg(long)]
     summary_json: Option<String>,
@@ -114,7 +114,7 @@ fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOp
         scene: Some(scene),
         controller_node: cli.controller_node.clone(),
         flush_period: Duration::from_millis(cli.flush_ms),
-        bag: cli.storage.options()?,
+        bag: cli.storage.options(),
     }))
 }
 

@@ -4,11 +4,10 @@ use capsule_msgs::names::nodes;
 use std::{path::PathBuf, time::Duration};
 
 use anyhow::Result;
+use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
-    ranges,
-    recorder::{self, RecorderOptions, StorageArgs},
+    recorder::{self, RecorderOptions},
     ros::{self, RosArgs, RosEnv, RosSettings},
-    scene_file::SceneFile,
 };
 use clap::Parser;
 
@@ -70,7 +69,7 @@ fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
     Ok((
         settings,
         RecorderOptions {
-            bag: cli.storage.options()?,
+            bag: cli.storage.options(),
             output,
             scene,
             flush_period: Duration::from_millis(cli.flush_ms),

@@ -3,13 +3,12 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _, Result};
+use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_nodes::{
     client::{state_subscription, ModeClient, SegmentMeter},
-    ranges,
     ros::{self, RosArgs, RosEnv, RosSettings},
-    scene_file::SceneFile,
 };
 use clap::{Parser, Subcommand};
 use futures::StreamExt;

@@ -13,12 +13,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The node executables the package installs.
-const EXECUTABLES: [&str; 5] = [
+const EXECUTABLES: [&str; 6] = [
     "capsule_plant",
     "capsule_controller",
     "capsule_ros",
     "capsule_recorder",
     "capsule_foxglove",
+    "capsule_replay",
 ];
 
 /// Runs `colcon build` for capsule_nodes in a scratch workspace, once per test run, and returns

@@ -1,5 +1,6 @@
 //! The documented range of every numeric flag of every binary (`capsule`, `capsule_plant`,
-//! `capsule_controller`, `capsule_recorder`, `capsule_ros`), checked by clap at parse time, so
+//! `capsule_controller`, `capsule_recorder`, `capsule_ros`, `capsule_foxglove`,
+//! `capsule_replay`), checked by clap at parse time, so
 //! that NaN, infinities, 1e308, negative or zero values where they mean nothing, durations that
 //! overflow a [`std::time::Duration`] and counts that overflow an allocation are refused before
 //! anything starts, with the flag, the value and the range in the message.

@@ -1,0 +1,12 @@
+//! What the command lines of the offline toolkit (`capsule`) and the ROS 2 nodes share, without
+//! ROS or DDS: the offline toolkit depends on this crate, not on the nodes.
+//!
+//! - [`ranges`]: the documented range of every numeric flag, checked at parse time
+//! - [`scene_file`]: reading a scene file once, the same way in every binary
+//! - [`storage`]: how a recording is stored (compression, splitting), as rosbag2 users set it
+
+#![warn(missing_docs)]
+
+pub mod ranges;
+pub mod scene_file;
+pub mod storage;
