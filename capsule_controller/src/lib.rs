@@ -6,5 +6,6 @@
 pub mod law;
 pub mod mode;
 pub mod switch;
+pub mod velocity;
 
 pub use law::FeedbackLaw;

@@ -20,6 +20,7 @@ use crate::error::{Context as _, Result};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
+    velocity::BackwardDifference,
     FeedbackLaw,
 };
 use capsule_msgs::{
@@ -51,6 +52,8 @@ pub struct ControllerCore {
     commanding: bool,
     commands_sent: u64,
     ignored_samples: u64,
+    /// Velocities the plant does not measure, from its positions (orbit watch and switch only).
+    velocity: BackwardDifference,
     feedback: CommandFeedback,
     switch_settings: SwitchSettings,
     watch: OrbitWatch,
@@ -85,6 +88,7 @@ impl ControllerCore {
             commanding: false,
             commands_sent: 0,
             ignored_samples: 0,
+            velocity: BackwardDifference::default(),
             feedback: CommandFeedback::default(),
             switch_settings: SwitchSettings::DEFAULT,
             watch: OrbitWatch::new(law.period(), &SwitchSettings::DEFAULT),
@@ -273,13 +277,9 @@ impl ControllerCore {
     /// command again without being counted twice.
     pub fn on_state(&mut self, s: &CapsuleState, now: f64) -> Option<ActuatorForce> {
         let stamp = s.header.stamp.to_nanos();
-        let values = [
-            s.mass_position,
-            s.mass_velocity,
-            s.capsule_position,
-            s.capsule_velocity,
-        ];
-        if values.iter().any(|v| !v.is_finite()) {
+        // positions are what the law needs; a velocity may be NaN (a device that does not
+        // measure it) and is then estimated (capsule_controller::velocity)
+        if !(s.mass_position.is_finite() && s.capsule_position.is_finite()) {
             self.ignored_samples += 1;
             return None;
         }
@@ -305,7 +305,9 @@ impl ControllerCore {
         let x1 = s.mass_position / self.scale.length_m();
         let x2 = s.capsule_position / self.scale.length_m();
         let v = self.scale.velocity_m_per_s();
-        let nd = [x1, s.mass_velocity / v, x2, s.capsule_velocity / v];
+        let nd = self
+            .velocity
+            .state(tau, x1, s.mass_velocity / v, x2, s.capsule_velocity / v);
         self.watch.sample(tau, nd);
         if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.phase().is_done()) {
             let was = (sw.phase(), sw.tries());
@@ -567,6 +569,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     tokio::pin!(shutdown);
     let mut plants = PlantIdentity::new(PlantIdentity::<ros2_client::Gid>::DEFAULT_HANDOVER_S);
     let mut second_plant_log = Throttle::default();
+    let mut ignored_log = Throttle::default();
 
     loop {
         tokio::select! {
@@ -593,7 +596,15 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                     }
                     let was = core.commanding();
                     let refused = core.plant_refuses();
-                    if let Some(cmd) = core.on_state(&state, steady()) {
+                    let ignored = core.ignored_samples();
+                    let answer = core.on_state(&state, steady());
+                    if core.ignored_samples() > ignored && ignored_log.tick() {
+                        warn!(
+                            "state seq {} not used (position not finite: mass {} m, capsule {} m; or older than the last): {} so far",
+                            state.seq, state.mass_position, state.capsule_position, core.ignored_samples()
+                        );
+                    }
+                    if let Some(cmd) = answer {
                         if !was {
                             info!("state fresh at seq {}: commanding", state.seq);
                         }
@@ -909,6 +920,28 @@ mod tests {
             c.status(Time::ZERO).switch_state,
             ControllerStatus::SWITCH_CANCELLED
         );
+    }
+
+    #[test]
+    fn positions_alone_drive_the_law_when_velocities_are_not_measured() {
+        // a device with a displacement sensor and an encoder: velocities NaN on the wire
+        let mut measured = core(Mode::Forward, 0.2);
+        let mut positions_only = core(Mode::Forward, 0.2);
+        for k in 0..200u64 {
+            let t = k as f64 * 1e-3;
+            let (x1, x2) = ((7.0 * t).sin(), 0.1 * t);
+            let mut s = state(k, t, x1, x2);
+            s.mass_velocity = 0.3;
+            s.capsule_velocity = 0.01;
+            let a = measured.on_state(&s, t).map(|c| c.force);
+            s.mass_velocity = f64::NAN;
+            s.capsule_velocity = f64::NAN;
+            let b = positions_only.on_state(&s, t).map(|c| c.force);
+            assert!(b.is_some(), "no command at sample {k}");
+            assert_eq!(a, b, "sample {k}");
+        }
+        assert_eq!(positions_only.ignored_samples(), 0);
+        assert!(positions_only.commanding());
     }
 
     #[test]
