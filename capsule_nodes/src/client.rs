@@ -4,11 +4,11 @@
 use capsule_msgs::names::topics;
 use std::time::Duration;
 
-use crate::error::{bail, Context as _, Result};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
+use capsule_ros_base::error::{bail, Context as _, Result};
 use ros2_client::{service::Client, Node};
 
-use crate::ros::{qos, types, RosSettings, Wire};
+use capsule_ros_base::ros::{qos, types, RosSettings, Wire};
 
 /// The `effective_from` of a request to switch at sim time `at_s` \[s\] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used

@@ -16,7 +16,6 @@ use capsule_msgs::names::topics;
 use capsule_plant::scene::PhysicalScale;
 use std::time::{Duration, Instant};
 
-use crate::error::{Context as _, Result};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
@@ -26,13 +25,16 @@ use capsule_controller::{
 use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
 };
+use capsule_ros_base::error::{Context as _, Result};
 use futures::StreamExt;
 use tracing::{info, warn};
 
 use crate::{
     command_feedback::CommandFeedback,
-    conflicts::TopicRule,
     plant_identity::{PlantIdentity, Source},
+};
+use capsule_ros_base::{
+    conflicts::TopicRule,
     ros::{qos, types, RosSettings, Wire},
     throttle::Throttle,
 };
@@ -427,7 +429,7 @@ pub struct ControllerOptions {
     /// Stale-state check and status period.
     pub status_period: Duration,
     /// The ROS parameters served (see [`crate::controller_params`]).
-    pub params: crate::params::ParamTable,
+    pub params: capsule_ros_base::params::ParamTable,
     /// Publish `/diagnostics` at 1 Hz (see [`crate::controller_diagnostics`]).
     pub diagnostics: bool,
 }
@@ -461,7 +463,7 @@ impl GainArgs {
             gain_limit: self.gain_limit,
         };
         config.validate().map_err(|e| {
-            crate::error::invalid!(
+            capsule_ros_base::error::invalid!(
                 "--{} {}: {} (--gain-limit {})",
                 e.name.replace('_', "-"),
                 e.value,
@@ -478,7 +480,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let clock = crate::graph::RosClock::new(&settings, &mut node)?;
+    let clock = capsule_ros_base::graph::RosClock::new(&settings, &mut node)?;
     let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
     let status_topic = settings.topic(&node, topics::STATUS, types::status(), &qos::data())?;
@@ -503,7 +505,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
         .context("service-event publisher")?;
     // a second plant is told from the samples themselves (plant_identity): a SIGKILLed plant
     // stays in discovery until its lease ends, and its restarted successor would look like one
-    let _conflicts = crate::conflicts::watch(
+    let _conflicts = capsule_ros_base::conflicts::watch(
         graph.clone(),
         vec![
             TopicRule::new(
@@ -535,7 +537,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
         .transpose()?;
     let mut diag = crate::controller_diagnostics::ControllerDiag::default();
     // ROS parameters (rcl_interfaces services): served by their own task, applied here
-    let (handle, mut applied) = crate::param_services::serve(
+    let (handle, mut applied) = capsule_ros_base::param_services::serve(
         &context,
         &mut node,
         &settings,
@@ -565,7 +567,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let mut requests = server.receive_request_stream();
     let mut tick = tokio::time::interval(opts.status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = crate::ros::shutdown();
+    let shutdown = capsule_ros_base::ros::shutdown();
     tokio::pin!(shutdown);
     let mut plants = PlantIdentity::new(PlantIdentity::<ros2_client::Gid>::DEFAULT_HANDOVER_S);
     let mut second_plant_log = Throttle::default();

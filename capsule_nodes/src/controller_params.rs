@@ -9,8 +9,8 @@
 use capsule_controller::mode::{Mode, ModeConfig};
 use ros2_client::ParameterValue as V;
 
-use crate::{
-    controller::ControllerCore,
+use crate::controller::ControllerCore;
+use capsule_ros_base::{
     param_services::ParamHandle,
     params::{ParamSpec, ParamTable, Range},
 };
@@ -33,7 +33,7 @@ pub mod names {
     pub const OMEGA: &str = "omega";
     /// Stale-state timeout \[s\].
     pub const STATE_TIMEOUT_S: &str = "state_timeout_s";
-    pub use crate::params::names::*;
+    pub use capsule_ros_base::params::names::*;
 }
 use names::*;
 
@@ -102,7 +102,7 @@ pub fn table(core: &ControllerCore, use_sim_time: bool, state_timeout_s: f64) ->
             V::Double(state_timeout_s),
         );
     let values = [scale.m1_kg, scale.k1_n_per_m, scale.pf_n];
-    crate::params::declare_scale(table, values, |what| {
+    capsule_ros_base::params::declare_scale(table, values, |what| {
         ParamSpec::read_only(what).range(POSITIVE)
     })
 }

@@ -20,17 +20,15 @@
 use capsule_msgs::names::topics;
 use std::{net::Ipv4Addr, sync::Arc};
 
-use crate::error::{bail, Context as _, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
+use capsule_ros_base::error::{bail, Context as _, Result};
 use foxglove::{ChannelBuilder, RawChannel, Schema};
 use futures::StreamExt;
 use serde_json::json;
 use tracing::{info, warn};
 
-use crate::{
-    ros::{qos, types, RosSettings},
-    views::BODY_FRAME,
-};
+use crate::views::BODY_FRAME;
+use capsule_ros_base::ros::{qos, types, RosSettings};
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
 pub const FRAME_TOPIC: &str = "/capsule/frame";
@@ -310,7 +308,7 @@ pub async fn run(
     tokio::pin!(forces);
     let mut thin = StampThinner::new(opts.max_rate_hz);
     let mut thin_force = StampThinner::new(opts.max_rate_hz);
-    let shutdown = crate::ros::shutdown();
+    let shutdown = capsule_ros_base::ros::shutdown();
     tokio::pin!(shutdown);
     loop {
         tokio::select! {

@@ -4,7 +4,7 @@
 
 use ros2_client::ParameterValue as V;
 
-use crate::params::{ParamSpec, ParamTable, Range};
+use capsule_ros_base::params::{ParamSpec, ParamTable, Range};
 
 /// Parameter names.
 pub mod names {
@@ -21,7 +21,7 @@ pub mod names {
     /// JointState commands on capsule/joint_commands (`--joint-commands`).
     pub const JOINT_COMMANDS: &str = "joint_commands";
     /// Sim time from /clock (the plant is the clock: always false) and the physical scale.
-    pub use crate::params::names::*;
+    pub use capsule_ros_base::params::names::*;
 }
 use names::*;
 
@@ -73,7 +73,7 @@ pub fn table(s: &PlantSettings) -> ParamTable {
             V::Boolean(false),
         );
     let (m1, k1, pf) = s.scale;
-    crate::params::declare_scale(table, [m1, k1, pf], ro)
+    capsule_ros_base::params::declare_scale(table, [m1, k1, pf], ro)
 }
 
 /// Declares [`JOINT_COMMANDS`] (read-only once running), valued by the flag.
@@ -126,7 +126,7 @@ pub fn overridable(t: &ParamTable, started: &PlantSettings) -> Result<(f64, f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::no_rules;
+    use capsule_ros_base::params::no_rules;
 
     #[test]
     fn everything_is_read_only_once_running_but_overridable_at_start() {

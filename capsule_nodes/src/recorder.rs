@@ -20,18 +20,18 @@ use std::{
     time::Duration,
 };
 
-use crate::error::{Context as _, NodeError, Result};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::{
     cdr,
     types::{OfferedQos, SetModeEvent},
     BagOptions, BagWriter, ChannelId, SceneRecord, WriterOptions,
 };
+use capsule_ros_base::error::{Context as _, NodeError, Result};
 use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
 use tracing::{info, warn};
 
-use crate::ros::{qos, types, RosSettings};
+use capsule_ros_base::ros::{qos, types, RosSettings};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -135,14 +135,14 @@ pub fn output_path(
         }
     };
     if path.exists() {
-        crate::error::bail!("{} exists: not overwriting a recording", path.display());
+        capsule_ros_base::error::bail!("{} exists: not overwriting a recording", path.display());
     }
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     if !parent.is_dir() {
-        crate::error::bail!(
+        capsule_ros_base::error::bail!(
             "cannot record to {}: {} is not a directory",
             path.display(),
             parent.display()
@@ -428,7 +428,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     // from DDS reception, so batching does not blur them.
     let mut poll = tokio::time::interval(opts.poll_period);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = capsule_ros_base::ros::shutdown_signal();
     tokio::pin!(shutdown);
     let mut last_msg = tokio::time::Instant::now();
     let mut got_any = false;

@@ -1,8 +1,8 @@
 //! [`PlantSim`] for the simulator of `capsule_plant` (whichever method the scene chooses: exact,
 //! adaptive or fixed-step).
 
-use crate::error::{Context as _, Result};
 use capsule_plant::{ConstantForce, Simulator, Snapshot};
+use capsule_ros_base::error::{Context as _, Result};
 
 use crate::plant::PlantSim;
 

@@ -20,7 +20,6 @@
 
 use std::time::Duration;
 
-use crate::error::{Context as _, Result};
 use capsule_msgs::{
     names::topics::views as view_topics,
     std_types::{
@@ -29,17 +28,18 @@ use capsule_msgs::{
     },
     CapsuleState, Header, Time,
 };
+use capsule_ros_base::error::{Context as _, Result};
 use ros2_client::ParameterValue as V;
 use ros2_client::{
     qos::{Durability, History, WhenFull},
     MessageTypeName, Node, Publisher, QosProfile,
 };
 
-use crate::{
+use crate::plant::LoopStats;
+use capsule_ros_base::{
     graph::Graph,
     latency::LatencyHistogram,
     params::{ParamSpec, ParamTable},
-    plant::LoopStats,
     ros::{qos, types, RosSettings},
 };
 
@@ -138,7 +138,7 @@ impl ViewArgs {
             .declare(
                 params::RATE_HZ,
                 ParamSpec::read_only("joint_states and /tf at most this often [Hz] (set at start)")
-                    .range(crate::params::Range::Float {
+                    .range(capsule_ros_base::params::Range::Float {
                         from: 1.0e-3,
                         to: 1.0e6,
                     }),

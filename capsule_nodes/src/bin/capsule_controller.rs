@@ -10,6 +10,8 @@ use capsule_controller::mode::Mode;
 use capsule_nodes::{
     controller::{self, ControllerCore, ControllerOptions, GainArgs},
     controller_params,
+};
+use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args,
 };

@@ -5,8 +5,8 @@ use std::io::Write as _;
 use anyhow::{bail, Result};
 use capsule_args::ranges;
 use capsule_msgs::names::nodes;
-use capsule_nodes::{
-    foxglove_bridge::{self, BridgeOptions},
+use capsule_nodes::foxglove_bridge::{self, BridgeOptions};
+use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosSettings},
     ros_args::{self, Override},
 };

@@ -8,12 +8,14 @@ use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
     plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
     plant_params, recorder,
-    ros::{self, RosArgs, RosEnv, RosSettings},
-    ros_args,
     sim::SimulatedPlant,
     views,
 };
 use capsule_plant::{Method, Simulator};
+use capsule_ros_base::{
+    ros::{self, RosArgs, RosEnv, RosSettings},
+    ros_args,
+};
 use clap::Parser;
 
 /// Simulates the capsule of a scene exactly and serves it as a capsule driver would: state on
@@ -160,7 +162,7 @@ fn build(
         plant_params::table(&started_with),
         cli.joint_commands,
     ));
-    ros_args::apply_overrides(&mut params, overrides, capsule_nodes::params::no_rules)?;
+    ros_args::apply_overrides(&mut params, overrides, capsule_ros_base::params::no_rules)?;
     let joint_commands = params.boolean(plant_params::names::JOINT_COMMANDS);
     if joint_commands && cli.pacing == Pacing::Lockstep {
         bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");

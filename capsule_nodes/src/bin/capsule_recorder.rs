@@ -5,10 +5,8 @@ use std::{path::PathBuf, time::Duration};
 
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
-use capsule_nodes::{
-    recorder::{self, RecorderOptions},
-    ros::{self, RosArgs, RosEnv, RosSettings},
-};
+use capsule_nodes::recorder::{self, RecorderOptions};
+use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosSettings};
 use clap::Parser;
 
 /// Records state, force commands, controller status, /clock and the set_mode service events to

@@ -15,16 +15,14 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::ranges;
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
-use capsule_nodes::{
-    controller::{ControllerCore, GainArgs},
-    ros::{self, qos, RosArgs, RosEnv, RosSettings},
-};
+use capsule_nodes::controller::{ControllerCore, GainArgs};
 use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,
     messages::Message,
     types::{ServiceEventInfo, SetModeEvent},
 };
+use capsule_ros_base::ros::{self, qos, RosArgs, RosEnv, RosSettings};
 use clap::{CommandFactory, FromArgMatches, Parser};
 
 /// Publish a recording back onto ROS 2 at its pace (with /clock), or re-drive the controller

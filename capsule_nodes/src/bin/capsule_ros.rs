@@ -6,10 +6,8 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
-use capsule_nodes::{
-    client::{state_subscription, ModeClient, SegmentMeter},
-    ros::{self, RosArgs, RosEnv, RosSettings},
-};
+use capsule_nodes::client::{state_subscription, ModeClient, SegmentMeter};
+use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosSettings};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 

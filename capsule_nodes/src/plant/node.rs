@@ -3,20 +3,20 @@
 use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
-use crate::error::{Context as _, Result};
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::{ActuatorForce, CapsuleState, Time};
+use capsule_ros_base::error::{Context as _, Result};
 use tracing::{info, warn};
 
 use super::pacing::{lockstep_loop, realtime_loop};
 use super::{
     CommandOutcome, InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions, PlantSim,
 };
-use crate::{
+use crate::recorder::{drain_into, graph_topics, Channel, GraphRecording};
+use capsule_ros_base::{
     conflicts::{self, TopicRule},
     graph::Graph,
-    recorder::{drain_into, graph_topics, Channel, GraphRecording},
     ros::{qos, types, RosSettings},
     throttle::Throttle,
 };
@@ -98,7 +98,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
     if opts.joint_commands && opts.pacing == Pacing::Lockstep {
-        crate::error::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+        capsule_ros_base::error::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
     }
     // the file first: an unwritable place is an error before anything else starts
     let recording = opts
@@ -176,12 +176,12 @@ pub async fn run<S: PlantSim + Send + 'static>(
         ],
     );
     // ROS parameters (read-only here): served by their own task, never by the sample loop
-    let _params = crate::param_services::serve(
+    let _params = capsule_ros_base::param_services::serve(
         &context,
         &mut node,
         &settings,
         opts.params.clone(),
-        crate::params::no_rules,
+        capsule_ros_base::params::no_rules,
         || Time::from_nanos(capsule_record::writer::now_ns() as i64),
     )?;
     let mut recording = match (recording, &opts.record) {
@@ -231,7 +231,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
             .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
             .await
         {
-            crate::error::bail!(
+            capsule_ros_base::error::bail!(
                 "only {} of {} subscribers matched {} within {:?}",
                 graph.subscribers(writer),
                 opts.wait_subscribers,
@@ -260,14 +260,14 @@ pub async fn run<S: PlantSim + Send + 'static>(
                 let r = realtime_loop(&mut core, &io, &opts, &stop_loop, recording.as_mut());
                 (r, core, recording)
             });
-            let shutdown = crate::ros::shutdown_signal();
+            let shutdown = capsule_ros_base::ros::shutdown_signal();
             tokio::pin!(shutdown);
             tokio::select! {
                 done = &mut looping => done.context("the real-time loop panicked")?,
                 sig = &mut shutdown => {
                     match sig {
                         Ok(s) => info!("{s}: shutting down"),
-                        Err(e) => warn!("{}", crate::error::chain(&e)),
+                        Err(e) => warn!("{}", capsule_ros_base::error::chain(&e)),
                     }
                     stop.store(true, std::sync::atomic::Ordering::Relaxed);
                     looping.await.context("the real-time loop panicked")?

@@ -30,7 +30,7 @@ pub struct PlantOptions {
     /// Record the graph in this process (see `InPlantRecording`).
     pub record: Option<InPlantRecordOptions>,
     /// The ROS parameters served (see [`crate::plant_params`]).
-    pub params: crate::params::ParamTable,
+    pub params: capsule_ros_base::params::ParamTable,
     /// Also take commands as JointState on [`capsule_msgs::names::topics::JOINT_COMMANDS`] (real-time pacing; see
     /// [`crate::joint_commands`]).
     pub joint_commands: bool,

@@ -3,15 +3,15 @@
 use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
-use crate::error::Result;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::CapsuleState;
+use capsule_ros_base::error::Result;
 use futures::StreamExt;
 use tracing::{info, warn};
 
 use super::node::{log_refused, log_undecodable, Endpoints};
 use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions, PlantSim};
-use crate::throttle::Throttle;
+use capsule_ros_base::throttle::Throttle;
 
 /// The current sample and, every `clock_every`-th sample, its /clock, recorded when recording.
 pub(super) fn outgoing<S: PlantSim>(
@@ -164,7 +164,7 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
     let steady = move || start.elapsed().as_secs_f64();
     let commands = io.force_sub.async_stream();
     tokio::pin!(commands);
-    let shutdown = crate::ros::shutdown_signal();
+    let shutdown = capsule_ros_base::ros::shutdown_signal();
     tokio::pin!(shutdown);
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
     let mut wait_started = steady();
@@ -203,7 +203,7 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
             sig = &mut shutdown => {
                 match sig {
                     Ok(s) => info!("{s}: shutting down"),
-                    Err(e) => warn!("{}", crate::error::chain(&e)),
+                    Err(e) => warn!("{}", capsule_ros_base::error::chain(&e)),
                 }
                 return Ok(());
             }

@@ -2,11 +2,11 @@
 //! validation (non-finite refused, huge saturated, late or future refused), the stale-command
 //! watchdog, SI conversion, and the samples it publishes.
 
-use crate::error::Result;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
 use capsule_plant::scene::PhysicalScale;
 use capsule_plant::Snapshot;
 use capsule_record::sample::state_message;
+use capsule_ros_base::error::Result;
 use tracing::info;
 
 use super::LoopStats;

@@ -2,10 +2,10 @@
 
 use std::time::{Duration, Instant};
 
-use crate::error::Result;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::types::SetModeEvent;
+use capsule_ros_base::error::Result;
 
 use crate::recorder::{drain_into, Channel, GraphRecording};
 

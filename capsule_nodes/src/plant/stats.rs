@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 use capsule_msgs::CapsuleState;
 use serde::Serialize;
 
-use crate::latency::LatencyHistogram;
+use capsule_ros_base::latency::LatencyHistogram;
 
 /// Loop statistics: for every published sample, whether and when a command answering it
 /// (same seq) arrived, also after the next sample went out.
@@ -23,7 +23,7 @@ pub struct LoopStats {
     pub late_answers: u64,
     /// Commands beyond the force limit, applied saturated at it.
     pub saturated_commands: u64,
-    /// Graph conflicts seen (another plant, a foreign type on our topics): [`crate::conflicts`].
+    /// Graph conflicts seen (another plant, a foreign type on our topics): [`capsule_ros_base::conflicts`].
     pub graph_conflicts: u64,
     pub(super) in_flight: VecDeque<(u64, f64, bool)>,
     pub(super) answered_any: bool,
@@ -158,7 +158,7 @@ struct LastSample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::latency::LatencyHistogram;
+    use capsule_ros_base::latency::LatencyHistogram;
 
     #[test]
     fn stats_split_startup_lost_and_late_answers() {

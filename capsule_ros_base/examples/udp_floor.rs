@@ -6,7 +6,7 @@
 //! (b) the way RustDDS does, woken by epoll (mio) and reading until WouldBlock. Prints the
 //! receiver thread's CPU (user + system, from /proc/thread-self/stat).
 //!
-//!   cargo run --release -p capsule_nodes --example udp_floor -- [RATE=30000] [SECONDS=10]
+//!   cargo run --release -p capsule_ros_base --example udp_floor -- [RATE=30000] [SECONDS=10]
 //!
 //! Loopback only by construction (binds and sends to 127.0.0.1, no multicast).
 

@@ -80,17 +80,23 @@ impl<T> Context<T> for Option<T> {
 }
 
 /// Returns [`NodeError::Invalid`] with the formatted message (the input and the reason).
-macro_rules! bail {
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __node_error_bail {
     ($($message:tt)*) => {
         return Err($crate::error::NodeError::Invalid(format!($($message)*)))
     };
 }
-pub(crate) use bail;
+/// Returns [`NodeError::Invalid`] with the formatted message (the input and the reason).
+pub use crate::__node_error_bail as bail;
 
 /// [`NodeError::Invalid`] with the formatted message, as a value.
-macro_rules! invalid {
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __node_error_invalid {
     ($($message:tt)*) => {
         $crate::error::NodeError::Invalid(format!($($message)*))
     };
 }
-pub(crate) use invalid;
+/// [`NodeError::Invalid`] with the formatted message, as a value.
+pub use crate::__node_error_invalid as invalid;

@@ -1,0 +1,25 @@
+//! The ROS 2 plumbing every capsule node shares, on ros2-client and RustDDS; the nodes themselves
+//! are in `capsule_nodes`.
+//!
+//! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
+//! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps)
+//! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
+//! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
+//! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
+//! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
+//! - [`latency`]: loop latency percentiles in constant memory
+//! - [`throttle`]: rate-limited logging of per-sample events
+//! - [`error`]: the nodes' error, [`error::NodeError`]
+
+#![warn(missing_docs)]
+
+pub mod affinity;
+pub mod conflicts;
+pub mod error;
+pub mod graph;
+pub mod latency;
+pub mod param_services;
+pub mod params;
+pub mod ros;
+pub mod ros_args;
+pub mod throttle;
