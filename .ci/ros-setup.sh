@@ -10,8 +10,9 @@
 #     tests/peers/fastdds/, as an rclcpp node on rmw_fastrtps_cpp (the ROS 2 default)
 #   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
 #     tests/peers/foxglove_ws_client.py
-#   - colcon (PyPI colcon-core, colcon-cargo, colcon-ros-cargo, colcon-package-information) and
-#     cargo-ament-build (crates.io): `colcon build` of capsule_nodes, tests/integration/ros/colcon.rs
+#   - colcon (PyPI colcon-core, colcon-cargo, colcon-ros-cargo, colcon-package-information; the
+#     last pulls in PyPI's cargo-ament-build, the crates.io tool as a prebuilt wheel): `colcon
+#     build` of capsule_nodes, tests/integration/ros/colcon.rs
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
 # `cargo build --workspace` (the tests start the node binaries from target/debug).
 set -euo pipefail
@@ -52,10 +53,6 @@ if ! command -v colcon >/dev/null 2>&1 || ! python3 -c "import colcon_ros_cargo"
   python3 -m pip install --quiet --disable-pip-version-check "${pkgs[@]}" \
     || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages "${pkgs[@]}"
   hash -r
-fi
-if ! cargo ament-build --help >/dev/null 2>&1; then
-  echo "ros-setup: cargo install cargo-ament-build"
-  cargo install --quiet --locked cargo-ament-build@0.1.11
 fi
 
 # the namespace recipe must work here (root, kernel support); fail early with the reason

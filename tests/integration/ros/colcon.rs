@@ -1,12 +1,13 @@
 //! colcon builds the nodes as a ROS 2 package (#19): `colcon build` (colcon-core with
-//! colcon-cargo and colcon-ros-cargo from PyPI, cargo-ament-build from crates.io; installed by
-//! `.ci/ros-setup.sh`) installs `capsule_nodes` with its ament index entry, `install/setup.sh`
+//! colcon-cargo and colcon-ros-cargo from PyPI, which bring cargo-ament-build as a wheel;
+//! installed by `.ci/ros-setup.sh`) installs `capsule_nodes` with its ament index entry, `install/setup.sh`
 //! puts it on `AMENT_PREFIX_PATH`, and an executable found there the way `ros2 run` finds it
 //! runs as a ROS 2 node that a Cyclone DDS peer reads.
 //!
-//! The build directory of `capsule_nodes` is a link to the workspace's target directory, so
-//! colcon's cargo finds what `cargo build --workspace` compiled (same command, same profile)
-//! instead of compiling everything a second time.
+//! The build directory of `capsule_nodes` is a link to the workspace's target directory and the
+//! build passes `--cargo-args --workspace`, so colcon's cargo finds what `cargo build
+//! --workspace` compiled (same features, same profile) instead of compiling a second time; a
+//! user's plain `colcon build` compiles into its own `build/` (15 min from a fresh clone here).
 
 use super::harness::{json_number, netns_with_peer_from, root};
 use std::path::{Path, PathBuf};
@@ -49,7 +50,11 @@ fn colcon_build() -> Result<PathBuf, String> {
         .arg(work.join("log"))
         .args(["build", "--base-paths"])
         .arg(root())
-        .args(["--packages-skip", "capsule_msgs", "--build-base"])
+        .args(["--packages-skip", "capsule_msgs"])
+        // the features `cargo build --workspace` resolved, so that nothing is compiled again
+        // (capsule_nodes alone resolves some shared crates' features differently); colcon takes
+        // an argument that starts with a dash after a space
+        .args(["--cargo-args", " --workspace", "--build-base"])
         .arg(work.join("build"))
         .arg("--install-base")
         .arg(work.join("install"))
