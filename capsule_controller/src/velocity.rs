@@ -10,7 +10,8 @@
 //! orbit its error (half a sample's acceleration, O(h)) repeats every period, so the section
 //! points of one orbit still coincide and its period is still recognised. What it does not do is
 //! reject noise: with noisy positions it multiplies the noise by 1/h; a device with a noisy
-//! sensor needs a filter in front of it (issue 18, measured by the robustness benchmark).
+//! sensor needs a filter in front of it (to be chosen with issue 18's robustness benchmark,
+//! not yet built).
 
 /// Fills in velocities from consecutive positions where the sample has none.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
