@@ -11,6 +11,7 @@ pub mod continuation;
 pub mod floquet;
 pub mod identity;
 pub mod lyapunov;
+pub mod robustness;
 pub mod run;
 pub mod schedule;
 pub mod stability;

@@ -5,10 +5,12 @@ mod basins;
 mod bench;
 #[path = "continue.rs"]
 mod continuation;
+mod emulate_device;
 mod figures;
 mod offline_record;
 mod record;
 mod replay;
+mod robustness;
 mod scene_args;
 mod simulate;
 mod svg;
@@ -71,6 +73,12 @@ enum Command {
     Bench(bench::Args),
     /// Look into a recorded run (info) or complete a cut one (recover).
     Record(record::Args),
+    /// What a real capsule costs: the law closed around a simulated prototype (sensor noise,
+    /// delay, quantisation, coil lag, a +-20 % plant mismatch), per mode; tables and heat maps.
+    Robustness(robustness::Args),
+    /// A prototype on a pseudo-terminal: the scene's capsule behind its sensor and actuator
+    /// models, speaking the device protocol (for capsule_plant --source serial:PATH).
+    EmulateDevice(emulate_device::Args),
     /// Publish a recording back onto ROS 2 at its pace, or check the controller against it
     /// (runs capsule_replay, from capsule_nodes).
     Replay(replay::Args),
@@ -108,6 +116,8 @@ fn main() -> std::process::ExitCode {
         Command::Switch(a) => switch::main(a),
         Command::Record(a) => record::main(a),
         Command::Replay(a) => replay::main(a),
+        Command::EmulateDevice(a) => emulate_device::main(a),
+        Command::Robustness(a) => robustness::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

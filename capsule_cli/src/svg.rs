@@ -825,6 +825,117 @@ fn same_fill(a: &capsule_analysis::basin::Cell, b: &capsule_analysis::basin::Cel
     }
 }
 
+/// Heat maps side by side, one per `(title, cells[row][column], reference)`: each cell coloured
+/// by its value over the reference (green: at least the reference's progression in its
+/// direction; through yellow to red: none; purple: the wrong direction), its value written in.
+pub fn heat_maps(
+    title: &str,
+    columns: &[String],
+    rows: &[String],
+    xlabel: &str,
+    ylabel: &str,
+    maps: &[(String, Vec<Vec<f64>>, f64)],
+) -> String {
+    let (cell_w, cell_h, gap) = (52.0, 30.0, 40.0);
+    let map_w = cell_w * columns.len() as f64;
+    let map_h = cell_h * rows.len() as f64;
+    let left = 70.0;
+    let top = 70.0;
+    let width = left + maps.len() as f64 * (map_w + gap) + 20.0;
+    let height = top + map_h + 60.0;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="11"><rect width="100%" height="100%" fill="white"/><text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#,
+        width / 2.0,
+        escape(title)
+    );
+    let colour = |v: f64, reference: f64| -> String {
+        let share = if reference.abs() > 0.0 {
+            v / reference
+        } else {
+            f64::NAN
+        };
+        if !share.is_finite() {
+            return "#dddddd".into();
+        }
+        if share < 0.0 {
+            return "#b07cc6".into();
+        }
+        // red (0) -> yellow (0.5) -> green (1 and above)
+        let s = share.min(1.0);
+        let (r, g) = if s < 0.5 {
+            (230.0, 80.0 + 300.0 * s)
+        } else {
+            (230.0 - 330.0 * (s - 0.5), 230.0)
+        };
+        format!("rgb({:.0},{:.0},90)", r.max(0.0), g.min(230.0))
+    };
+    for (k, (name, cells, reference)) in maps.iter().enumerate() {
+        let x0 = left + k as f64 * (map_w + gap);
+        let _ = writeln!(
+            out,
+            r#"<text x="{}" y="{}" font-size="13" text-anchor="middle">{} (exact: {:+.2})</text>"#,
+            x0 + map_w / 2.0,
+            top - 22.0,
+            escape(name),
+            reference
+        );
+        for (i, row) in cells.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                let (x, y) = (x0 + j as f64 * cell_w, top + i as f64 * cell_h);
+                let _ = writeln!(
+                    out,
+                    r#"<rect x="{x}" y="{y}" width="{cell_w}" height="{cell_h}" fill="{}" stroke="white"/><text x="{}" y="{}" text-anchor="middle">{v:+.2}</text>"#,
+                    colour(*v, *reference),
+                    x + cell_w / 2.0,
+                    y + cell_h / 2.0 + 4.0
+                );
+            }
+        }
+        for (j, c) in columns.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+                x0 + (j as f64 + 0.5) * cell_w,
+                top - 6.0,
+                escape(c)
+            );
+        }
+        let _ = writeln!(
+            out,
+            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+            x0 + map_w / 2.0,
+            top + map_h + 20.0,
+            escape(xlabel)
+        );
+        if k == 0 {
+            for (i, r) in rows.iter().enumerate() {
+                let _ = writeln!(
+                    out,
+                    r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
+                    x0 - 6.0,
+                    top + (i as f64 + 0.5) * cell_h + 4.0,
+                    escape(r)
+                );
+            }
+            let _ = writeln!(
+                out,
+                r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+                top + map_h / 2.0,
+                top + map_h / 2.0,
+                escape(ylabel)
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        r#"<text x="{left}" y="{}" font-size="10">green: the exact positions' progression or more; yellow: half; red: none; purple: the wrong direction</text></svg>"#,
+        height - 12.0
+    );
+    out
+}
+
 /// Rasterise an SVG document of ours to PNG at `scale` (fonts: the embedded Ubuntu Light, so no
 /// system font or fontconfig is needed).
 pub fn png(svg: &str, scale: f32) -> Result<Vec<u8>, String> {

@@ -12,7 +12,8 @@
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
-//! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method)
+//! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method);
+//!   [`device_driver`]: for a device on a serial line (`--source serial:PATH`)
 
 #![warn(missing_docs)]
 
@@ -22,6 +23,7 @@ pub mod command_gate;
 pub mod controller;
 pub mod controller_diagnostics;
 pub mod controller_params;
+pub mod device_driver;
 pub mod foxglove_bridge;
 pub mod joint_commands;
 pub mod plant;

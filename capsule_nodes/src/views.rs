@@ -251,7 +251,10 @@ impl DiagWindow {
         let refused = last.rejected_commands.saturating_sub(self.rejected);
         self.ever_commanded |= window.count() > 0;
         let period = 1.0 / rate_hz;
-        let (level, message) = if last.command_stale && self.ever_commanded {
+        let device_fault = stats.device.as_ref().and_then(|d| d.fault.clone());
+        let (level, message) = if let Some(fault) = device_fault {
+            (DiagnosticStatus::ERROR, format!("device: {fault}"))
+        } else if last.command_stale && self.ever_commanded {
             (
                 DiagnosticStatus::ERROR,
                 "watchdog: no fresh command, zero force".to_string(),
@@ -282,36 +285,44 @@ impl DiagWindow {
         self.latencies_seen = stats.latencies.clone();
         self.unanswered = stats.unanswered;
         self.rejected = last.rejected_commands;
+        let mut values = vec![
+            kv("pacing", pacing.to_string()),
+            kv("rate_hz", format!("{rate_hz}")),
+            kv(
+                "sim_time_s",
+                format!("{:.6}", last.header.stamp.as_secs_f64()),
+            ),
+            kv("samples", stats.published.to_string()),
+            kv("answers_last_s", window.count().to_string()),
+            kv("latency_p50_ms", ms(p50)),
+            kv("latency_p99_ms", ms(p99)),
+            kv("unanswered_last_s", lost.to_string()),
+            kv("unanswered_total", stats.unanswered.to_string()),
+            kv("refused_last_s", refused.to_string()),
+            kv("refused_total", last.rejected_commands.to_string()),
+            kv(
+                "watchdog",
+                if last.command_stale {
+                    "fired (zero force)"
+                } else {
+                    "ok"
+                }
+                .to_string(),
+            ),
+        ];
+        let hardware_id = match &stats.device {
+            Some(d) => {
+                values.extend(d.values.iter().map(|(k, v)| kv(k, v.clone())));
+                format!("capsule ({})", d.label)
+            }
+            None => "capsule (simulated)".to_string(),
+        };
         DiagnosticStatus {
             level,
             name: format!("{node}: loop"),
             message,
-            hardware_id: "capsule (simulated)".to_string(),
-            values: vec![
-                kv("pacing", pacing.to_string()),
-                kv("rate_hz", format!("{rate_hz}")),
-                kv(
-                    "sim_time_s",
-                    format!("{:.6}", last.header.stamp.as_secs_f64()),
-                ),
-                kv("samples", stats.published.to_string()),
-                kv("answers_last_s", window.count().to_string()),
-                kv("latency_p50_ms", ms(p50)),
-                kv("latency_p99_ms", ms(p99)),
-                kv("unanswered_last_s", lost.to_string()),
-                kv("unanswered_total", stats.unanswered.to_string()),
-                kv("refused_last_s", refused.to_string()),
-                kv("refused_total", last.rejected_commands.to_string()),
-                kv(
-                    "watchdog",
-                    if last.command_stale {
-                        "fired (zero force)"
-                    } else {
-                        "ok"
-                    }
-                    .to_string(),
-                ),
-            ],
+            hardware_id,
+            values,
         }
     }
 }

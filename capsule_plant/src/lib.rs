@@ -2,8 +2,9 @@
 //!
 //! A pure library (no ROS, no I/O): the model and its four friction laws ([`model`]), actuator
 //! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
-//! and scene files ([`scene`]).
+//! scene files ([`scene`]), and a prototype's sensor and actuator as models ([`device`]).
 
+pub mod device;
 pub mod equations;
 pub mod law;
 pub mod model;

@@ -39,8 +39,24 @@
 //! [node]           # the plant node
 //! rate_hz = 1000.0         # [1e-3, 1e6]
 //! command_timeout_s = 0.1  # [1e-6, 1e6]
+//! [device]         # a prototype's sensor and actuator (device::DeviceModel), SI; optional:
+//!                  # without it the simulator is ideal and the device emulator takes
+//!                  # DeviceModel::typical (the values below for this scale)
+//! measured = ["displacement", "capsule_position"]  # or mass_velocity, capsule_velocity, contact
+//! noise_m = 5e-6           # position noise, standard deviation   >= 0
+//! noise_m_per_s = 3.2e-4   # velocity noise, standard deviation   >= 0
+//! quantum_m = 1e-6         # position resolution (0: exact)       >= 0
+//! latency_s = 0.002        # age of a measurement when sent       >= 0
+//! jitter_s = 1e-4          # sample instant, standard deviation   >= 0
+//! seed = 1                 # of the noise, 0 to 4294967295
+//! max_force_n = 1.0        # actuator limit                       > 0
+//! dead_band_n = 0.0        # smaller commands give no force       >= 0
+//! lag_s = 5e-4             # coil current time constant           >= 0
+//! max_travel_m = 0.01      # |x1 - x2| the mechanics allow        > 0
+//! command_timeout_s = 0.1  # the device zeroes its force after   > 0
 //! ```
 
+use crate::device::{DeviceModel, Measured};
 use crate::model::{Capsule, Friction, Model, State, FRICTION_CONSTANTS};
 use crate::solver::{Method, SolverConfig};
 use serde::{Deserialize, Serialize};
@@ -163,6 +179,9 @@ pub enum Fault {
     /// An integration method this solver does not have.
     #[error("unknown method `{0}` ({methods})", methods = Method::names())]
     UnknownMethod(String),
+    /// A measured quantity a device cannot have.
+    #[error("unknown quantity `{0}` (displacement, capsule_position, mass_velocity, capsule_velocity or contact)")]
+    UnknownQuantity(String),
     /// A friction constant the chosen law does not use.
     #[error("not used by law `{0}`: remove it")]
     NotUsedByLaw(&'static str),
@@ -491,6 +510,82 @@ struct NodeSpec {
 
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct DeviceSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    measured: Option<Vec<String>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_m_per_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    quantum_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    latency_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    jitter_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    seed: Option<Count>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    max_force_n: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dead_band_n: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lag_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    max_travel_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    command_timeout_s: Option<f64>,
+}
+
+impl DeviceSpec {
+    /// The table of `d`, every key written out.
+    fn of(d: &DeviceModel) -> DeviceSpec {
+        DeviceSpec {
+            measured: Some(d.measured.names().iter().map(|n| n.to_string()).collect()),
+            noise_m: Some(d.noise_m),
+            noise_m_per_s: Some(d.noise_m_per_s),
+            quantum_m: Some(d.quantum_m),
+            latency_s: Some(d.latency_s),
+            jitter_s: Some(d.jitter_s),
+            seed: Some(Count::Whole(i64::from(d.seed))),
+            max_force_n: Some(d.max_force_n),
+            dead_band_n: Some(d.dead_band_n),
+            lag_s: Some(d.lag_s),
+            max_travel_m: Some(d.max_travel_m),
+            command_timeout_s: Some(d.command_timeout_s),
+        }
+    }
+
+    /// The table's values over `d`.
+    fn over(self, d: DeviceModel) -> Result<DeviceModel, Invalid> {
+        let measured = match &self.measured {
+            None => d.measured,
+            Some(names) => Measured::from_names(names)
+                .map_err(|n| Invalid::new("device.measured", Fault::UnknownQuantity(n)))?,
+        };
+        Ok(DeviceModel {
+            measured,
+            noise_m: self.noise_m.unwrap_or(d.noise_m),
+            noise_m_per_s: self.noise_m_per_s.unwrap_or(d.noise_m_per_s),
+            quantum_m: self.quantum_m.unwrap_or(d.quantum_m),
+            latency_s: self.latency_s.unwrap_or(d.latency_s),
+            jitter_s: self.jitter_s.unwrap_or(d.jitter_s),
+            seed: self
+                .seed
+                .map(|c| c.check("device.seed", 0))
+                .transpose()?
+                .unwrap_or(d.seed),
+            max_force_n: self.max_force_n.unwrap_or(d.max_force_n),
+            dead_band_n: self.dead_band_n.unwrap_or(d.dead_band_n),
+            lag_s: self.lag_s.unwrap_or(d.lag_s),
+            max_travel_m: self.max_travel_m.unwrap_or(d.max_travel_m),
+            command_timeout_s: self.command_timeout_s.unwrap_or(d.command_timeout_s),
+        })
+    }
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RawScene {
     #[serde(skip_serializing_if = "Option::is_none")]
     name: Option<String>,
@@ -514,6 +609,8 @@ struct RawScene {
     physical: PhysicalSpec,
     #[serde(default)]
     node: NodeSpec,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device: Option<DeviceSpec>,
 }
 
 /// A validated scene.
@@ -539,6 +636,9 @@ pub struct Scene {
     pub physical: PhysicalScale,
     /// ROS node settings.
     pub node: NodeSettings,
+    /// The prototype's sensor and actuator (`[device]`): `None` when the scene has no such
+    /// table (the simulator is ideal; the device emulator takes [`DeviceModel::typical`]).
+    pub device: Option<DeviceModel>,
 }
 
 /// The paper's section-3 parameter set (gamma 5, beta 15, delta 0.02, xi 0.01, alpha 0.8,
@@ -564,6 +664,7 @@ impl Default for Scene {
             solver: SolverConfig::most_accurate_for(&model),
             physical: PhysicalScale::default(),
             node: NodeSettings::default(),
+            device: None,
         }
     }
 }
@@ -638,6 +739,7 @@ impl Scene {
                 rate_hz: Some(self.node.rate_hz),
                 command_timeout_s: Some(self.node.command_timeout_s),
             },
+            device: self.device.as_ref().map(DeviceSpec::of),
         };
         // every field is a plain number, string or array: serializing cannot fail
         toml::to_string(&file).unwrap_or_default()
@@ -663,6 +765,12 @@ impl Scene {
     pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
     /// The plant node's command timeout range \[s\].
     pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
+
+    /// The scene's device, or a typical one at its scale when it has no `[device]` table.
+    pub fn device_or_typical(&self) -> DeviceModel {
+        self.device
+            .unwrap_or_else(|| DeviceModel::typical(&self.physical))
+    }
 
     /// What the controller node takes from the scene.
     pub fn controller_view(&self) -> ControllerView {
@@ -721,6 +829,16 @@ impl Scene {
             rule.check(key, v)?;
         }
         self.physical.validate()?;
+        if let Some(d) = &self.device {
+            for (key, v, positive) in d.numbers() {
+                let rule = if positive {
+                    Rule::Positive
+                } else {
+                    Rule::NonNegative
+                };
+                rule.check(&format!("device.{key}"), v)?;
+            }
+        }
         let h = self.horizon;
         if h.periods == 0 {
             return Err(Invalid::new(
@@ -783,6 +901,7 @@ fn parse(text: &str) -> Result<RawScene, Invalid> {
                 "SolverSpec",
                 "PhysicalSpec",
                 "NodeSpec",
+                "DeviceSpec",
                 "RawScene",
             ] {
                 message = message.replace(&format!("struct {spec}"), "a table");
@@ -851,6 +970,16 @@ fn resolve(mut raw: RawScene, file: &str) -> Result<Scene, Invalid> {
     };
     let p = &raw.physical;
     let n = &raw.node;
+    let physical = PhysicalScale {
+        m1_kg: p.m1_kg.unwrap_or(d.physical.m1_kg),
+        k1_n_per_m: p.k1_n_per_m.unwrap_or(d.physical.k1_n_per_m),
+        pf_n: p.pf_n.unwrap_or(d.physical.pf_n),
+    };
+    let device = raw
+        .device
+        .take()
+        .map(|spec| spec.over(DeviceModel::typical(&physical)))
+        .transpose()?;
     Ok(Scene {
         name: raw.name.unwrap_or_else(|| file.to_string()),
         description: raw.description.unwrap_or_default(),
@@ -865,15 +994,12 @@ fn resolve(mut raw: RawScene, file: &str) -> Result<Scene, Invalid> {
         initial,
         horizon,
         solver,
-        physical: PhysicalScale {
-            m1_kg: p.m1_kg.unwrap_or(d.physical.m1_kg),
-            k1_n_per_m: p.k1_n_per_m.unwrap_or(d.physical.k1_n_per_m),
-            pf_n: p.pf_n.unwrap_or(d.physical.pf_n),
-        },
+        physical,
         node: NodeSettings {
             rate_hz: n.rate_hz.unwrap_or(d.node.rate_hz),
             command_timeout_s: n.command_timeout_s.unwrap_or(d.node.command_timeout_s),
         },
+        device,
     })
 }
 
@@ -1079,5 +1205,36 @@ mod tests {
         }
         .validate()
         .is_err());
+    }
+
+    #[test]
+    fn a_device_table_fills_from_the_typical_device_and_reads_back() {
+        let s = Scene::from_toml_str(
+            "[device]\nmeasured = [\"displacement\"]\nlag_s = 0.002\nseed = 7\n",
+            "d.toml",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let d = s.device.unwrap_or_else(|| panic!("no device"));
+        let typical = DeviceModel::typical(&s.physical);
+        assert_eq!(d.measured.names(), ["displacement"]);
+        assert_eq!((d.lag_s, d.seed), (0.002, 7));
+        assert_eq!(d.noise_m, typical.noise_m);
+        let back = Scene::from_toml_str(&s.to_toml(), "x").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back, s);
+        assert_eq!(Scene::default().device, None);
+        let e = |text: &str| {
+            Scene::from_toml_str(text, "d.toml")
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        assert_eq!(
+            e("[device]\nlatency_s = -1.0\n"),
+            "d.toml: device.latency_s: must be >= 0 (got -1)"
+        );
+        assert!(e("[device]\nmeasured = [\"speed\"]\n")
+            .contains("device.measured: unknown quantity `speed`"));
+        assert!(e("[device]\nseed = 1.5\n").contains("device.seed"));
+        assert!(e("[device]\nmax_force_n = 0.0\n").contains("device.max_force_n: must be > 0"));
     }
 }

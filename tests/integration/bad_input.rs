@@ -38,7 +38,91 @@ fn scene_takers(out: &str) -> Vec<(&'static str, Vec<String>)> {
             v("--scene {} --check --record-dir", &[out]),
         ),
         ("capsule_ros", v("period --scene {}", &[])),
+        (
+            "capsule",
+            v("emulate-device --scene {} --until-s 0.01", &[]),
+        ),
+        (
+            "capsule",
+            v(
+                "robustness --scene {} --periods 1 --transient 0 --out",
+                &[out],
+            ),
+        ),
+        (
+            "capsule_plant",
+            v("--scene {} --source serial:/dev/null/none --check", &[]),
+        ),
     ]
+}
+
+#[test]
+fn device_flags_are_refused_with_the_reason_before_any_line_opens() {
+    let tmp = TempDir::new("bad_device_flags");
+    let scene = "scenes/control_point.toml";
+    let o = run(
+        "capsule_plant",
+        &[
+            "--scene",
+            scene,
+            "--source",
+            "serial:/dev/ttyUSB0,12345",
+            "--check",
+        ],
+    );
+    assert_refused(&o, 2, "`12345`: not a baud rate", "bad baud");
+    let o = run(
+        "capsule_plant",
+        &["--scene", scene, "--source", "usb", "--check"],
+    );
+    assert_refused(&o, 2, "expected sim or serial:PATH[,BAUD]", "bad source");
+    let o = run("capsule_plant", &["--scene", scene, "--dry-run", "--check"]);
+    assert_refused(
+        &o,
+        2,
+        "--dry-run and --max-travel-m are for --source serial",
+        "dry sim",
+    );
+    // the emulator never replaces a file that is not its own link
+    let file = tmp.arg("not_a_link");
+    std::fs::write(&file, "keep").unwrap_or_else(|e| panic!("{e}"));
+    let o = run(
+        "capsule",
+        &[
+            "emulate-device",
+            "--scene",
+            scene,
+            "--link",
+            &file,
+            "--until-s",
+            "0.01",
+        ],
+    );
+    assert_refused(
+        &o,
+        2,
+        "exists and is not a symbolic link; not replaced",
+        "link",
+    );
+    assert_eq!(std::fs::read_to_string(&file).ok().as_deref(), Some("keep"));
+    let o = run(
+        "capsule_plant",
+        &[
+            "--scene",
+            scene,
+            "--source",
+            "serial:/tmp/x,115200",
+            "--dry-run",
+            "--check",
+        ],
+    );
+    assert_ok(&o);
+    assert!(
+        stderr(&o).contains("serial /tmp/x at 115200 baud (dry run)")
+            || String::from_utf8_lossy(&o.stdout)
+                .contains("serial /tmp/x at 115200 baud (dry run)"),
+        "{o:?}"
+    );
 }
 
 #[test]

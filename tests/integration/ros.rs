@@ -9,6 +9,7 @@
 mod harness;
 
 mod colcon;
+mod device;
 mod fastdds;
 mod fault_matrix;
 mod faults;

@@ -243,12 +243,14 @@ def wait_for(r, done, timeout, poll, n=64):
 def read_window(take, seconds, timeout, poll):
     """Calls TAKE() every POLL s (it returns whether the first sample has come) until it has,
     bounded by TIMEOUT s (discovery can take seconds on a loaded host), then for SECONDS more."""
-    start = time.time()
-    deadline = start + timeout
+    deadline = time.time() + timeout
+    windowed = False
     while time.time() < deadline:
-        if take() and deadline - start > seconds:
-            start = time.time()
-            deadline = start + seconds
+        # once: comparing deadline - start with SECONDS again would restart the window forever
+        # whenever the subtraction rounds above SECONDS (1.2 s does)
+        if take() and not windowed:
+            windowed = True
+            deadline = time.time() + seconds
         time.sleep(poll)
 
 

@@ -1,4 +1,5 @@
-//! `capsule_plant`: the ROS 2 plant node, a simulated vibro-impact capsule.
+//! `capsule_plant`: the ROS 2 plant node, a simulated vibro-impact capsule or a real one on a
+//! serial line.
 
 use capsule_msgs::names::nodes;
 use std::time::Duration;
@@ -6,7 +7,8 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
-    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
+    device_driver::{DeviceDriver, DriverSettings, Source},
+    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions, PlantSim},
     plant_params, recorder,
     sim::SimulatedPlant,
     views,
@@ -18,16 +20,28 @@ use capsule_ros_base::{
 };
 use clap::Parser;
 
-/// Simulates the capsule of a scene exactly and serves it as a capsule driver would: state on
-/// capsule/state at the scene's rate (SI units through the scene's [physical] scale), force
-/// commands from capsule/actuator_force (held between samples; non-finite or late ones refused;
-/// zero force once they go stale), and sim time on /clock.
+/// Simulates the capsule of a scene exactly (or drives a real one on a serial line) and serves
+/// it as a capsule driver: state on capsule/state at the scene's rate (SI units through the
+/// scene's [physical] scale), force commands from capsule/actuator_force (held between samples;
+/// non-finite or late ones refused; zero force once they go stale), and sim time on /clock.
 #[derive(Debug, Parser)]
 #[command(name = "capsule_plant", version, allow_negative_numbers = true)]
 struct Cli {
     /// Scene TOML (model, friction, initial state, physical scale, node rate and timeout)
     #[arg(long)]
     scene: String,
+    /// Where the capsule is: sim (the scene's capsule simulated exactly) or serial:PATH[,BAUD]
+    /// (a device speaking the capsule device protocol, docs/hardware.md; default 921600 baud;
+    /// `capsule emulate-device` is one on a pseudo-terminal)
+    #[arg(long, default_value = "sim", value_name = "sim|serial:PATH[,BAUD]")]
+    source: Source,
+    /// Serial source: zero the force while |x1 - x2| exceeds this [m], (0, 1e6] (the device's
+    /// own travel limit, if smaller, stands) [default: no limit of the node's]
+    #[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]
+    max_travel_m: Option<f64>,
+    /// Serial source: log the force commands instead of sending them (zero force goes out)
+    #[arg(long)]
+    dry_run: bool,
     /// realtime: one sample per 1/rate of wall time; lockstep: each step waits for the
     /// controller's answer (reproducible, as fast as the loop allows)
     #[arg(long, value_enum, default_value = "realtime")]
@@ -95,6 +109,23 @@ struct Cli {
     ros: RosArgs,
 }
 
+/// The plant node's core around the source chosen with `--source`.
+type Plant = PlantCore<Box<dyn PlantSim + Send>>;
+
+impl Cli {
+    /// The source as `--check` prints it.
+    fn source_label(&self) -> String {
+        match &self.source {
+            Source::Sim => "simulated".to_string(),
+            Source::Serial { path, baud } => format!(
+                "serial {} at {baud} baud{}",
+                path.display(),
+                if self.dry_run { " (dry run)" } else { "" }
+            ),
+        }
+    }
+}
+
 /// Most fixed-method steps the plant takes per published sample: beyond, one sample would take
 /// longer than a realtime loop can afford (and a loop stuck in one sample would not see Ctrl-C).
 const MAX_FIXED_STEPS_PER_SAMPLE: f64 = 1e6;
@@ -123,7 +154,7 @@ fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOp
 fn build(
     cli: &Cli,
     overrides: &[ros_args::Override],
-) -> Result<(RosSettings, PlantCore<SimulatedPlant>, PlantOptions)> {
+) -> Result<(RosSettings, Plant, PlantOptions)> {
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
     // both in range: the scene's validation and the flags' parsers check the same bounds
@@ -142,8 +173,9 @@ fn build(
             );
         }
     }
-    let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
-        .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?;
+    if cli.source == Source::Sim && (cli.dry_run || cli.max_travel_m.is_some()) {
+        bail!("--dry-run and --max-travel-m are for --source serial:PATH (a simulated capsule has no device to spare)");
+    }
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
     // ROS parameters: the flags' and scene's values, then -p / --params-file over them
     let started_with = plant_params::PlantSettings {
@@ -169,10 +201,28 @@ fn build(
     }
     let (rate, timeout, clock_every) =
         plant_params::overridable(&params, &started_with).map_err(anyhow::Error::msg)?;
-    let mut core = PlantCore::new(SimulatedPlant(sim), scene.physical, rate, timeout);
-    if let Some(f) = cli.max_force_n {
-        core = core.with_max_force_n(f);
-    }
+    let max_force_n = cli
+        .max_force_n
+        .unwrap_or(capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n());
+    let source: Box<dyn PlantSim + Send> = match &cli.source {
+        Source::Sim => Box::new(SimulatedPlant(
+            Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
+                .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?,
+        )),
+        Source::Serial { path, baud } => Box::new(DeviceDriver::new(
+            DriverSettings {
+                path: path.clone(),
+                baud: *baud,
+                rate_hz: rate,
+                max_force_n,
+                max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
+                gap_m: scene.model.capsule.delta * scene.physical.length_m(),
+                dry_run: cli.dry_run,
+            },
+            scene.physical,
+        )),
+    };
+    let core = PlantCore::new(source, scene.physical, rate, timeout).with_max_force_n(max_force_n);
     let opts = PlantOptions {
         pacing: cli.pacing,
         until_s: cli.until_s,
@@ -194,9 +244,10 @@ fn main() -> std::process::ExitCode {
         Err(e) => return ros::exit_code("capsule_plant", Err(e)),
     };
     let built = build(&cli, &overrides).map(|(settings, core, opts)| (settings, (core, opts)));
-    let would = |(core, opts): &(PlantCore<SimulatedPlant>, PlantOptions)| {
+    let would = |(core, opts): &(Plant, PlantOptions)| {
         format!(
-            ", {:?}, force limit {} N{}",
+            ", {}, {:?}, force limit {} N{}",
+            cli.source_label(),
             opts.pacing,
             core.max_force_n(),
             opts.record

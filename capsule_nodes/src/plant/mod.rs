@@ -34,6 +34,6 @@ mod stats;
 
 pub use node::run;
 pub use options::{Pacing, PlantOptions};
-pub use plant_core::{CommandOutcome, PlantCore, PlantSim};
+pub use plant_core::{CommandOutcome, PlantCore, PlantSim, SourceHealth};
 pub use recording::{InPlantRecordOptions, InPlantRecording};
 pub use stats::{summary_json, LoopStats};

@@ -245,6 +245,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
         tokio::time::sleep(MATCH_GRACE).await;
         info!("{} subscribers matched: starting", opts.wait_subscribers);
     }
+    // a device's first measurement before the first sample, so that sample is one
+    let mut core = core;
+    core.start(opts.startup_timeout);
     let (result, mut core, recording) = match opts.pacing {
         Pacing::Lockstep => {
             let mut core = core;

@@ -12,12 +12,52 @@ use tracing::info;
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
 
-/// What the node needs from a simulator: hold a force until a time, and report a sample.
+/// What the node needs from its capsule (the simulator, or a device behind a driver): hold a
+/// force until a time, and report a sample.
 pub trait PlantSim {
-    /// Integrates to `tau_end` holding the non-dimensional actuator force `force`.
+    /// Holds the non-dimensional actuator force `force` until `tau_end` (a simulator
+    /// integrates; a driver sends it and takes the next measurement).
     fn advance(&mut self, force: f64, tau_end: f64) -> Result<()>;
-    /// The current sample.
+    /// The current sample (NaN where a device does not measure).
     fn sample(&self) -> Snapshot;
+    /// Brings the capsule up before the first sample, waiting at most `timeout`: a driver
+    /// opens its line and waits for the device's first measurement (and goes on without one,
+    /// saying so); a simulator is ready at once.
+    fn start(&mut self, timeout: std::time::Duration) {
+        let _ = timeout;
+    }
+    /// How a device is doing, for `/diagnostics` and the summary; `None` for a simulator,
+    /// which cannot fail between steps.
+    fn health(&self) -> Option<&SourceHealth> {
+        None
+    }
+}
+
+/// A plant chosen at run time (`--source`).
+impl<P: PlantSim + ?Sized> PlantSim for Box<P> {
+    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
+        (**self).advance(force, tau_end)
+    }
+    fn sample(&self) -> Snapshot {
+        (**self).sample()
+    }
+    fn health(&self) -> Option<&SourceHealth> {
+        (**self).health()
+    }
+    fn start(&mut self, timeout: std::time::Duration) {
+        (**self).start(timeout)
+    }
+}
+
+/// How a plant's device is doing.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SourceHealth {
+    /// What the plant is (`serial /dev/ttyUSB0 at 921600 baud`).
+    pub label: String,
+    /// What is wrong now, if anything (the force is zero while it lasts).
+    pub fault: Option<String>,
+    /// Counters and limits, as `/diagnostics` key-value pairs.
+    pub values: Vec<(&'static str, String)>,
 }
 
 /// Why a command was not taken.
@@ -112,6 +152,19 @@ impl<S: PlantSim> PlantCore<S> {
         } else {
             self.held_n
         }
+    }
+
+    /// Brings the capsule up (see [`PlantSim::start`]) and takes its first sample.
+    pub fn start(&mut self, timeout: std::time::Duration) {
+        self.sim.start(timeout);
+        if let Some(h) = self.sim.health() {
+            self.stats.device = Some(h.clone());
+        }
+    }
+
+    /// How the device is doing (`None`: a simulator).
+    pub fn health(&self) -> Option<&SourceHealth> {
+        self.sim.health()
     }
 
     /// Commands refused so far.
@@ -222,6 +275,9 @@ impl<S: PlantSim> PlantCore<S> {
         let force = self.held_force() / self.scale.force_n();
         let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
         self.sim.advance(force, tau_end)?;
+        if let Some(h) = self.sim.health() {
+            self.stats.device = Some(h.clone());
+        }
         self.step += 1;
         self.answered_current = false;
         self.published_at = None;

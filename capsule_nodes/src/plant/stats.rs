@@ -25,6 +25,8 @@ pub struct LoopStats {
     pub saturated_commands: u64,
     /// Graph conflicts seen (another plant, a foreign type on our topics): [`capsule_ros_base::conflicts`].
     pub graph_conflicts: u64,
+    /// How the device is doing after the last step (`None`: the simulator).
+    pub device: Option<super::SourceHealth>,
     pub(super) in_flight: VecDeque<(u64, f64, bool)>,
     pub(super) answered_any: bool,
 }
@@ -110,6 +112,15 @@ pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> Stri
         rejected_commands: last.rejected_commands,
         saturated_commands: stats.saturated_commands,
         graph_conflicts: stats.graph_conflicts,
+        device: stats.device.as_ref().map(|d| Device {
+            label: d.label.clone(),
+            fault: d.fault.clone(),
+            values: d
+                .values
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.clone()))
+                .collect(),
+        }),
         last: LastSample {
             seq: last.seq,
             stamp_ns: last.header.stamp.to_nanos(),
@@ -139,7 +150,17 @@ struct Summary {
     rejected_commands: u32,
     saturated_commands: u64,
     graph_conflicts: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device: Option<Device>,
     last: LastSample,
+}
+
+/// How the device was doing at the end (a driver's plant only).
+#[derive(Serialize)]
+struct Device {
+    label: String,
+    fault: Option<String>,
+    values: std::collections::BTreeMap<String, String>,
 }
 
 /// The last sample, SI.

@@ -1,0 +1,298 @@
+//! `capsule emulate-device`: a prototype on a pseudo-terminal. The scene's capsule, simulated
+//! exactly, behind its `[device]` sensor and actuator models (or a typical device), speaking the
+//! device protocol of `capsule_device` as a microcontroller would: a hello, then a measurement
+//! per sample, the commanded force held until the next force frame, zero force after the
+//! device's command timeout. The plant node's serial driver opens the printed path (or the
+//! `--link`) as it would open `/dev/ttyUSB0`. Faults can be injected to rehearse them.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context as _, Result};
+use capsule_args::{ranges, scene_file::SceneFile};
+use capsule_device::{frame::VERSION, Decoded, Frame, Hello, Measurement};
+use capsule_plant::device::prototype::Prototype;
+use capsule_plant::device::sensor::Reading;
+use capsule_plant::Simulator;
+use capsule_serial::{open_pty, Link, LinkError};
+use tracing::{info, warn};
+
+use crate::Refused;
+
+/// How the emulated device paces its samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pacing {
+    /// One sample per `1/rate` of wall time, as a microcontroller's timer gives them.
+    Realtime,
+    /// Each sample waits for the force frame answering it (re-sent every 50 ms until then):
+    /// reproducible runs as fast as the loop allows, for tests and CI.
+    Lockstep,
+}
+
+/// `capsule emulate-device`'s arguments.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Scene TOML: the capsule, its [physical] scale, node.rate_hz as the sample rate, and the
+    /// [device] table (sensor, actuator, limits; a typical device when absent)
+    #[arg(long)]
+    scene: PathBuf,
+    /// Also make PATH a symbolic link to the pseudo-terminal (replaced if it is one; removed at
+    /// the end), so that a driver can be started with a fixed path
+    #[arg(long, value_name = "PATH")]
+    link: Option<PathBuf>,
+    /// realtime: a sample per 1/rate of wall time; lockstep: each sample waits for its answer
+    #[arg(long, value_enum, default_value = "realtime")]
+    pacing: Pacing,
+    /// Sample rate [Hz], 1e-3 to 1e6 (overrides the scene's node.rate_hz)
+    #[arg(long, value_parser = ranges::within(ranges::RATE_HZ.0, ranges::RATE_HZ.1))]
+    rate_hz: Option<f64>,
+    /// Stop at this device time [s], (0, 1e9] (default: until Ctrl-C)
+    #[arg(long, value_parser = ranges::positive(1e9))]
+    until_s: Option<f64>,
+    /// Fault: after every N-th measurement, write 7 bytes that are no frame, 1 to 1e9
+    #[arg(long, value_name = "N", value_parser = ranges::count(1, 1_000_000_000))]
+    garbage_every: Option<u64>,
+    /// Fault: every N-th measurement frame has a byte flipped (its checksum fails), 1 to 1e9
+    #[arg(long, value_name = "N", value_parser = ranges::count(1, 1_000_000_000))]
+    corrupt_every: Option<u64>,
+    /// Fault: every N-th measurement carries NaN as x1 - x2, 1 to 1e9
+    #[arg(long, value_name = "N", value_parser = ranges::count(1, 1_000_000_000))]
+    nan_every: Option<u64>,
+    /// Fault: stop sending anything from this device time on [s] (the capsule runs on)
+    #[arg(long, value_name = "S", value_parser = ranges::positive(1e9))]
+    silent_after_s: Option<f64>,
+    /// Fault: close the line at this device time [s] and exit (a cable pulled)
+    #[arg(long, value_name = "S", value_parser = ranges::positive(1e9))]
+    unplug_after_s: Option<f64>,
+}
+
+/// Re-sends in lock-step while no answer comes.
+const RESEND: Duration = Duration::from_millis(50);
+
+/// The measurement frame of a reading at device time `t_s`.
+fn measurement(r: &Reading, t_s: f64) -> Measurement {
+    let (contact_measured, in_contact) = match r.contact {
+        Some(c) => (1u8, u8::from(c) << 1),
+        None => (0, 0),
+    };
+    Measurement {
+        // the device's microsecond clock wraps as a u32 counter does
+        t_us: ((t_s * 1e6).round() as u64 % (1u64 << 32)) as u32,
+        relative_m: r.displacement_m as f32,
+        capsule_m: r.capsule_m as f32,
+        mass_velocity: r.mass_v as f32,
+        capsule_velocity: r.capsule_v as f32,
+        applied_force_n: r.force_n as f32,
+        flags: contact_measured | in_contact,
+    }
+}
+
+/// Makes `link` a symbolic link to `target`; refuses to replace anything but a symbolic link.
+fn make_link(link: &Path, target: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(link) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::remove_file(link)
+            .with_context(|| format!("cannot replace the link {}", link.display()))?,
+        Ok(_) => bail!(Refused(format!(
+            "--link {}: exists and is not a symbolic link; not replaced",
+            link.display()
+        ))),
+        Err(_) => {}
+    }
+    std::os::unix::fs::symlink(target, link)
+        .with_context(|| format!("cannot create the link {}", link.display()))
+}
+
+/// How long until sample `k + 1` is due.
+fn due_in(start: Instant, period: Duration, k: u64) -> Duration {
+    (start + period.mul_f64((k + 1) as f64)).saturating_duration_since(Instant::now())
+}
+
+/// What the emulator counted.
+#[derive(Debug, Default)]
+struct Counts {
+    samples: u64,
+    forces: u64,
+    timeouts: u64,
+    bad_in: u64,
+}
+
+/// Runs the emulated device until `--until-s`, an unplug, or Ctrl-C.
+pub fn main(args: Args) -> Result<()> {
+    let file = SceneFile::read(&args.scene)?;
+    let scene = &file.scene;
+    let device = scene.device_or_typical();
+    let rate = args.rate_hz.unwrap_or(scene.node.rate_hz);
+    let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
+        .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", file.stem))?;
+    let mut proto = Prototype::new(sim, scene.physical, &device);
+    let pty = open_pty().context("cannot open a pseudo-terminal")?;
+    if let Some(link) = &args.link {
+        make_link(link, &pty.path)?;
+    }
+    // the path alone on stdout's first line, for scripts; the rest goes to the log
+    println!("{}", pty.path.display());
+    std::io::stdout().flush().ok();
+    info!(
+        "device on {} ({}): {rate} Hz, measures {}, noise {} m, latency {} s, force limit {} N, {:?}",
+        pty.path.display(),
+        args.link
+            .as_ref()
+            .map_or("no link".to_string(), |l| format!("link {}", l.display())),
+        device.measured.names().join(", "),
+        device.noise_m,
+        device.latency_s,
+        device.max_force_n,
+        args.pacing
+    );
+    let hello = Frame::Hello(Hello {
+        version: VERSION,
+        measured: device.measured.bits(),
+        max_force_n: device.max_force_n as f32,
+        max_travel_m: device.max_travel_m as f32,
+        sample_rate_hz: rate as f32,
+        command_timeout_s: device.command_timeout_s as f32,
+    });
+    let mut link = Link::new(pty.master.try_clone().context("pseudo-terminal")?);
+    crate::work::catch_ctrl_c();
+    let result = serve(
+        &args,
+        &mut proto,
+        &mut link,
+        &hello,
+        rate,
+        device.command_timeout_s,
+    );
+    crate::work::release_ctrl_c();
+    if let Some(l) = &args.link {
+        let _ = std::fs::remove_file(l);
+    }
+    drop(pty);
+    let counts = result?;
+    eprintln!(
+        "emulate-device: {} samples, {} force frames, {} command timeouts, {} bad frames in",
+        counts.samples, counts.forces, counts.timeouts, counts.bad_in
+    );
+    Ok(())
+}
+
+/// The sample loop.
+fn serve(
+    args: &Args,
+    proto: &mut Prototype,
+    link: &mut Link,
+    hello: &Frame,
+    rate: f64,
+    timeout_s: f64,
+) -> Result<Counts> {
+    let period = Duration::from_secs_f64(1.0 / rate);
+    let dt = 1.0 / rate;
+    // a hello four times a second: a driver that (re)opens the line learns the limits quickly
+    let hello_every = ((rate / 4.0).round() as u64).max(1);
+    let start = Instant::now();
+    let mut counts = Counts::default();
+    let mut command = 0.0f64;
+    let mut last_command: Option<Instant> = None;
+    let gone = |e: LinkError| anyhow::anyhow!("{e}");
+    link.send(hello).map_err(gone)?;
+    for k in 0u64.. {
+        let t = k as f64 * dt;
+        if args.until_s.is_some_and(|u| t >= u) {
+            info!("reached the end time {t:.3} s");
+            break;
+        }
+        if crate::work::interrupted() {
+            info!("interrupted at {t:.3} s");
+            break;
+        }
+        if args.unplug_after_s.is_some_and(|u| t >= u) {
+            info!("unplugging the line at {t:.3} s");
+            break;
+        }
+        let silent = args.silent_after_s.is_some_and(|s| t >= s);
+        let mut m = measurement(&proto.read(), t);
+        let every = |n: Option<u64>| n.is_some_and(|n| (k + 1) % n == 0);
+        if every(args.nan_every) {
+            m.relative_m = f32::NAN;
+        }
+        let send_sample = |link: &mut Link| -> Result<u16> {
+            if k > 0 && k % hello_every == 0 {
+                link.send(hello).map_err(gone)?;
+            }
+            let (mut bytes, seq) = link.encode(&Frame::Measurement(m));
+            if every(args.corrupt_every) {
+                bytes[8] ^= 0x5A;
+            }
+            link.write_bytes(&bytes).map_err(gone)?;
+            if every(args.garbage_every) {
+                link.write_bytes(&[0x00, 0xCA, 0x13, 0x37, 0xFF, 0x95, 0x42])
+                    .map_err(gone)?;
+            }
+            Ok(seq)
+        };
+        // a silent device takes no more force frames either: it has hung
+        let first_seq = if silent {
+            std::thread::sleep(due_in(start, period, k));
+            proto
+                .hold(0.0, dt)
+                .map_err(|e| anyhow::anyhow!("simulation failed at {t:.3} s: {e}"))?;
+            continue;
+        } else {
+            send_sample(link)?
+        };
+        counts.samples += 1;
+        // take force frames until the sample is due (realtime) or answered (lockstep)
+        let due = start + period.mul_f64((k + 1) as f64);
+        let mut waited_from = Instant::now();
+        loop {
+            let deadline = match args.pacing {
+                Pacing::Realtime => due,
+                Pacing::Lockstep => Instant::now() + RESEND,
+            };
+            match link.next(deadline).map_err(gone)? {
+                Some(Decoded::Frame {
+                    frame: Frame::Force(f),
+                    ..
+                }) => {
+                    counts.forces += 1;
+                    command = f64::from(f.force_n);
+                    last_command = Some(Instant::now());
+                    let answers_this = f.answers.wrapping_sub(first_seq) < 0x8000;
+                    if args.pacing == Pacing::Lockstep && answers_this {
+                        break;
+                    }
+                }
+                Some(Decoded::Frame { .. }) | Some(Decoded::Skipped(_)) => counts.bad_in += 1,
+                None => match args.pacing {
+                    Pacing::Realtime => break,
+                    Pacing::Lockstep => {
+                        if crate::work::interrupted() {
+                            return Ok(counts);
+                        }
+                        let commanded = last_command.is_some();
+                        if commanded && waited_from.elapsed().as_secs_f64() > timeout_s {
+                            break;
+                        }
+                        // re-send the sample (with a hello: a driver may have just opened)
+                        link.send(hello).map_err(gone)?;
+                        link.send(&Frame::Measurement(m)).map_err(gone)?;
+                        if !commanded {
+                            waited_from = Instant::now();
+                        }
+                    }
+                },
+            }
+        }
+        if last_command.is_some_and(|at| at.elapsed().as_secs_f64() > timeout_s) {
+            if command != 0.0 {
+                warn!("no force frame for {timeout_s} s at {t:.3} s: zero force");
+                counts.timeouts += 1;
+            }
+            command = 0.0;
+        }
+        proto
+            .hold(command, dt)
+            .map_err(|e| anyhow::anyhow!("simulation failed at {t:.3} s: {e}"))?;
+    }
+    Ok(counts)
+}

@@ -1,0 +1,302 @@
+//! `capsule robustness`: what the swap to a real capsule costs. The paper's law closed offline
+//! around a simulated prototype (`capsule_analysis::robustness`) for FORWARD, BACKWARD and
+//! CHAOS_CONTROL: a noise x delay grid per mode (a heat map), and one row each for the typical
+//! device, quantisation, coil lag, a dead band, and friction and stiffness off by +-20 %.
+//! Writes PREFIX.md (the tables), PREFIX.svg and PREFIX.png (the heat maps).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context as _, Result};
+use capsule_analysis::robustness::{closed_loop, LoopCase, LoopResult, Mismatch};
+use capsule_args::ranges;
+use capsule_plant::device::{DeviceModel, Measured};
+use rayon::prelude::*;
+
+use crate::svg;
+
+/// `capsule robustness`'s arguments.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Scene TOML (default: the section-5 control point, the demo's scene)
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Drive periods measured per run, 1 to 100000
+    #[arg(long, default_value_t = 30, value_parser = ranges::count_u32(1, 100_000))]
+    periods: u32,
+    /// Drive periods run first and not measured, 0 to 100000
+    #[arg(long, default_value_t = 10, value_parser = ranges::count_u32(0, 100_000))]
+    transient: u32,
+    /// Control rate [Hz], 1 to 1e6
+    #[arg(long, default_value_t = 1000.0, value_parser = ranges::within(1.0, 1e6))]
+    rate_hz: f64,
+    /// Output prefix: PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist)
+    #[arg(
+        long,
+        value_name = "PREFIX",
+        default_value = "docs/robustness/robustness"
+    )]
+    out: PathBuf,
+}
+
+/// Position noise on the grid, in % of the length unit `P_f / k1`.
+const NOISE_PCT: [f64; 7] = [0.0, 5.0, 20.0, 50.0, 100.0, 200.0, 500.0];
+/// Measurement latency on the grid \[ms\].
+const DELAY_MS: [f64; 7] = [0.0, 2.0, 5.0, 10.0, 22.0, 45.0, 90.0];
+/// The modes and their default gains (`capsule_controller::mode::ModeConfig::DEFAULT`).
+const MODES: [(&str, f64); 3] = [("FORWARD", 0.2), ("BACKWARD", -0.2), ("CHAOS_CONTROL", 1.0)];
+
+/// Runs the study and writes its files.
+pub fn main(args: Args) -> Result<()> {
+    let scene = match &args.scene {
+        Some(p) => capsule_args::scene_file::SceneFile::read(p)?.scene,
+        None => crate::bench::section5(0.0),
+    };
+    crate::work::check_parent(&args.out)?;
+    let phys = scene.physical;
+    // the grid's device: positions only, exact but for noise and latency, an ideal actuator
+    let base = DeviceModel {
+        measured: Measured::POSITIONS,
+        ..DeviceModel::ideal(&phys)
+    };
+    let case = |kp: f64, device: DeviceModel, mismatch: Mismatch| LoopCase {
+        kp,
+        device,
+        mismatch,
+        rate_hz: args.rate_hz,
+        transient: args.transient,
+        periods: args.periods,
+    };
+    let mut grid_cases = Vec::new();
+    for (m, (_, kp)) in MODES.iter().enumerate() {
+        for (i, d) in DELAY_MS.iter().enumerate() {
+            for (j, n) in NOISE_PCT.iter().enumerate() {
+                let device = DeviceModel {
+                    noise_m: n / 100.0 * phys.length_m(),
+                    latency_s: d / 1000.0,
+                    ..base
+                };
+                grid_cases.push(((m, i, j), case(*kp, device, Mismatch::NONE)));
+            }
+        }
+    }
+    let typical = DeviceModel::typical(&phys);
+    let rows: Vec<(String, DeviceModel, Mismatch)> = vec![
+        (
+            "ideal (every quantity, exact, at once)".into(),
+            DeviceModel::ideal(&phys),
+            Mismatch::NONE,
+        ),
+        ("positions only, exact".into(), base, Mismatch::NONE),
+        (
+            "typical device (docs/hardware.md)".into(),
+            typical,
+            Mismatch::NONE,
+        ),
+        (
+            "quantised 10 um".into(),
+            DeviceModel {
+                quantum_m: 10e-6,
+                ..base
+            },
+            Mismatch::NONE,
+        ),
+        (
+            "quantised 50 um".into(),
+            DeviceModel {
+                quantum_m: 50e-6,
+                ..base
+            },
+            Mismatch::NONE,
+        ),
+        (
+            "coil lag 2 ms".into(),
+            DeviceModel {
+                lag_s: 2e-3,
+                ..base
+            },
+            Mismatch::NONE,
+        ),
+        (
+            "coil lag 10 ms".into(),
+            DeviceModel {
+                lag_s: 10e-3,
+                ..base
+            },
+            Mismatch::NONE,
+        ),
+        (
+            "dead band 0.2 P_f".into(),
+            DeviceModel {
+                dead_band_n: 0.2 * phys.force_n(),
+                ..base
+            },
+            Mismatch::NONE,
+        ),
+        (
+            "friction -20 %".into(),
+            base,
+            Mismatch {
+                friction: 0.8,
+                stiffness: 1.0,
+            },
+        ),
+        (
+            "friction +20 %".into(),
+            base,
+            Mismatch {
+                friction: 1.2,
+                stiffness: 1.0,
+            },
+        ),
+        (
+            "stiffness k1 -20 %".into(),
+            base,
+            Mismatch {
+                friction: 1.0,
+                stiffness: 0.8,
+            },
+        ),
+        (
+            "stiffness k1 +20 %".into(),
+            base,
+            Mismatch {
+                friction: 1.0,
+                stiffness: 1.2,
+            },
+        ),
+    ];
+    let mut row_cases = Vec::new();
+    for (r, (_, device, mismatch)) in rows.iter().enumerate() {
+        for (m, (_, kp)) in MODES.iter().enumerate() {
+            row_cases.push(((r, m), case(*kp, *device, *mismatch)));
+        }
+    }
+    let n = grid_cases.len() + row_cases.len();
+    eprintln!(
+        "robustness: {n} closed-loop runs of {} + {} periods at {} Hz",
+        args.transient, args.periods, args.rate_hz
+    );
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let run = |c: &LoopCase| -> Result<LoopResult> {
+        let r = closed_loop(&scene, c).map_err(|e| anyhow::anyhow!("closed loop: {e}"));
+        bar.inc(1);
+        r
+    };
+    let grid: Vec<((usize, usize, usize), LoopResult)> = grid_cases
+        .par_iter()
+        .map(|(k, c)| run(c).map(|r| (*k, r)))
+        .collect::<Result<_>>()?;
+    let row_results: Vec<((usize, usize), LoopResult)> = row_cases
+        .par_iter()
+        .map(|(k, c)| run(c).map(|r| (*k, r)))
+        .collect::<Result<_>>()?;
+    bar.finish_and_clear();
+    let at = |m: usize, i: usize, j: usize| {
+        grid.iter()
+            .find(|(k, _)| *k == (m, i, j))
+            .map_or(f64::NAN, |(_, r)| r.progression)
+    };
+    let row = |r: usize, m: usize| {
+        row_results
+            .iter()
+            .find(|(k, _)| *k == (r, m))
+            .map(|(_, r)| *r)
+    };
+    let mm = phys.length_m() * 1e3;
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# What the swap to a real capsule costs\n\nMade by `capsule robustness{}` ({} + {} drive periods per run at {} Hz, the law on measured positions only, progression and efficiency on the true state; non-dimensional, 1 length unit = {:.3} mm). The law: `alpha cos(omega tau) + k_p |x2 - x1|`, FORWARD k_p 0.2, BACKWARD -0.2, CHAOS_CONTROL 1.0.\n",
+        args.scene.as_ref().map(|p| format!(" --scene {}", p.display())).unwrap_or_default(),
+        args.transient,
+        args.periods,
+        args.rate_hz,
+        mm
+    );
+    let _ = writeln!(md, "## One effect at a time\n\nProgression per drive period (efficiency: progression over the actuator's work).\n");
+    let _ = writeln!(
+        md,
+        "| device / plant | {} |",
+        MODES
+            .iter()
+            .map(|(m, _)| *m)
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    let _ = writeln!(md, "|---|{}", "---|".repeat(MODES.len()));
+    for (r, (label, _, _)) in rows.iter().enumerate() {
+        let cells: Vec<String> = (0..MODES.len())
+            .map(|m| {
+                row(r, m).map_or("failed".into(), |x| {
+                    format!("{:+.3} ({:.3})", x.progression, x.efficiency)
+                })
+            })
+            .collect();
+        let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(md, "\n## Noise x delay\n\nPositions only, no quantisation or lag: progression per period for position noise (standard deviation, % of the length unit) against measurement latency. `*`: below half of the exact positions' progression or of the wrong sign (the mode has stopped working).\n");
+    for (m, (mode, _)) in MODES.iter().enumerate() {
+        let reference = at(m, 0, 0);
+        let _ = writeln!(md, "### {mode} (exact positions: {reference:+.3})\n");
+        let _ = writeln!(
+            md,
+            "| latency \\ noise | {} |",
+            NOISE_PCT
+                .iter()
+                .map(|n| format!("{n} %"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+        let _ = writeln!(md, "|---|{}", "---|".repeat(NOISE_PCT.len()));
+        for (i, d) in DELAY_MS.iter().enumerate() {
+            let cells: Vec<String> = (0..NOISE_PCT.len())
+                .map(|j| {
+                    let v = at(m, i, j);
+                    let works = v * reference.signum() >= 0.5 * reference.abs();
+                    let broken = !works;
+                    format!("{v:+.3}{}", if broken { "*" } else { "" })
+                })
+                .collect();
+            let _ = writeln!(md, "| {d} ms | {} |", cells.join(" | "));
+        }
+        let _ = writeln!(md);
+    }
+    let path = |ext: &str| {
+        let mut p = args.out.clone().into_os_string();
+        p.push(ext);
+        PathBuf::from(p)
+    };
+    std::fs::write(path(".md"), &md)
+        .with_context(|| format!("cannot write {}", path(".md").display()))?;
+    let maps: Vec<(String, Vec<Vec<f64>>, f64)> = MODES
+        .iter()
+        .enumerate()
+        .map(|(m, (mode, _))| {
+            let cells = (0..DELAY_MS.len())
+                .map(|i| (0..NOISE_PCT.len()).map(|j| at(m, i, j)).collect())
+                .collect();
+            (mode.to_string(), cells, at(m, 0, 0))
+        })
+        .collect();
+    let doc = svg::heat_maps(
+        "Progression per drive period: position noise x measurement latency",
+        &NOISE_PCT.map(|n| format!("{n} %")),
+        &DELAY_MS.map(|d| format!("{d} ms")),
+        "noise (% of P_f/k1)",
+        "latency",
+        &maps,
+    );
+    std::fs::write(path(".svg"), &doc)
+        .with_context(|| format!("cannot write {}", path(".svg").display()))?;
+    let png = svg::png(&doc, 1.5).map_err(|e| anyhow::anyhow!("PNG: {e}"))?;
+    std::fs::write(path(".png"), png)
+        .with_context(|| format!("cannot write {}", path(".png").display()))?;
+    print!("{md}");
+    eprintln!("wrote {}.md, .svg, .png", args.out.display());
+    Ok(())
+}
