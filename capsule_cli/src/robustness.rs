@@ -1,7 +1,8 @@
 //! `capsule robustness`: what the swap to a real capsule costs. The paper's law closed offline
 //! around a simulated prototype (`capsule_analysis::robustness`) for FORWARD, BACKWARD and
-//! CHAOS_CONTROL: a noise x delay grid per mode (a heat map), and one row each for the typical
-//! device, quantisation, coil lag, a dead band, and friction and stiffness off by +-20 %.
+//! CHAOS_CONTROL: a noise x delay grid per mode (a heat map), and one row each for the scene's
+//! own `[device]` (when it has one), the typical device, quantisation, coil lag, a dead band,
+//! and friction and stiffness off by +-20 %.
 //! Writes PREFIX.md (the tables), PREFIX.svg and PREFIX.png (the heat maps).
 
 use std::fmt::Write as _;
@@ -46,6 +47,13 @@ const DELAY_MS: [f64; 7] = [0.0, 2.0, 5.0, 10.0, 22.0, 45.0, 90.0];
 /// The modes and their default gains (`capsule_controller::mode::ModeConfig::DEFAULT`).
 const MODES: [(&str, f64); 3] = [("FORWARD", 0.2), ("BACKWARD", -0.2), ("CHAOS_CONTROL", 1.0)];
 
+/// A Markdown table's header row and rule: `first` over the row labels, then `columns`.
+fn table_head(md: &mut String, first: &str, columns: impl Iterator<Item = String>) {
+    let columns: Vec<String> = columns.collect();
+    let _ = writeln!(md, "| {first} | {} |", columns.join(" | "));
+    let _ = writeln!(md, "|---|{}", "---|".repeat(columns.len()));
+}
+
 /// Runs the study and writes its files.
 pub fn main(args: Args) -> Result<()> {
     let scene = match &args.scene {
@@ -81,7 +89,7 @@ pub fn main(args: Args) -> Result<()> {
         }
     }
     let typical = DeviceModel::typical(&phys);
-    let rows: Vec<(String, DeviceModel, Mismatch)> = vec![
+    let mut rows: Vec<(String, DeviceModel, Mismatch)> = vec![
         (
             "ideal (every quantity, exact, at once)".into(),
             DeviceModel::ideal(&phys),
@@ -166,6 +174,10 @@ pub fn main(args: Args) -> Result<()> {
             },
         ),
     ];
+    // the scene's own device, so that one run of the emulator can be reproduced offline
+    if let Some(d) = scene.device {
+        rows.insert(0, ("the scene's [device] table".into(), d, Mismatch::NONE));
+    }
     let mut row_cases = Vec::new();
     for (r, (_, device, mismatch)) in rows.iter().enumerate() {
         for (m, (_, kp)) in MODES.iter().enumerate() {
@@ -219,16 +231,11 @@ pub fn main(args: Args) -> Result<()> {
         mm
     );
     let _ = writeln!(md, "## One effect at a time\n\nProgression per drive period (efficiency: progression over the actuator's work).\n");
-    let _ = writeln!(
-        md,
-        "| device / plant | {} |",
-        MODES
-            .iter()
-            .map(|(m, _)| *m)
-            .collect::<Vec<_>>()
-            .join(" | ")
+    table_head(
+        &mut md,
+        "device / plant",
+        MODES.iter().map(|(m, _)| m.to_string()),
     );
-    let _ = writeln!(md, "|---|{}", "---|".repeat(MODES.len()));
     for (r, (label, _, _)) in rows.iter().enumerate() {
         let cells: Vec<String> = (0..MODES.len())
             .map(|m| {
@@ -243,16 +250,11 @@ pub fn main(args: Args) -> Result<()> {
     for (m, (mode, _)) in MODES.iter().enumerate() {
         let reference = at(m, 0, 0);
         let _ = writeln!(md, "### {mode} (exact positions: {reference:+.3})\n");
-        let _ = writeln!(
-            md,
-            "| latency \\ noise | {} |",
-            NOISE_PCT
-                .iter()
-                .map(|n| format!("{n} %"))
-                .collect::<Vec<_>>()
-                .join(" | ")
+        table_head(
+            &mut md,
+            "latency \\ noise",
+            NOISE_PCT.iter().map(|n| format!("{n} %")),
         );
-        let _ = writeln!(md, "|---|{}", "---|".repeat(NOISE_PCT.len()));
         for (i, d) in DELAY_MS.iter().enumerate() {
             let cells: Vec<String> = (0..NOISE_PCT.len())
                 .map(|j| {

@@ -10,8 +10,9 @@
 //! orbit its error (half a sample's acceleration, O(h)) repeats every period, so the section
 //! points of one orbit still coincide and its period is still recognised. What it does not do is
 //! reject noise: with noisy positions it multiplies the noise by 1/h; a device with a noisy
-//! sensor needs a filter in front of it (to be chosen with issue 18's robustness benchmark,
-//! not yet built).
+//! sensor needs a filter in front of it. Not chosen yet: the robustness study
+//! (`capsule robustness`, docs/hardware.md) measures the law, which needs no velocity, and not
+//! the orbit watch, which does.
 
 /// Fills in velocities from consecutive positions where the sample has none.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
