@@ -57,6 +57,10 @@ pub mod topics {
     /// JointState commands, as topic_based_ros2_control sends them (the plant's
     /// `--joint-commands`).
     pub const JOINT_COMMANDS: &str = "capsule/joint_commands";
+    /// The plant's emergency stop, latched (transient local): true while engaged.
+    pub const EMERGENCY_STOP: &str = "capsule/emergency_stop";
+    /// The plant's emergency-stop service (`std_srvs/srv/SetBool`: true engages, false releases).
+    pub const EMERGENCY_STOP_SERVICE: &str = "~/emergency_stop";
 
     /// The standard-type topics of the plant's views (what RViz, Foxglove, robot_state_publisher
     /// and diagnostics aggregators read; relative ones move with the namespace, as in ROS).
@@ -103,6 +107,11 @@ pub mod type_names {
     pub const CLOCK: &str = "rosgraph_msgs/msg/Clock";
     /// Joint states and JointState commands.
     pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
+
+    /// The emergency-stop state.
+    pub const BOOL: &str = "std_msgs/msg/Bool";
+    /// The emergency-stop service.
+    pub const SET_BOOL: &str = "std_srvs/srv/SetBool";
 
     /// `(package, Type)` of a `package/msg/Type` or `package/srv/Type` name.
     pub fn split(full: &str) -> (&str, &str) {

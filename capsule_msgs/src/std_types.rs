@@ -97,6 +97,29 @@ pub struct StringMsg {
     pub data: String,
 }
 
+/// `std_msgs/Bool` (the latched emergency-stop state).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Bool {
+    /// The value.
+    pub data: bool,
+}
+
+/// `std_srvs/SetBool` request (the emergency stop: true engages, false releases).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetBoolRequest {
+    /// The value asked for.
+    pub data: bool,
+}
+
+/// `std_srvs/SetBool` response.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetBoolResponse {
+    /// Whether the value was set.
+    pub success: bool,
+    /// What happened, for a person.
+    pub message: String,
+}
+
 /// `diagnostic_msgs/KeyValue`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct KeyValue {

@@ -8,7 +8,8 @@
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
 //! - [`controller`]: the controller node; [`controller_diagnostics`]: its `/diagnostics`;
 //!   [`controller_params`]: its ROS parameters
-//! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`]
+//! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`];
+//!   [`emergency_stop`]: its emergency-stop service and latched state
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
@@ -24,6 +25,7 @@ pub mod controller;
 pub mod controller_diagnostics;
 pub mod controller_params;
 pub mod device_driver;
+pub mod emergency_stop;
 pub mod foxglove_bridge;
 pub mod joint_commands;
 pub mod plant;

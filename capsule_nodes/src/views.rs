@@ -30,10 +30,7 @@ use capsule_msgs::{
 };
 use capsule_ros_base::error::{Context as _, Result};
 use ros2_client::ParameterValue as V;
-use ros2_client::{
-    qos::{Durability, History, WhenFull},
-    MessageTypeName, Node, Publisher, QosProfile,
-};
+use ros2_client::{qos::History, MessageTypeName, Node, Publisher, QosProfile};
 
 use crate::plant::LoopStats;
 use capsule_ros_base::{
@@ -252,7 +249,12 @@ impl DiagWindow {
         self.ever_commanded |= window.count() > 0;
         let period = 1.0 / rate_hz;
         let device_fault = stats.device.as_ref().and_then(|d| d.fault.clone());
-        let (level, message) = if let Some(fault) = device_fault {
+        let (level, message) = if stats.emergency_stop {
+            (
+                DiagnosticStatus::ERROR,
+                "emergency stop engaged: zero force".to_string(),
+            )
+        } else if let Some(fault) = device_fault {
             (DiagnosticStatus::ERROR, format!("device: {fault}"))
         } else if last.command_stale && self.ever_commanded {
             (
@@ -413,13 +415,6 @@ fn tf_qos() -> QosProfile {
 }
 
 /// `robot_description` as robot_state_publisher: reliable, transient local, keep last 1.
-fn latched_qos() -> QosProfile {
-    QosProfile::publisher_default()
-        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
-        .durability(Durability::TransientLocal)
-        .history(History::KeepLast { depth: 1 })
-}
-
 impl Views {
     /// Creates the publishers of the views switched on; publishes the URDF once.
     pub fn create(
@@ -454,7 +449,7 @@ impl Views {
                 topic(
                     view_topics::ROBOT_DESCRIPTION,
                     type_name("std_msgs", "String"),
-                    &latched_qos(),
+                    &qos::latched(),
                 )
             })
             .transpose()?;

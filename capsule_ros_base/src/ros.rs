@@ -368,6 +368,15 @@ pub mod types {
         let (package, name) = split(n::SET_MODE);
         ServiceTypeName::new(package, name)
     }
+    /// `std_msgs/msg/Bool` (the emergency-stop state).
+    pub fn bool() -> MessageTypeName {
+        message(n::BOOL)
+    }
+    /// `std_srvs/srv/SetBool` (the emergency stop).
+    pub fn set_bool() -> ServiceTypeName {
+        let (package, name) = split(n::SET_BOOL);
+        ServiceTypeName::new(package, name)
+    }
 }
 
 /// QoS of the capsule topics.
@@ -405,6 +414,14 @@ pub mod qos {
     /// Services: reliable, volatile, keep last 10 (rmw's services default).
     pub fn service() -> QosProfile {
         reliable(100, 10)
+    }
+    /// Latched state (robot_description, the emergency stop): reliable, transient local, keep
+    /// last 1, so a reader that joins later gets the last value.
+    pub fn latched() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 1 })
     }
 }
 

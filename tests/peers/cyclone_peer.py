@@ -27,6 +27,10 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
                                             after silence
   cyclone_peer.py views     [--absent NAME...] joint_states, /tf, robot_description, /diagnostics
                                             checked against the state samples
+  cyclone_peer.py estop                     engage the plant's emergency stop (std_srvs/SetBool)
+                                            while a controller commands, read the force on the
+                                            state and the latched state as a late reader, release
+                                            it; print JSON
   cyclone_peer.py diagnostics --name N... [--seconds S]
                                             read /diagnostics, print each named status's last
                                             message (level, message, values) as JSON
@@ -82,6 +86,8 @@ STANDARD = {
     "geometry_msgs/msg/TransformStamped": "std_msgs/Header header; string child_frame_id; "
                                           "Transform transform",
     "tf2_msgs/msg/TFMessage": "geometry_msgs/TransformStamped[] transforms",
+    "std_msgs/msg/Bool": "bool data",
+    "std_srvs/srv/SetBool": "bool data --- bool success; string message",
     "diagnostic_msgs/msg/KeyValue": "string key; string value",
     "diagnostic_msgs/msg/DiagnosticStatus": "byte level; string name; string message; "
                                             "string hardware_id; KeyValue[] values",
@@ -770,6 +776,49 @@ def cmd_views(args):
     print(json.dumps(out))
 
 
+def cmd_estop(args):
+    """Engages the plant's emergency stop, as `ros2 service call ... std_srvs/srv/SetBool` would,
+    reads the state for a second, joins the latched topic late, releases the stop and reads the
+    state again; prints what it saw as JSON."""
+    dp = participant()
+    states = reader(dp, "capsule/state", T.CapsuleState, qos=reliable(depth=512))
+    svc = ServiceClient(dp, args.service, T.SetBool_Request, T.SetBool_Response, args.timeout)
+
+    def forces(seconds):
+        got = []
+        end = time.time() + seconds
+        while time.time() < end:
+            got.extend(abs(st.actuator_force) for st in states.take(N=256))
+            time.sleep(0.005)
+        return got
+
+    before = forces(0.5)
+    engaged = svc.call(data=True)
+    during = forces(1.0)
+    late = reader(dp, "capsule/emergency_stop", T.Bool,
+                  qos=reliable(Policy.Durability.TransientLocal, 1))
+    latched = None
+    end = time.time() + args.timeout
+    while latched is None and time.time() < end:
+        for st in late.take(N=4):
+            latched = st.data
+        time.sleep(0.01)
+    released = svc.call(data=False)
+    after = forces(1.0)
+    # samples published before the stop took effect may still be in flight: from the first zero
+    zero_at = next((i for i, f in enumerate(during) if f == 0.0), None)
+    print(json.dumps({
+        "engaged": engaged.success, "engaged_message": engaged.message,
+        "released": released.success, "released_message": released.message,
+        "latched": latched,
+        "max_force_before": max(before, default=None),
+        "samples_until_zero": zero_at,
+        "max_force_once_zero": max(during[zero_at:], default=None) if zero_at is not None else None,
+        "samples_engaged": len(during),
+        "max_force_after": max(after, default=None),
+    }))
+
+
 def cmd_diagnostics(args):
     """Reads /diagnostics for --seconds (counted from the first array) and prints the last
     status of each --name (a node's statuses are named "NODE: ..."); fails if one is missing."""
@@ -832,6 +881,9 @@ def main():
     for name in ("--set", "--refuse"):
         a.add_argument(name, action="append", default=[], metavar="NAME=JSON")
     options(a, float, timeout=15.0)
+    a = sub.add_parser("estop")
+    options(a, str, service="/capsule_plant/emergency_stop")
+    options(a, float, timeout=15.0)
     a = sub.add_parser("diagnostics")
     a.add_argument("--name", nargs="+", required=True)
     options(a, float, seconds=2.5, timeout=30.0)
@@ -840,7 +892,7 @@ def main():
     args = p.parse_args()
     {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode,
      "inject": cmd_inject, "foreign": cmd_foreign, "params": cmd_params, "views": cmd_views,
-     "diagnostics": cmd_diagnostics, "joint-command": cmd_joint_command}[args.cmd](args)
+     "diagnostics": cmd_diagnostics, "estop": cmd_estop, "joint-command": cmd_joint_command}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -175,6 +175,7 @@ pub async fn run<S: PlantSim + Send + 'static>(
             ),
         ],
     );
+    crate::emergency_stop::serve(&mut node, &settings, core.emergency_stop())?;
     // ROS parameters (read-only here): served by their own task, never by the sample loop
     let _params = capsule_ros_base::param_services::serve(
         &context,

@@ -92,6 +92,8 @@ pub struct PlantCore<S: PlantSim> {
     pub(super) answered_current: bool,
     pub(super) published_at: Option<f64>,
     pub(super) gate: CommandGate,
+    /// Engaged: zero force from the next step on (see [`crate::emergency_stop`]).
+    pub(super) emergency_stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
     /// Statistics of the loop.
     pub stats: LoopStats,
 }
@@ -114,6 +116,7 @@ impl<S: PlantSim> PlantCore<S> {
             answered_current: false,
             published_at: None,
             gate: CommandGate::new(DEFAULT_MAX_FORCE_PF * scale.force_n()),
+            emergency_stop: Default::default(),
             stats: LoopStats::default(),
         }
     }
@@ -145,13 +148,25 @@ impl<S: PlantSim> PlantCore<S> {
         Time::from_nanos(self.stamp_nanos(self.step))
     }
 
-    /// Force held now \[N\].
+    /// Force held now \[N\]: zero while the watchdog has fired or the emergency stop is
+    /// engaged.
     pub fn held_force(&self) -> f64 {
-        if self.stale {
+        if self.stale || self.emergency_stopped() {
             0.0
         } else {
             self.held_n
         }
+    }
+
+    /// The emergency stop's flag, for the service that sets it.
+    pub fn emergency_stop(&self) -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+        self.emergency_stop.clone()
+    }
+
+    /// Whether the emergency stop is engaged.
+    pub fn emergency_stopped(&self) -> bool {
+        self.emergency_stop
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Brings the capsule up (see [`PlantSim::start`]) and takes its first sample.
@@ -272,6 +287,7 @@ impl<S: PlantSim> PlantCore<S> {
 
     /// Integrates one sample period with the held force and moves to the next sample.
     pub fn step(&mut self) -> Result<()> {
+        self.stats.emergency_stop = self.emergency_stopped();
         let force = self.held_force() / self.scale.force_n();
         let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
         self.sim.advance(force, tau_end)?;
@@ -474,6 +490,28 @@ mod tests {
         assert_eq!(command(&mut p, 0, 1.0, 0.01, true), Outcome::Duplicate);
         assert!(!p.answered());
         assert_eq!(p.stats.latencies.count(), 1);
+        Ok(())
+    }
+
+    #[test]
+    fn the_emergency_stop_zeroes_the_next_step_until_released() -> Result<()> {
+        let mut p = published(plant());
+        command(&mut p, 0, 1.0, 0.0, false);
+        let stop = p.emergency_stop();
+        stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        assert_eq!(p.held_force(), 0.0);
+        p.step()?;
+        assert_eq!(p.state().actuator_force, 0.0);
+        assert_eq!(p.state().mass_velocity, 0.0, "no force was applied");
+        assert!(p.stats.emergency_stop);
+        // commands keep being taken (and counted), but do not apply while engaged
+        assert_eq!(command(&mut p, 1, 2.0, 0.01, false), Outcome::Accepted);
+        assert_eq!(p.held_force(), 0.0);
+        stop.store(false, std::sync::atomic::Ordering::SeqCst);
+        assert_eq!(p.held_force(), 2.0);
+        p.step()?;
+        assert!(!p.stats.emergency_stop);
+        assert_eq!(p.state().actuator_force, 2.0);
         Ok(())
     }
 

@@ -25,6 +25,8 @@ pub struct LoopStats {
     pub saturated_commands: u64,
     /// Graph conflicts seen (another plant, a foreign type on our topics): [`capsule_ros_base::conflicts`].
     pub graph_conflicts: u64,
+    /// The emergency stop was engaged at the last step.
+    pub emergency_stop: bool,
     /// How the device is doing after the last step (`None`: the simulator).
     pub device: Option<super::SourceHealth>,
     pub(super) in_flight: VecDeque<(u64, f64, bool)>,

@@ -171,3 +171,55 @@ fn an_unplugged_then_silent_device_zeroes_the_force_is_reported_and_reconnects()
         "the device stopped sending measurements: zero force",
     ]);
 }
+
+#[test]
+fn the_emergency_stop_zeroes_the_force_latches_and_releases() {
+    // the simulated plant, as `ros2 service call /capsule_plant/emergency_stop std_srvs/srv/SetBool`
+    // would do it from an rclpy node on Cyclone DDS (its request/reply mapping); the driver's
+    // plant runs the same core
+    let run = netns_with_peer(
+        120,
+        r#"
+        start_controller --mode forward
+        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_plant --until-s 60 2> "$TMP/plant.log"
+        sleep 2
+        peer estop || exit 1
+        peer diagnostics --name capsule_plant --seconds 1.5 || exit 1
+        stop $P $C
+        cat "$TMP/plant.log" >&2"#,
+    );
+    run.assert_ok();
+    let out = run.json_with("engaged");
+    assert_contains(
+        out,
+        &[
+            "\"engaged\": true",
+            "emergency stop engaged: zero force until released",
+            "\"released\": true",
+            "emergency stop released",
+            "\"latched\": true",
+        ],
+    );
+    // commanded before; zero from the first zero sample on, which came within 100 samples of
+    // the call's answer (the stop takes effect at the next step; the rest is DDS in flight)
+    assert!(
+        json_number(out, "max_force_before").unwrap_or(0.0) > 0.01,
+        "{out}"
+    );
+    let until = json_number(out, "samples_until_zero").unwrap_or(f64::NAN);
+    assert!(until < 100.0, "{out}");
+    assert_eq!(json_number(out, "max_force_once_zero"), Some(0.0), "{out}");
+    assert!(
+        json_number(out, "samples_engaged").unwrap_or(0.0) > 500.0,
+        "{out}"
+    );
+    // released: the controller's commands apply again
+    assert!(
+        json_number(out, "max_force_after").unwrap_or(0.0) > 0.01,
+        "{out}"
+    );
+    // diagnostics after the release: no emergency stop
+    let diag = run.line("{\"capsule_plant\"");
+    assert!(!diag.contains("emergency stop"), "{diag}");
+    run.assert_stderr(&["emergency stop engaged", "emergency stop released"]);
+}

@@ -1,0 +1,92 @@
+//! The plant's emergency stop: `~/emergency_stop` (`std_srvs/srv/SetBool`: true engages, false
+//! releases) and the latched `capsule/emergency_stop` (`std_msgs/msg/Bool`, transient local: a
+//! reader that joins later still sees it engaged). While engaged the plant applies zero force
+//! from its next sample on, whatever the commands say; it stays engaged until released.
+//!
+//! Served by its own task, never by the sample loop; the loop reads one atomic flag per step.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use capsule_msgs::names::topics;
+use capsule_msgs::std_types::{Bool, SetBoolRequest, SetBoolResponse};
+use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::ros::{qos, types, RosSettings, Wire};
+use futures::StreamExt;
+use ros2_client::Node;
+use tracing::{info, warn};
+
+/// The answer to a request to set the stop to `engage` when it was `was`.
+pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
+    let message = match (engage, was) {
+        (true, false) => "emergency stop engaged: zero force until released",
+        (true, true) => "emergency stop already engaged",
+        (false, true) => "emergency stop released: commands apply again",
+        (false, false) => "emergency stop was not engaged",
+    };
+    SetBoolResponse {
+        success: true,
+        message: message.to_string(),
+    }
+}
+
+/// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads.
+pub fn serve(node: &mut Node, settings: &RosSettings, engaged: Arc<AtomicBool>) -> Result<()> {
+    let server = node
+        .create_server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
+            settings.mapping.into(),
+            &settings.ros_name(topics::EMERGENCY_STOP_SERVICE)?,
+            &types::set_bool(),
+            qos::service(),
+            qos::service(),
+        )
+        .context("emergency_stop service")?;
+    let topic = settings.topic(node, topics::EMERGENCY_STOP, types::bool(), &qos::latched())?;
+    let state = node
+        .create_publisher::<Bool>(&topic, None)
+        .context("emergency_stop publisher")?;
+    // the state from the start, so that a late reader knows the stop is released
+    if let Err(e) = state.publish(Bool { data: false }) {
+        warn!("emergency stop state not sent: {e:?}");
+    }
+    tokio::spawn(async move {
+        let mut requests = server.receive_request_stream();
+        while let Some(rq) = requests.next().await {
+            let (id, Wire(req)) = match rq {
+                Ok(r) => r,
+                Err(e) => {
+                    warn!("undecodable emergency_stop request: {e:?}");
+                    continue;
+                }
+            };
+            let was = engaged.swap(req.data, Ordering::SeqCst);
+            let resp = answer(req.data, was);
+            if req.data {
+                warn!("{}", resp.message);
+            } else {
+                info!("{}", resp.message);
+            }
+            if let Err(e) = state.async_publish(Bool { data: req.data }).await {
+                warn!("emergency stop state not sent: {e:?}");
+            }
+            if let Err(e) = server.async_send_response(id, Wire(resp)).await {
+                warn!("emergency_stop response not sent: {e:?}");
+            }
+        }
+    });
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn answers_say_what_changed() {
+        assert!(answer(true, false).message.contains("engaged: zero force"));
+        assert!(answer(true, true).message.contains("already engaged"));
+        assert!(answer(false, true).message.contains("released"));
+        assert!(answer(false, false).message.contains("was not engaged"));
+        assert!(answer(false, false).success);
+    }
+}
