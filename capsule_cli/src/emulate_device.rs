@@ -296,3 +296,59 @@ fn serve(
     }
     Ok(counts)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use capsule_device::frame::measured;
+    use capsule_plant::device::Measured;
+
+    #[test]
+    fn the_scene_s_measured_quantities_are_the_protocol_s_bits() {
+        let one = |f: fn(&mut Measured)| {
+            let mut m = Measured::from_bits(0);
+            f(&mut m);
+            m.bits()
+        };
+        assert_eq!(
+            one(|m| m.displacement = true),
+            measured::RELATIVE_DISPLACEMENT
+        );
+        assert_eq!(
+            one(|m| m.capsule_position = true),
+            measured::CAPSULE_POSITION
+        );
+        assert_eq!(one(|m| m.mass_velocity = true), measured::MASS_VELOCITY);
+        assert_eq!(
+            one(|m| m.capsule_velocity = true),
+            measured::CAPSULE_VELOCITY
+        );
+        assert_eq!(one(|m| m.contact = true), measured::CONTACT);
+    }
+
+    #[test]
+    fn a_reading_becomes_a_measurement_frame_with_nan_where_not_measured() {
+        let r = Reading {
+            t_s: 0.5,
+            displacement_m: 1e-3,
+            capsule_m: 2e-3,
+            mass_v: f64::NAN,
+            capsule_v: f64::NAN,
+            contact: None,
+            force_n: 0.25,
+        };
+        let m = measurement(&r, 4295.0);
+        // the microsecond clock wraps at 2^32 us (4294.967296 s)
+        assert_eq!(m.t_us, 32_704);
+        assert!(m.mass_velocity.is_nan() && m.capsule_velocity.is_nan());
+        assert_eq!((m.relative_m, m.capsule_m, m.flags), (1e-3, 2e-3, 0));
+        let touching = measurement(
+            &Reading {
+                contact: Some(true),
+                ..r
+            },
+            0.0,
+        );
+        assert_eq!(touching.flags, 0b11);
+    }
+}
