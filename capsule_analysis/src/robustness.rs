@@ -6,8 +6,15 @@
 //! The controller is the controller node's law on positions alone: `f = alpha cos(omega tau) +
 //! k_p |x2 - x1|` from the measured `x1 - x2` and `x2` at the sample's nominal time, held until the
 //! next sample (a zero-order hold, as the plant node holds a command). Progression and
-//! efficiency are measured on the true state, over whole drive periods after a transient.
+//! efficiency are measured on the true state, over whole drive periods after a transient. The
+//! orbit's period is read twice by the controller's orbit watch: on the true state, and as the
+//! controller sees it, from the measured positions through its velocity estimate
+//! ([`LineFit`]), whose error against the true velocity is reported too.
 
+use std::collections::VecDeque;
+
+use capsule_controller::switch::{OrbitWatch, SwitchSettings};
+use capsule_controller::velocity::LineFit;
 use capsule_controller::{law::FeedbackLaw, mode::ProgressMeter};
 use capsule_plant::device::prototype::Prototype;
 use capsule_plant::device::DeviceModel;
@@ -46,6 +53,8 @@ pub struct LoopCase {
     pub transient: u32,
     /// Drive periods measured.
     pub periods: u32,
+    /// Samples in the velocity estimate's window ([`LineFit`]), at least 2.
+    pub velocity_window: u32,
 }
 
 /// What a closed-loop run gave, non-dimensional in the scene's units.
@@ -55,6 +64,13 @@ pub struct LoopResult {
     pub progression: f64,
     /// Progression over the actuator's work (true state and applied force).
     pub efficiency: f64,
+    /// The orbit's period in drive periods (the orbit watch on the true state at the end).
+    pub period: Option<usize>,
+    /// The period the controller's watch sees from the measured positions and its estimate.
+    pub seen_period: Option<usize>,
+    /// RMS error of the estimated mass velocity against the true one when the sensor sampled
+    /// (non-dimensional; the filter's error, the latency left out).
+    pub velocity_error: f64,
 }
 
 /// Runs `case` on `scene`'s capsule; `Err` when the simulator fails.
@@ -83,21 +99,58 @@ pub fn closed_loop(scene: &Scene, case: &LoopCase) -> Result<LoopResult, SimErro
     let start = f64::from(case.transient) * law.period() * nominal.time_s();
     let steps = (total / dt).ceil() as u64;
     let mut x1x2 = (0.0, 0.0);
+    let settings = SwitchSettings::DEFAULT;
+    let (mut watch, mut seen) = (
+        OrbitWatch::new(law.period(), &settings),
+        OrbitWatch::new(law.period(), &settings),
+    );
+    let h = dt / nominal.time_s();
+    // the estimate is compared with the truth when the sensor sampled: the filter's own error
+    let late = case.device.latency_s / nominal.time_s();
+    let mut fit = LineFit::new(f64::from(case.velocity_window.max(2) - 1) * h);
+    // the true mass velocity over the window, to compare with the estimate at its middle
+    let mut true_y1: VecDeque<(f64, f64)> = VecDeque::new();
+    let (mut err2, mut errs) = (0.0, 0u64);
+    let (l, v) = (nominal.length_m(), nominal.velocity_m_per_s());
     for k in 0..steps {
         let t = k as f64 * dt;
         let r = proto.read();
-        let (l, tau) = (nominal.length_m(), t / nominal.time_s());
+        let tau = t / nominal.time_s();
         // positions alone; a sample the sensor lost keeps the last good positions
         if r.displacement_m.is_finite() && r.capsule_m.is_finite() {
             x1x2 = ((r.displacement_m + r.capsule_m) / l, r.capsule_m / l);
         }
         let force_n = law.force(tau, x1x2.0, x1x2.1) * nominal.force_n();
+        let truth = proto.truth();
+        let true_state = [
+            truth.x1_m / l,
+            truth.v1_m_per_s / v,
+            truth.x2_m / l,
+            truth.v2_m_per_s / v,
+        ];
+        watch.sample(tau, true_state);
+        while true_y1
+            .front()
+            .is_some_and(|(t, _)| *t < tau - fit.span() - late - h)
+        {
+            true_y1.pop_front();
+        }
+        true_y1.push_back((tau, true_state[1]));
+        if let Some((tm, est)) = fit.state(tau, x1x2.0, f64::NAN, x1x2.1, f64::NAN) {
+            seen.sample(tm, est);
+            if t >= start {
+                // the true velocity when the window's middle was sampled
+                if let Some(y) = interpolate(&true_y1, tm - late) {
+                    err2 += (est[1] - y) * (est[1] - y);
+                    errs += 1;
+                }
+            }
+        }
         if t >= start {
-            let truth = proto.truth();
             meter.sample(
                 tau,
-                truth.x1_m / l,
-                truth.x2_m / l,
+                true_state[0],
+                true_state[2],
                 force_n / nominal.force_n(),
             );
         }
@@ -106,7 +159,28 @@ pub fn closed_loop(scene: &Scene, case: &LoopCase) -> Result<LoopResult, SimErro
     Ok(LoopResult {
         progression: meter.progression_per_period(),
         efficiency: meter.efficiency(),
+        period: watch.period(),
+        seen_period: seen.period(),
+        velocity_error: if errs > 0 {
+            (err2 / errs as f64).sqrt()
+        } else {
+            f64::NAN
+        },
     })
+}
+
+/// The value at `t` between the two samples of `series` around it (linear), if inside.
+fn interpolate(series: &VecDeque<(f64, f64)>, t: f64) -> Option<f64> {
+    let (a, b) = series
+        .iter()
+        .zip(series.iter().skip(1))
+        .find(|(a, b)| a.0 <= t && t <= b.0)?;
+    let w = if b.0 > a.0 {
+        (t - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some(a.1 + w * (b.1 - a.1))
 }
 
 #[cfg(test)]
@@ -131,6 +205,7 @@ mod tests {
             rate_hz: 1000.0,
             transient: 10,
             periods: 20,
+            velocity_window: 7,
         }
     }
 
@@ -163,6 +238,39 @@ mod tests {
         };
         let c = closed_loop(&s, &case(0.2, late))?;
         assert!((c.progression - a.progression).abs() > 0.05, "{a:?} {c:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn the_orbit_is_seen_and_the_line_fit_beats_the_backward_difference() -> Result<(), SimError> {
+        let s = control_point();
+        // exact positions: the watch sees the true period-1 orbit through the estimate
+        let exact = DeviceModel {
+            measured: capsule_plant::device::Measured::POSITIONS,
+            ..DeviceModel::ideal(&s.physical)
+        };
+        let a = closed_loop(&s, &case(0.2, exact))?;
+        assert_eq!((a.period, a.seen_period), (Some(1), Some(1)), "{a:?}");
+        // with 1 % noise the fit over 12 samples errs far less than the last two's difference
+        let typical = DeviceModel::typical(&s.physical);
+        let fit = closed_loop(
+            &s,
+            &LoopCase {
+                velocity_window: 12,
+                ..case(0.2, typical)
+            },
+        )?;
+        let difference = closed_loop(
+            &s,
+            &LoopCase {
+                velocity_window: 2,
+                ..case(0.2, typical)
+            },
+        )?;
+        assert!(
+            fit.velocity_error < 0.2 * difference.velocity_error,
+            "{fit:?} {difference:?}"
+        );
         Ok(())
     }
 }

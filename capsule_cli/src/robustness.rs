@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use anyhow::{Context as _, Result};
 use capsule_analysis::robustness::{closed_loop, LoopCase, LoopResult, Mismatch};
 use capsule_args::ranges;
+use capsule_controller::velocity::LineFit;
 use capsule_plant::device::{DeviceModel, Measured};
 use rayon::prelude::*;
 
@@ -31,6 +32,10 @@ pub struct Args {
     /// Control rate [Hz], 1 to 1e6
     #[arg(long, default_value_t = 1000.0, value_parser = ranges::within(1.0, 1e6))]
     rate_hz: f64,
+    /// Samples in the controller's velocity estimate (a least-squares line, read at its
+    /// middle) [default: an eighth of a drive period at --rate-hz], 2 to 100000
+    #[arg(long, value_parser = ranges::count_u32(2, 100_000))]
+    velocity_window: Option<u32>,
     /// Output prefix: PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist)
     #[arg(
         long,
@@ -67,6 +72,11 @@ pub fn main(args: Args) -> Result<()> {
         measured: Measured::POSITIONS,
         ..DeviceModel::ideal(&phys)
     };
+    let period_s = 2.0 * std::f64::consts::PI / scene.drive.omega * phys.time_s();
+    // the controller's window (an eighth of a drive period) in samples at --rate-hz
+    let window = args.velocity_window.unwrap_or_else(|| {
+        (LineFit::for_period(period_s).span() * args.rate_hz).round() as u32 + 1
+    });
     let case = |kp: f64, device: DeviceModel, mismatch: Mismatch| LoopCase {
         kp,
         device,
@@ -74,6 +84,7 @@ pub fn main(args: Args) -> Result<()> {
         rate_hz: args.rate_hz,
         transient: args.transient,
         periods: args.periods,
+        velocity_window: window,
     };
     let mut grid_cases = Vec::new();
     for (m, (_, kp)) in MODES.iter().enumerate() {
@@ -184,7 +195,30 @@ pub fn main(args: Args) -> Result<()> {
             row_cases.push(((r, m), case(*kp, *device, *mismatch)));
         }
     }
-    let n = grid_cases.len() + row_cases.len();
+    // the velocity estimate's window against the backward difference (2), typical device
+    let typical_windows: Vec<u32> = {
+        let mut w = vec![2, 3, 5, window / 2, window, window * 3 / 2, 3 * window];
+        w.retain(|&w| w >= 2);
+        w.sort_unstable();
+        w.dedup();
+        w
+    };
+    let window_cases: Vec<((usize, usize), LoopCase)> = typical_windows
+        .iter()
+        .enumerate()
+        .flat_map(|(w, &n)| {
+            MODES.iter().enumerate().map(move |(m, (_, kp))| {
+                (
+                    (w, m),
+                    LoopCase {
+                        velocity_window: n,
+                        ..case(*kp, typical, Mismatch::NONE)
+                    },
+                )
+            })
+        })
+        .collect();
+    let n = grid_cases.len() + row_cases.len() + window_cases.len();
     eprintln!(
         "robustness: {n} closed-loop runs of {} + {} periods at {} Hz",
         args.transient, args.periods, args.rate_hz
@@ -204,6 +238,10 @@ pub fn main(args: Args) -> Result<()> {
         .map(|(k, c)| run(c).map(|r| (*k, r)))
         .collect::<Result<_>>()?;
     let row_results: Vec<((usize, usize), LoopResult)> = row_cases
+        .par_iter()
+        .map(|(k, c)| run(c).map(|r| (*k, r)))
+        .collect::<Result<_>>()?;
+    let window_results: Vec<((usize, usize), LoopResult)> = window_cases
         .par_iter()
         .map(|(k, c)| run(c).map(|r| (*k, r)))
         .collect::<Result<_>>()?;
@@ -245,6 +283,56 @@ pub fn main(args: Args) -> Result<()> {
             })
             .collect();
         let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(md, "\n## The orbit\n\nThe orbit's period in drive periods, as the controller's orbit watch (the status's `orbit_period`) reads it on the true state, then as it sees it from the measured positions and its velocity estimate (a least-squares line over {window} samples, read at its middle; `capsule_controller::velocity`), and that estimate's RMS error on the mass velocity against the truth when the sensor sampled (non-dimensional: the filter's error, the latency left out). `-`: no period up to 12 within the watch's tolerance of 0.02 on the section (chaos, or too noisy to tell).\n");
+    table_head(
+        &mut md,
+        "device / plant",
+        MODES
+            .iter()
+            .map(|(m, _)| format!("{m}: period, seen, velocity error")),
+    );
+    let p = |p: Option<usize>| p.map_or("-".to_string(), |p| p.to_string());
+    for (r, (label, _, _)) in rows.iter().enumerate() {
+        let cells: Vec<String> = (0..MODES.len())
+            .map(|m| {
+                row(r, m).map_or("failed".into(), |x| {
+                    format!(
+                        "{}, {}, {:.3}",
+                        p(x.period),
+                        p(x.seen_period),
+                        x.velocity_error
+                    )
+                })
+            })
+            .collect();
+        let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(md, "\n## The velocity estimate's window\n\nThe typical device (positions only, 1 % noise, 1 um resolution, 2 ms late): the period seen and the estimate's RMS velocity error for windows from the backward difference (2 samples) up. The default, {window} samples, is an eighth of a drive period at {} Hz.\n", args.rate_hz);
+    table_head(
+        &mut md,
+        "window (samples)",
+        MODES
+            .iter()
+            .map(|(m, _)| format!("{m}: period, seen, velocity error")),
+    );
+    for (w, n) in typical_windows.iter().enumerate() {
+        let cells: Vec<String> = (0..MODES.len())
+            .map(|m| {
+                window_results.iter().find(|(k, _)| *k == (w, m)).map_or(
+                    "failed".into(),
+                    |(_, x)| {
+                        format!(
+                            "{}, {}, {:.3}",
+                            p(x.period),
+                            p(x.seen_period),
+                            x.velocity_error
+                        )
+                    },
+                )
+            })
+            .collect();
+        let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
     }
     let _ = writeln!(md, "\n## Noise x delay\n\nPositions only, no quantisation or lag: progression per period for position noise (standard deviation, % of the length unit) against measurement latency. `*`: below half of the exact positions' progression or of the wrong sign (the mode has stopped working).\n");
     for (m, (mode, _)) in MODES.iter().enumerate() {

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
-    velocity::BackwardDifference,
+    velocity::LineFit,
     FeedbackLaw,
 };
 use capsule_msgs::{
@@ -55,7 +55,7 @@ pub struct ControllerCore {
     commands_sent: u64,
     ignored_samples: u64,
     /// Velocities the plant does not measure, from its positions (orbit watch and switch only).
-    velocity: BackwardDifference,
+    velocity: LineFit,
     feedback: CommandFeedback,
     switch_settings: SwitchSettings,
     watch: OrbitWatch,
@@ -90,7 +90,7 @@ impl ControllerCore {
             commanding: false,
             commands_sent: 0,
             ignored_samples: 0,
-            velocity: BackwardDifference::default(),
+            velocity: LineFit::for_period(law.period()),
             feedback: CommandFeedback::default(),
             switch_settings: SwitchSettings::DEFAULT,
             watch: OrbitWatch::new(law.period(), &SwitchSettings::DEFAULT),
@@ -127,6 +127,7 @@ impl ControllerCore {
         self.meter.reset();
         self.feedback.reset();
         self.watch.reset();
+        self.velocity.reset();
         // an attractor switch was about the last plant's orbit
         if let Some((mode, kp)) = self.running_switch().map(|_| self.settled_mode()) {
             self.switch(mode, kp);
@@ -307,20 +308,23 @@ impl ControllerCore {
         let x1 = s.mass_position / self.scale.length_m();
         let x2 = s.capsule_position / self.scale.length_m();
         let v = self.scale.velocity_m_per_s();
-        let nd = self
-            .velocity
-            .state(tau, x1, s.mass_velocity / v, x2, s.capsule_velocity / v);
-        self.watch.sample(tau, nd);
-        if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.phase().is_done()) {
-            let was = (sw.phase(), sw.tries());
-            self.law.kp = sw.sample(tau, nd);
-            self.switch_event |= (sw.phase(), sw.tries()) != was;
-            if sw.phase().is_done() {
-                let back = *back;
-                let kp = sw.base_gain();
-                self.mode = back;
-                self.law.kp = kp;
-                self.meter.reset();
+        // with velocities estimated, the watch and the switch see the window's middle, later
+        if let Some((tm, nd)) =
+            self.velocity
+                .state(tau, x1, s.mass_velocity / v, x2, s.capsule_velocity / v)
+        {
+            self.watch.sample(tm, nd);
+            if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.phase().is_done()) {
+                let was = (sw.phase(), sw.tries());
+                self.law.kp = sw.sample(tm, nd);
+                self.switch_event |= (sw.phase(), sw.tries()) != was;
+                if sw.phase().is_done() {
+                    let back = *back;
+                    let kp = sw.base_gain();
+                    self.mode = back;
+                    self.law.kp = kp;
+                    self.meter.reset();
+                }
             }
         }
         let f = self.law.force(tau, x1, x2);
