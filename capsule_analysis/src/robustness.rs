@@ -17,6 +17,7 @@ use capsule_controller::switch::{OrbitWatch, SwitchSettings};
 use capsule_controller::velocity::LineFit;
 use capsule_controller::{law::FeedbackLaw, mode::ProgressMeter};
 use capsule_plant::device::prototype::Prototype;
+use capsule_plant::device::sensor::{Reading, Truth};
 use capsule_plant::device::DeviceModel;
 use capsule_plant::scene::{PhysicalScale, Scene};
 use capsule_plant::{SimError, Simulator};
@@ -73,8 +74,28 @@ pub struct LoopResult {
     pub velocity_error: f64,
 }
 
+/// One sample of a closed-loop run, SI: the truth, what the sensor gave, the force commanded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopSample {
+    /// The true state at the sample's nominal time.
+    pub truth: Truth,
+    /// What the sensor reported.
+    pub reading: Reading,
+    /// The force the law commanded for the next hold \[N\].
+    pub command_n: f64,
+}
+
 /// Runs `case` on `scene`'s capsule; `Err` when the simulator fails.
 pub fn closed_loop(scene: &Scene, case: &LoopCase) -> Result<LoopResult, SimError> {
+    closed_loop_observed(scene, case, &mut |_| {})
+}
+
+/// [`closed_loop`], handing every sample (transient included) to `observe`.
+pub fn closed_loop_observed(
+    scene: &Scene,
+    case: &LoopCase,
+    observe: &mut dyn FnMut(&LoopSample),
+) -> Result<LoopResult, SimError> {
     let nominal = scene.physical;
     let real = PhysicalScale {
         pf_n: nominal.pf_n * case.mismatch.friction,
@@ -154,6 +175,11 @@ pub fn closed_loop(scene: &Scene, case: &LoopCase) -> Result<LoopResult, SimErro
                 force_n / nominal.force_n(),
             );
         }
+        observe(&LoopSample {
+            truth,
+            reading: r,
+            command_n: force_n,
+        });
         proto.hold(force_n, dt)?;
     }
     Ok(LoopResult {

@@ -13,6 +13,7 @@ mod replay;
 mod robustness;
 mod scene_args;
 mod simulate;
+mod simulate_device;
 mod svg;
 mod sweep;
 mod switch;

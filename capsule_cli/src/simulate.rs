@@ -1,6 +1,6 @@
 //! `capsule simulate`: one run, a summary, optionally JSON and a CSV time history. A run that
 //! lasts shows its progress on stderr; Ctrl-C stops it, writes the time history sampled so far
-//! and exits non-zero saying so.
+//! and exits non-zero saying so. `--device` runs through a device instead (`simulate_device`).
 
 use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
@@ -26,6 +26,15 @@ pub struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Close the law through the scene's [device] sensor and actuator models (the typical
+    /// device when the scene has none), sampled at --rate-hz on measured positions, as the
+    /// plant node runs a real capsule: an emulate-device run offline. --csv then holds the
+    /// truth and the readings per sample.
+    #[arg(long, conflicts_with_all = ["record", "pulse_kp"])]
+    device: bool,
+    /// With --device: the sample rate [Hz], 1 to 1e6.
+    #[arg(long, default_value_t = 1000.0, requires = "device", value_parser = ranges::within(1.0, 1e6))]
+    rate_hz: f64,
     /// Write the time history to this CSV file.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -110,6 +119,15 @@ pub fn main(args: Args) -> Result<()> {
         return Ok(());
     }
     args.work.check(&scene, 1)?;
+    if args.device {
+        return crate::simulate_device::run(
+            &scene,
+            args.rate_hz,
+            args.json,
+            args.csv.as_deref(),
+            args.max_samples,
+        );
+    }
     let storage = args.storage.options();
     let mut rows: Vec<Snapshot> = Vec::new();
     let sampled = args.csv.is_some() || args.record.is_some();

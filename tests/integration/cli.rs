@@ -131,3 +131,56 @@ fn simulate_record_writes_a_ros2_recording_of_the_run() {
     assert!(!again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("File exists"));
 }
+
+#[test]
+fn simulate_device_runs_the_law_through_the_scenes_device() {
+    let dir = TempDir::new("cli_device");
+    let exact = json(&line(
+        "simulate --scene scenes/control_point.toml --kp 0.2 --periods 40 --transient 10 --json",
+        &[],
+    ));
+    let csv = dir.arg("device.csv");
+    let typical = json(&line(
+        "simulate --scene scenes/control_point.toml --kp 0.2 --periods 40 --transient 10 --device --json --csv",
+        &[&csv],
+    ));
+    let p = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    // the typical device (no [device] table) keeps most of the exact law's progression
+    let ratio = p(&typical, "progression") / p(&exact, "avg_progression");
+    assert!((0.9..1.02).contains(&ratio), "{ratio}");
+    assert_eq!(typical["period"], 1);
+    assert_eq!(typical["device"]["latency_s"], 0.002);
+    assert!(p(&typical, "displacement_m") > 0.0);
+    // one CSV row per sample, the velocities not measured
+    let rows = std::fs::read_to_string(&csv).unwrap_or_default();
+    assert_eq!(
+        rows.lines().count() as u64,
+        1 + typical["samples"].as_u64().unwrap_or(0)
+    );
+    let second: Vec<&str> = rows.lines().nth(2).unwrap_or("").split(',').collect();
+    assert_eq!((second.len(), second[11]), (14, "NaN"), "{second:?}");
+    // the scene's own [device] is the one used: a quarter period late costs progression
+    let scene = dir.file("late.toml");
+    let text = std::fs::read_to_string("scenes/control_point.toml").unwrap_or_default();
+    std::fs::write(&scene, format!("{text}\n[device]\nlatency_s = 0.022\n"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let late = json(&line(
+        "simulate --kp 0.2 --periods 40 --transient 10 --device --json --scene",
+        &[scene.to_str().unwrap_or_default()],
+    ));
+    assert_eq!(late["device"]["latency_s"], 0.022);
+    assert!(
+        (p(&late, "progression") - p(&typical, "progression")).abs() > 0.05,
+        "{} {}",
+        p(&late, "progression"),
+        p(&typical, "progression")
+    );
+    // a device run has no recording or gain schedule (yet): refused, not ignored
+    let rec = dir.arg("x.mcap");
+    let refused = capsule(&line(
+        "simulate --scene scenes/control_point.toml --device --record",
+        &[&rec],
+    ));
+    assert_refused(&refused, 2, "cannot be used with", "--device --record");
+    assert!(!dir.file("x.mcap").exists());
+}
