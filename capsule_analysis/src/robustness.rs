@@ -56,6 +56,15 @@ pub struct LoopCase {
     pub periods: u32,
     /// Samples in the velocity estimate's window ([`LineFit`]), at least 2.
     pub velocity_window: u32,
+    /// The controller's orbit-watch tolerance for the period it sees (the true period is read
+    /// at the simulator's, [`SwitchSettings::DEFAULT`]).
+    pub orbit_tolerance: f64,
+}
+
+/// The controller node's velocity window ([`LineFit::for_period`]) in samples, for a drive
+/// period of `period_s` sampled at `rate_hz`.
+pub fn controller_window(period_s: f64, rate_hz: f64) -> u32 {
+    (LineFit::for_period(period_s).span() * rate_hz).round() as u32 + 1
 }
 
 /// What a closed-loop run gave, non-dimensional in the scene's units.
@@ -123,7 +132,13 @@ pub fn closed_loop_observed(
     let settings = SwitchSettings::DEFAULT;
     let (mut watch, mut seen) = (
         OrbitWatch::new(law.period(), &settings),
-        OrbitWatch::new(law.period(), &settings),
+        OrbitWatch::new(
+            law.period(),
+            &SwitchSettings {
+                tol: case.orbit_tolerance,
+                ..settings
+            },
+        ),
     );
     let h = dt / nominal.time_s();
     // the estimate is compared with the truth when the sensor sampled: the filter's own error
@@ -232,6 +247,7 @@ mod tests {
             transient: 10,
             periods: 20,
             velocity_window: 7,
+            orbit_tolerance: SwitchSettings::DEFAULT.tol,
         }
     }
 

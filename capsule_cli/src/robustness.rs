@@ -9,9 +9,11 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, Result};
-use capsule_analysis::robustness::{closed_loop, LoopCase, LoopResult, Mismatch};
+use capsule_analysis::robustness::{
+    closed_loop, controller_window, LoopCase, LoopResult, Mismatch,
+};
 use capsule_args::ranges;
-use capsule_controller::velocity::LineFit;
+use capsule_controller::switch::SwitchSettings;
 use capsule_plant::device::{DeviceModel, Measured};
 use rayon::prelude::*;
 
@@ -36,6 +38,9 @@ pub struct Args {
     /// middle) [default: an eighth of a drive period at --rate-hz], 2 to 100000
     #[arg(long, value_parser = ranges::count_u32(2, 100_000))]
     velocity_window: Option<u32>,
+    /// The controller's orbit-watch tolerance for the period it sees (non-dim), 1e-6 to 0.2
+    #[arg(long, default_value_t = SwitchSettings::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
+    orbit_tolerance: f64,
     /// Output prefix: PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist)
     #[arg(
         long,
@@ -74,9 +79,9 @@ pub fn main(args: Args) -> Result<()> {
     };
     let period_s = 2.0 * std::f64::consts::PI / scene.drive.omega * phys.time_s();
     // the controller's window (an eighth of a drive period) in samples at --rate-hz
-    let window = args.velocity_window.unwrap_or_else(|| {
-        (LineFit::for_period(period_s).span() * args.rate_hz).round() as u32 + 1
-    });
+    let window = args
+        .velocity_window
+        .unwrap_or_else(|| controller_window(period_s, args.rate_hz));
     let case = |kp: f64, device: DeviceModel, mismatch: Mismatch| LoopCase {
         kp,
         device,
@@ -85,6 +90,7 @@ pub fn main(args: Args) -> Result<()> {
         transient: args.transient,
         periods: args.periods,
         velocity_window: window,
+        orbit_tolerance: args.orbit_tolerance,
     };
     let mut grid_cases = Vec::new();
     for (m, (_, kp)) in MODES.iter().enumerate() {
@@ -284,7 +290,7 @@ pub fn main(args: Args) -> Result<()> {
             .collect();
         let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
     }
-    let _ = writeln!(md, "\n## The orbit\n\nThe orbit's period in drive periods, as the controller's orbit watch (the status's `orbit_period`) reads it on the true state, then as it sees it from the measured positions and its velocity estimate (a least-squares line over {window} samples, read at its middle; `capsule_controller::velocity`), and that estimate's RMS error on the mass velocity against the truth when the sensor sampled (non-dimensional: the filter's error, the latency left out). `-`: no period up to 12 within the watch's tolerance of 0.02 on the section (chaos, or too noisy to tell).\n");
+    let _ = writeln!(md, "\n## The orbit\n\nThe orbit's period in drive periods, as the controller's orbit watch (the status's `orbit_period`) reads it on the true state, then as it sees it from the measured positions and its velocity estimate (a least-squares line over {window} samples, read at its middle; `capsule_controller::velocity`), and that estimate's RMS error on the mass velocity against the truth when the sensor sampled (non-dimensional: the filter's error, the latency left out). `-`: no period up to 12 (chaos, or too noisy to tell) within the watch's tolerance on the section, 0.02 on the true state and {} as the controller sees it (`--orbit-tolerance`).\n", args.orbit_tolerance);
     table_head(
         &mut md,
         "device / plant",

@@ -35,6 +35,9 @@ pub struct Args {
     /// With --device: the sample rate [Hz], 1 to 1e6.
     #[arg(long, default_value_t = 1000.0, requires = "device", value_parser = ranges::within(1.0, 1e6))]
     rate_hz: f64,
+    /// With --device: the controller's orbit-watch tolerance (non-dim), 1e-6 to 0.2.
+    #[arg(long, default_value_t = capsule_controller::switch::SwitchSettings::DEFAULT.tol, requires = "device", value_parser = ranges::within(1e-6, 0.2))]
+    orbit_tolerance: f64,
     /// Write the time history to this CSV file.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -123,6 +126,7 @@ pub fn main(args: Args) -> Result<()> {
         return crate::simulate_device::run(
             &scene,
             args.rate_hz,
+            args.orbit_tolerance,
             args.json,
             args.csv.as_deref(),
             args.max_samples,

@@ -7,8 +7,9 @@ use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Context as _, Result};
-use capsule_analysis::robustness::{closed_loop_observed, LoopCase, LoopSample, Mismatch};
-use capsule_controller::velocity::LineFit;
+use capsule_analysis::robustness::{
+    closed_loop_observed, controller_window, LoopCase, LoopSample, Mismatch,
+};
 use capsule_plant::device::DeviceModel;
 use capsule_plant::scene::Scene;
 use serde::Serialize;
@@ -36,10 +37,12 @@ struct Output<'a> {
     wall_time_s: f64,
 }
 
-/// Runs `scene` through its device at `rate_hz`; prints a summary or JSON, writes `csv`.
+/// Runs `scene` through its device at `rate_hz` (the controller's orbit watch at
+/// `orbit_tolerance`); prints a summary or JSON, writes `csv`.
 pub fn run(
     scene: &Scene,
     rate_hz: f64,
+    orbit_tolerance: f64,
     json: bool,
     csv: Option<&Path>,
     max_samples: u64,
@@ -65,7 +68,8 @@ pub fn run(
         rate_hz,
         transient: h.transient,
         periods: h.periods.saturating_sub(h.transient),
-        velocity_window: (LineFit::for_period(period_s).span() * rate_hz).round() as u32 + 1,
+        velocity_window: controller_window(period_s, rate_hz),
+        orbit_tolerance,
     };
     let t0 = std::time::Instant::now();
     let mut rows: Vec<LoopSample> = Vec::new();

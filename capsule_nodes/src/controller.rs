@@ -149,6 +149,20 @@ impl ControllerCore {
         self.law
     }
 
+    /// The controller with the orbit watch's recurrence tolerance `tol` (non-dimensional, on
+    /// the section; [`SwitchSettings::tol`]): a device's noisy positions need more than the
+    /// simulator's 0.02 (docs/hardware.md).
+    pub fn with_orbit_tolerance(mut self, tol: f64) -> Self {
+        self.switch_settings.tol = tol;
+        self.watch = OrbitWatch::new(self.law.period(), &self.switch_settings);
+        self
+    }
+
+    /// The orbit watch's recurrence tolerance (non-dimensional).
+    pub fn orbit_tolerance(&self) -> f64 {
+        self.switch_settings.tol
+    }
+
     /// The mode configuration (defaults and limit).
     pub fn config(&self) -> ModeConfig {
         self.config

@@ -33,6 +33,8 @@ pub mod names {
     pub const OMEGA: &str = "omega";
     /// Stale-state timeout \[s\].
     pub const STATE_TIMEOUT_S: &str = "state_timeout_s";
+    /// The orbit watch's recurrence tolerance on the Poincaré section (non-dim).
+    pub const ORBIT_TOLERANCE: &str = "orbit_tolerance";
     pub use capsule_ros_base::params::names::*;
 }
 use names::*;
@@ -41,6 +43,13 @@ use names::*;
 const POSITIVE: Range = Range::Float {
     from: 1.0e-12,
     to: 1.0e12,
+};
+
+/// The orbit tolerance's range: above zero, below the switch's reduction tolerance (0.25),
+/// which must stay below the distance between the points of a real cycle.
+pub const ORBIT_TOLERANCE_RANGE: Range = Range::Float {
+    from: 1.0e-6,
+    to: 0.2,
 };
 
 /// The table of a controller configured as `core`.
@@ -100,6 +109,12 @@ pub fn table(core: &ControllerCore, use_sim_time: bool, state_timeout_s: f64) ->
             ParamSpec::read_only("seconds without state before the controller stops commanding")
                 .range(POSITIVE),
             V::Double(state_timeout_s),
+        )
+        .declare(
+            ORBIT_TOLERANCE,
+            ParamSpec::read_only("recurrence tolerance of the orbit watch on the Poincare section (non-dim; orbit_period and the attractor switch)")
+                .range(ORBIT_TOLERANCE_RANGE),
+            V::Double(core.orbit_tolerance()),
         );
     let values = [scale.m1_kg, scale.k1_n_per_m, scale.pf_n];
     capsule_ros_base::params::declare_scale(table, values, |what| {
@@ -146,6 +161,7 @@ pub fn core_from(t: &ParamTable) -> ControllerCore {
     let (alpha, omega) = (t.double(ALPHA), t.double(OMEGA));
     let stale = t.double(STATE_TIMEOUT_S);
     ControllerCore::new(scale, alpha, omega, mode, t.double(GAIN), config(t), stale)
+        .with_orbit_tolerance(t.double(ORBIT_TOLERANCE))
 }
 
 /// Reconfigures `core` to what the table says (the table passed [`rules`]).
@@ -219,6 +235,26 @@ mod tests {
 
     fn p(name: &str, v: V) -> (String, V) {
         (name.to_string(), v)
+    }
+
+    #[test]
+    fn the_orbit_tolerance_is_set_at_start_and_read_only_after() {
+        let c = core(Mode::Forward, 0.2).with_orbit_tolerance(0.1);
+        let mut t = table(&c, false, 0.5);
+        assert_eq!(t.double(ORBIT_TOLERANCE), 0.1);
+        // at start (-p orbit_tolerance:=0.15): the core built from the table watches with it
+        t.override_with(&[p(ORBIT_TOLERANCE, V::Double(0.15))], rules)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(core_from(&t).orbit_tolerance(), 0.15);
+        // beyond the switch's reduction tolerance, or set on a running node: refused
+        let e = t
+            .override_with(&[p(ORBIT_TOLERANCE, V::Double(0.3))], rules)
+            .unwrap_err();
+        assert!(e.contains("orbit_tolerance") || e.contains("0.2"), "{e}");
+        let e = t
+            .set_atomically(&[p(ORBIT_TOLERANCE, V::Double(0.05))], rules)
+            .unwrap_err();
+        assert!(e.contains("read-only"), "{e}");
     }
 
     #[test]

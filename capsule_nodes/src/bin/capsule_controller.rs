@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
+use capsule_controller::switch::SwitchSettings;
 use capsule_nodes::{
     controller::{self, ControllerCore, ControllerOptions, GainArgs},
     controller_params,
@@ -57,6 +58,11 @@ struct Cli {
     /// (0, 1e6]
     #[arg(long, default_value_t = 0.5, value_parser = ranges::positive(ranges::MAX_SECONDS))]
     state_timeout_s: f64,
+    /// Recurrence tolerance of the orbit watch on the Poincare section (non-dim), 1e-6 to 0.2:
+    /// the simulator's exact states need 0.02; a prototype's noisy positions about three times
+    /// the velocity estimate's error (docs/hardware.md, `capsule simulate --device` reports it)
+    #[arg(long, default_value_t = SwitchSettings::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
+    orbit_tolerance: f64,
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
     check: bool,
@@ -118,7 +124,8 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
         .select(mode.code(), gain)
         .map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
     let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
-    let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s);
+    let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s)
+        .with_orbit_tolerance(cli.orbit_tolerance);
     // ROS parameters: the flags' values, then -p / --params-file over them
     let mut params = controller_params::table(&core, settings.use_sim_time, cli.state_timeout_s);
     ros_args::apply_overrides(&mut params, overrides, controller_params::rules)?;
