@@ -108,6 +108,9 @@ pub mod type_names {
     /// Joint states and JointState commands.
     pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 
+    /// Diagnostics (every node's, on `/diagnostics`).
+    pub const DIAGNOSTIC_ARRAY: &str = "diagnostic_msgs/msg/DiagnosticArray";
+
     /// The emergency-stop state.
     pub const BOOL: &str = "std_msgs/msg/Bool";
     /// The emergency-stop service.

@@ -707,7 +707,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                     warn!("status not sent: {e:?}");
                 }
                 if let Some(d) = diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
-                    d.publish(diag.status(&settings.node_name, &core));
+                    let _ = d.publish(diag.status(&settings.node_name, &core));
                 }
             }
         }

@@ -1,6 +1,6 @@
 //! The recorder node: subscribes to every topic of the capsule graph (state, force commands,
-//! controller status, `/clock`, and the `set_mode` service events) and writes them to one MCAP
-//! file per run through [`capsule_record`].
+//! controller status, `/clock`, the `set_mode` service events and `/diagnostics`) and writes
+//! them to one MCAP file per run through [`capsule_record`].
 //!
 //! Bytes: ros2-client hands over deserialised messages, so the recorder serialises them again
 //! with the codec RustDDS uses (`cdr-encoding`, little endian, XCDR1 plain structs): for these
@@ -13,7 +13,7 @@
 //! log time, so a SIGKILL loses at most that much; SIGINT / SIGTERM finish the file.
 
 use capsule_msgs::names::{topics, type_names};
-use capsule_msgs::std_types::Clock;
+use capsule_msgs::std_types::{Clock, DiagnosticArray};
 use std::{
     collections::BTreeMap,
     path::{Path, PathBuf},
@@ -173,6 +173,8 @@ pub enum Channel {
     Clock = 3,
     /// `<controller>/set_mode/_service_event`
     ServiceEvent = 4,
+    /// `/diagnostics` (every node's, 1 Hz each: what went wrong and when)
+    Diagnostics = 5,
 }
 
 /// The graph's topics as a recording subscribes to them, in [`Channel`] order: relative name,
@@ -184,7 +186,7 @@ pub fn graph_topics(
     MessageTypeName,
     &'static str,
     ros2_client::QosProfile,
-); 5] {
+); 6] {
     [
         (
             topics::STATE.to_string(),
@@ -215,6 +217,12 @@ pub fn graph_topics(
             service_event_type(),
             type_names::SET_MODE_EVENT,
             qos::service(),
+        ),
+        (
+            topics::views::DIAGNOSTICS.to_string(),
+            types::diagnostics(),
+            type_names::DIAGNOSTIC_ARRAY,
+            qos::data(),
         ),
     ]
 }
@@ -402,8 +410,11 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
         .create_subscription::<Clock>(&topics[3], Some(reader_qos.clone()))
         .context("clock subscription")?;
     let event_sub = node
-        .create_subscription::<SetModeEvent>(&topics[4], Some(slow_qos))
+        .create_subscription::<SetModeEvent>(&topics[4], Some(slow_qos.clone()))
         .context("service-event subscription")?;
+    let diagnostics_sub = node
+        .create_subscription::<DiagnosticArray>(&topics[5], Some(slow_qos))
+        .context("/diagnostics subscription")?;
     if !graph
         .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)
         .await
@@ -432,7 +443,10 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     tokio::pin!(shutdown);
     let mut last_msg = tokio::time::Instant::now();
     let mut got_any = false;
+    // (diagnostics are recorded but not counted: a controller left running publishes them
+    // every second, and the graph is idle all the same)
     let drain = |sink: &mut GraphRecording| -> Result<usize> {
+        drain_into(&diagnostics_sub, sink, Channel::Diagnostics)?;
         Ok(drain_into(&state_sub, sink, Channel::State)?
             + drain_into(&force_sub, sink, Channel::Force)?
             + drain_into(&status_sub, sink, Channel::Status)?

@@ -342,7 +342,7 @@ impl Diagnostics {
         let topic = settings.topic(
             node,
             view_topics::DIAGNOSTICS,
-            type_name("diagnostic_msgs", "DiagnosticArray"),
+            types::diagnostics(),
             &qos::data(),
         )?;
         Ok(Diagnostics {
@@ -363,8 +363,9 @@ impl Diagnostics {
         true
     }
 
-    /// Publishes `status` as a one-status array (a failed write is logged).
-    pub fn publish(&self, status: DiagnosticStatus) {
+    /// Publishes `status` as a one-status array (a failed write is logged); the array, for a
+    /// recording.
+    pub fn publish(&self, status: DiagnosticStatus) -> DiagnosticArray {
         let array = DiagnosticArray {
             header: Header {
                 stamp: Time::from_nanos(capsule_record::writer::now_ns() as i64),
@@ -372,9 +373,10 @@ impl Diagnostics {
             },
             status: vec![status],
         };
-        if let Err(e) = self.publisher.publish(array) {
+        if let Err(e) = self.publisher.publish(array.clone()) {
             tracing::warn!("/diagnostics not sent: {e:?}");
         }
+        array
     }
 }
 
@@ -493,8 +495,12 @@ impl Views {
     }
 
     /// Publishes the views of the sample just published (those with subscribers), and once a
-    /// second the diagnostics.
-    pub fn on_sample(&mut self, state: &CapsuleState, stats: &LoopStats) {
+    /// second the diagnostics (returned, for the in-plant recording).
+    pub fn on_sample(
+        &mut self,
+        state: &CapsuleState,
+        stats: &LoopStats,
+    ) -> Option<DiagnosticArray> {
         self.count += 1;
         let due = self.count >= self.every;
         if due {
@@ -510,12 +516,16 @@ impl Views {
                 let _ = p.publish(tf(state));
             }
         }
-        if let Some(d) = self.diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
+        let d = self
+            .diagnostics
+            .as_mut()
+            .and_then(|d| d.due().then_some(d))?;
+        Some(
             d.publish(
                 self.diag
                     .status(&self.node, &self.pacing, self.rate_hz, stats, state),
-            );
-        }
+            ),
+        )
     }
 }
 

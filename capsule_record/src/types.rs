@@ -58,9 +58,21 @@ pub const SET_MODE_EVENT_MSG: &str = "service_msgs/ServiceEventInfo info\ncapsul
 /// `rosgraph_msgs/msg/Clock` text.
 pub const CLOCK_MSG: &str = "builtin_interfaces/Time clock\n";
 
+/// `diagnostic_msgs/msg/DiagnosticArray` text (Jazzy; nested types spelled with their package,
+/// as Foxglove resolves a field only against a `MSG:` line of its exact spelling).
+pub const DIAGNOSTIC_ARRAY_MSG: &str = "# This message is used to send diagnostic information about the state of the robot.\nstd_msgs/Header header # for timestamp\ndiagnostic_msgs/DiagnosticStatus[] status # an array of components being reported on\n";
+
+/// `diagnostic_msgs/msg/DiagnosticStatus` text (Jazzy).
+pub const DIAGNOSTIC_STATUS_MSG: &str = "# This message holds the status of an individual component of the robot.\n\n# Possible levels of operations.\nbyte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\n\n# Level of operation enumerated above.\nbyte level\n# A description of the test/component reporting.\nstring name\n# A description of the status.\nstring message\n# A hardware unique string.\nstring hardware_id\n# An array of values associated with the status.\ndiagnostic_msgs/KeyValue[] values\n";
+
+/// `diagnostic_msgs/msg/KeyValue` text (Jazzy).
+pub const KEY_VALUE_MSG: &str = "# What to label this value when viewing.\nstring key\n# A value to track over time.\nstring value\n";
+
 /// The text of a nested type a recording's schemas name, by its spelling in a field.
 fn nested_text(spelled: &str) -> Option<&'static str> {
     match spelled {
+        "diagnostic_msgs/DiagnosticStatus" => Some(DIAGNOSTIC_STATUS_MSG),
+        "diagnostic_msgs/KeyValue" => Some(KEY_VALUE_MSG),
         "service_msgs/ServiceEventInfo" => Some(SERVICE_EVENT_INFO_MSG),
         "capsule_msgs/SetModeRequest" => Some(SetModeRequest::definition()),
         "capsule_msgs/SetModeResponse" => Some(SetModeResponse::definition()),
@@ -77,18 +89,20 @@ pub fn ros2msg_schema(type_name: &str) -> Option<String> {
         type_names::STATUS => return Some(ControllerStatus::ros2msg_schema()),
         type_names::CLOCK => (CLOCK_MSG, "rosgraph_msgs"),
         type_names::SET_MODE_EVENT => (SET_MODE_EVENT_MSG, "capsule_msgs"),
+        type_names::DIAGNOSTIC_ARRAY => (DIAGNOSTIC_ARRAY_MSG, "diagnostic_msgs"),
         _ => return None,
     };
     Some(ros2msg_text(root, package, &nested_text))
 }
 
 /// Every type name [`ros2msg_schema`] knows.
-pub const KNOWN_TYPES: [&str; 5] = [
+pub const KNOWN_TYPES: [&str; 6] = [
     type_names::STATE,
     type_names::FORCE,
     type_names::STATUS,
     type_names::CLOCK,
     type_names::SET_MODE_EVENT,
+    type_names::DIAGNOSTIC_ARRAY,
 ];
 
 /// Reliability of an offered QoS profile.

@@ -368,6 +368,10 @@ pub mod types {
         let (package, name) = split(n::SET_MODE);
         ServiceTypeName::new(package, name)
     }
+    /// `diagnostic_msgs/msg/DiagnosticArray` (`/diagnostics`).
+    pub fn diagnostics() -> MessageTypeName {
+        message(n::DIAGNOSTIC_ARRAY)
+    }
     /// `std_msgs/msg/Bool` (the emergency-stop state).
     pub fn bool() -> MessageTypeName {
         message(n::BOOL)

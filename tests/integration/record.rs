@@ -826,6 +826,12 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         );
         assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
         assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
+        // the plant's /diagnostics (1 Hz; and the controller's through the recorder)
+        let diag = rows(t, "/diagnostics");
+        assert!(
+            !diag.is_empty() && diag.iter().all(|r| r[0].as_u64().is_some_and(|l| l <= 3)),
+            "{reader}: /diagnostics {diag:?}"
+        );
         let ev: Vec<String> = rows(t, default_topics::SET_MODE_EVENT)
             .iter()
             .map(|r| {
@@ -1156,4 +1162,67 @@ mod fuzz {
             prop_assert!(t0.elapsed().as_secs_f64() < 5.0, "{d:?}: {:?}", t0.elapsed());
         }
     }
+}
+
+#[test]
+fn diagnostics_in_a_recording_decode_in_every_reference_reader() {
+    use capsule_msgs::std_types::{DiagnosticArray, DiagnosticStatus, KeyValue};
+    let tmp = TempDir::new("record_diagnostics");
+    let p = tmp.file("diagnostics.mcap");
+    let topic = capsule_msgs::names::topics::views::DIAGNOSTICS;
+    let levels = [
+        (DiagnosticStatus::OK, "1000 samples/s"),
+        (DiagnosticStatus::ERROR, "device: no line"),
+        (DiagnosticStatus::WARN, "3 samples late"),
+    ];
+    let go = || -> Result<(), capsule_record::RecordError> {
+        let mut w = scene_writer(&p, "it_scene", "# test\n".into(), &WriterOptions::default())?;
+        let d = w.add_topic(
+            topic,
+            type_names::DIAGNOSTIC_ARRAY,
+            &OfferedQos::reliable(16),
+        )?;
+        for (i, (level, message)) in levels.iter().enumerate() {
+            let t = 1_700_000_000_000_000_000 + i as u64 * 1_000_000_000;
+            let array = DiagnosticArray {
+                header: Header {
+                    stamp: Time::from_nanos(t as i64),
+                    frame_id: String::new(),
+                },
+                status: vec![DiagnosticStatus {
+                    level: *level,
+                    name: "capsule_plant: loop".into(),
+                    message: message.to_string(),
+                    hardware_id: "capsule (serial /dev/ttyUSB0 at 921600 baud)".into(),
+                    values: vec![KeyValue {
+                        key: "device_line".into(),
+                        value: i.to_string(),
+                    }],
+                }],
+            };
+            w.write(d, i as u32 + 1, t, t, &cdr::encode(&array)?)?;
+        }
+        w.finish().map(|_| ())
+    };
+    go().unwrap_or_else(|e| panic!("{e}"));
+    let v = python_decode(&p, "both");
+    for reader in ["mcap", "rosbags"] {
+        let got: Vec<String> = rows(&v[reader]["topics"], topic)
+            .iter()
+            .map(|r| r.to_string())
+            .collect();
+        let want: Vec<String> = levels
+            .iter()
+            .enumerate()
+            .map(|(i, (l, m))| format!("[{l},\"{m}\",[\"device_line={i}\"]]"))
+            .collect();
+        assert_eq!(got, want, "{reader}");
+    }
+    let fox = foxglove_decode(&p);
+    let t = &fox["topics"][topic];
+    assert_eq!(t["schema"], type_names::DIAGNOSTIC_ARRAY, "{fox}");
+    assert_eq!(t["count"], 3, "{fox}");
+    assert_eq!(t["first"]["message"], "1000 samples/s", "{fox}");
+    assert_eq!(t["last"]["level"], DiagnosticStatus::WARN, "{fox}");
+    assert_eq!(t["last"]["values"][0], "device_line=2", "{fox}");
 }

@@ -7,7 +7,7 @@ Uses only the readers' own ROS 2 decoders (mcap + mcap-ros2-support, rosbags Any
 custom decoding. For each reader it prints, per topic, the type, the count, and the fields the
 tests compare (floats as their IEEE-754 bit patterns; state: seq, stamp, mass_position, capsule_velocity, stuck; force: state_seq,
 force; service events: event_type, mode, gain, accepted; clock: ns; status: mode,
-commands_sent), plus the file's profile and the rosbag2 metadata keys.
+commands_sent; diagnostics: the first status's level, message and key=value pairs), plus the file's profile and the rosbag2 metadata keys.
 """
 import argparse
 import json
@@ -40,6 +40,10 @@ def row(topic_type, m):
         return [stamp_ns(m.clock)]
     if topic_type.endswith("/ControllerStatus"):
         return [int(m.mode), int(m.commands_sent)]
+    if topic_type.endswith("/DiagnosticArray"):
+        s = m.status[0]
+        level = s.level[0] if isinstance(s.level, (bytes, bytearray)) else int(s.level)
+        return [level, s.message, [f"{v.key}={v.value}" for v in s.values]]
     return None
 
 

@@ -4,7 +4,7 @@
 //! mode changes and compare its commands with the recorded ones.
 
 use capsule_msgs::names::type_names;
-use capsule_msgs::std_types::Clock;
+use capsule_msgs::std_types::{Clock, DiagnosticArray};
 use std::{
     collections::BTreeMap,
     path::PathBuf,
@@ -143,6 +143,7 @@ enum Pub {
     Status(ros2_client::Publisher<ControllerStatus>),
     Clock(ros2_client::Publisher<Clock>),
     Event(ros2_client::Publisher<SetModeEvent>),
+    Diagnostics(ros2_client::Publisher<DiagnosticArray>),
 }
 
 /// `$body` with `$p` bound to the publisher, whatever its message type.
@@ -154,6 +155,7 @@ macro_rules! with_publisher {
             Pub::Status($p) => $body,
             Pub::Clock($p) => $body,
             Pub::Event($p) => $body,
+            Pub::Diagnostics($p) => $body,
         }
     };
 }
@@ -206,6 +208,7 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
             type_names::STATUS => Pub::Status(node.create_publisher(&topic, None)?),
             type_names::CLOCK => Pub::Clock(node.create_publisher(&topic, None)?),
             type_names::SET_MODE_EVENT => Pub::Event(node.create_publisher(&topic, None)?),
+            type_names::DIAGNOSTIC_ARRAY => Pub::Diagnostics(node.create_publisher(&topic, None)?),
             other => bail!("{}: cannot replay type {other}", m.topic),
         };
         pubs.insert(m.topic.clone(), p);

@@ -4,7 +4,7 @@ use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
 use capsule_msgs::names::topics;
-use capsule_msgs::std_types::Clock;
+use capsule_msgs::std_types::{Clock, DiagnosticArray};
 use capsule_msgs::{ActuatorForce, CapsuleState, Time};
 use capsule_ros_base::error::{Context as _, Result};
 use tracing::{info, warn};
@@ -43,23 +43,31 @@ impl Endpoints {
         self.graph.subscribers(self.clock_pub.guid()) > 0
     }
 
-    /// Publishes a sample, then its standard-type views (if any are on).
-    pub(super) fn publish_state(&self, state: CapsuleState, stats: &LoopStats) {
+    /// Publishes a sample, then its standard-type views (if any are on); the diagnostics if
+    /// they went out.
+    pub(super) fn publish_state(
+        &self,
+        state: CapsuleState,
+        stats: &LoopStats,
+    ) -> Option<DiagnosticArray> {
         let copy = self.views.per_sample.is_some().then(|| state.clone());
         if let Err(e) = self.state_pub.publish(state) {
             warn!("state not sent: {e:?}");
         }
-        self.views_of(copy, stats);
+        self.views_of(copy, stats)
     }
 
-    /// The standard-type views of a sample just published.
-    pub(super) fn views_of(&self, state: Option<CapsuleState>, stats: &LoopStats) {
-        if let (Some(views), Some(state)) = (&self.views.per_sample, state) {
-            let mut v = views
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            v.on_sample(&state, stats);
-        }
+    /// The standard-type views of a sample just published; the diagnostics if they went out.
+    pub(super) fn views_of(
+        &self,
+        state: Option<CapsuleState>,
+        stats: &LoopStats,
+    ) -> Option<DiagnosticArray> {
+        let (views, state) = (self.views.per_sample.as_ref()?, state?);
+        let mut v = views
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        v.on_sample(&state, stats)
     }
 }
 

@@ -99,7 +99,9 @@ pub(super) fn realtime_loop<S: PlantSim>(
         if let Some(c) = clock.filter(|_| io.clock_wanted()) {
             let _ = io.clock_pub.publish(c);
         }
-        io.publish_state(state, &core.stats);
+        if let (Some(d), Some(r)) = (io.publish_state(state, &core.stats), rec.as_deref_mut()) {
+            r.diagnostics(&d)?;
+        }
         core.published(now());
         if until_nanos.is_some_and(|u| stamp.to_nanos() >= u) {
             info!("reached the end time {:.3} s", stamp.as_secs_f64());
@@ -184,7 +186,9 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
             if let Err(e) = io.state_pub.async_publish(state).await {
                 warn!("state not sent: {e:?}");
             }
-            io.views_of(copy, &core.stats);
+            if let (Some(d), Some(r)) = (io.views_of(copy, &core.stats), rec.as_deref_mut()) {
+                r.diagnostics(&d)?;
+            }
             core.published(steady());
             need_publish = false;
             wait_started = steady();

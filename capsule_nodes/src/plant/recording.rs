@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use capsule_msgs::std_types::Clock;
+use capsule_msgs::std_types::{Clock, DiagnosticArray};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::types::SetModeEvent;
 use capsule_ros_base::error::Result;
@@ -24,7 +24,8 @@ pub struct InPlantRecordOptions {
     pub bag: capsule_record::BagOptions,
 }
 
-/// The graph recorded inside the plant: what it publishes (state, /clock) as it publishes it,
+/// The graph recorded inside the plant: what it publishes (state, /clock, its /diagnostics) as
+/// it publishes it,
 /// every command as DDS delivered it, and the controller's status and service events from
 /// their own (low-rate) readers. The same file as `capsule_recorder` writes, without a
 /// second process receiving every sample over the network (which costs that process, on this
@@ -44,6 +45,12 @@ impl InPlantRecording {
             self.rec.write(Channel::Clock, c, now, now)?;
         }
         self.rec.write(Channel::State, state, now, now)
+    }
+
+    /// Records the diagnostics the plant just published (what went wrong, and when).
+    pub(super) fn diagnostics(&mut self, d: &DiagnosticArray) -> Result<()> {
+        let now = capsule_record::writer::now_ns();
+        self.rec.write(Channel::Diagnostics, d, now, now)
     }
 
     /// Records a command as DDS delivered it.

@@ -114,7 +114,8 @@ fn an_unplugged_then_silent_device_zeroes_the_force_is_reported_and_reconnects()
         emu() { exec "$B/capsule" emulate-device --scene "$SCENE" --link "$TMP/dev" "$@"; }
         emu --unplug-after-s 2 > "$TMP/e1.out" 2>&1 & E1=$!
         start_controller --mode forward
-        start_plant --source "serial:$TMP/dev" --until-s 16 --summary-json "$TMP/s.json" 2> "$TMP/plant.log"
+        start_plant --source "serial:$TMP/dev" --until-s 16 --summary-json "$TMP/s.json" \
+            --record-output "$TMP/run.mcap" 2> "$TMP/plant.log"
         wait $E1
         echo "E1 exited $?"
         peer diagnostics --name capsule_plant --seconds 1.2 || exit 1
@@ -126,10 +127,35 @@ fn an_unplugged_then_silent_device_zeroes_the_force_is_reported_and_reconnects()
         wait $P || exit 1
         stop $C; kill -INT $E2; wait $E2
         echo "SUMMARY $(cat "$TMP/s.json")"
+        echo "RECORDED $(python3 "$ROOT/tests/peers/mcap_decode.py" "$TMP/run.mcap" --reader rosbags)"
         cat "$TMP/plant.log" >&2"#,
     );
     run.assert_ok();
     assert!(run.stdout.contains("E1 exited 0"), "{}", run.all());
+    // the recording says what happened: the plant's /diagnostics, in order, as rosbags reads them
+    let recorded: serde_json::Value = serde_json::from_str(run.after("RECORDED "))
+        .unwrap_or_else(|e| panic!("{e}: {}", run.all()));
+    let diag = recorded["rosbags"]["topics"]["/diagnostics"]["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    let first = |needle: &str| {
+        diag.iter()
+            .position(|r| r[0] == 2 && r[1].as_str().is_some_and(|m| m.contains(needle)))
+            .unwrap_or_else(|| panic!("no ERROR {needle:?} in the recording: {diag:?}"))
+    };
+    let (unplugged, silent) = (
+        first("device: no line"),
+        first("device: the device stopped"),
+    );
+    assert!(unplugged < silent, "{diag:?}");
+    // between them the device was back: a status without a device fault
+    assert!(
+        diag[unplugged..silent]
+            .iter()
+            .any(|r| r[1].as_str().is_some_and(|m| !m.contains("device:"))),
+        "{diag:?}"
+    );
     let diags = run.lines_starting("{\"capsule_plant\"");
     assert_eq!(diags.len(), 3, "{}", run.all());
     // unplugged: ERROR, named

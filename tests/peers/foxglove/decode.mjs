@@ -48,6 +48,10 @@ function sample(topic, m) {
   if ("clock" in m) return { sec: m.clock.sec, nanosec: m.clock.nanosec };
   if ("info" in m) return { event_type: m.info.event_type, requests: m.request.length };
   if ("commands_sent" in m) return { mode: m.mode, commands_sent: String(m.commands_sent) };
+  if (Array.isArray(m.status) && m.status.length > 0) {
+    const s = m.status[0];
+    return { level: s.level, message: s.message, values: s.values.map((v) => `${v.key}=${v.value}`) };
+  }
   return null;
 }
 
