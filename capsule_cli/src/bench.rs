@@ -63,7 +63,7 @@ pub fn section5(kp: f64) -> Scene {
             delta: 0.02,
             xi: 0.05,
         },
-        friction: Friction::Coulomb,
+        friction: Friction::COULOMB,
     };
     let mut s = Scene {
         model,
@@ -223,15 +223,21 @@ fn accuracy(args: &Args) -> Result<()> {
     work::check_parent(&args.out)?;
     let scenes = [
         section5(0.1),
-        section3(Friction::Viscous { mu_v: 0.1 }, 1.6),
-        section3(Friction::Stribeck { v_s: 0.1 }, 1.9),
         section3(
-            Friction::SevenParameter {
+            Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
+            1.6,
+        ),
+        section3(
+            Friction::Stribeck(capsule_plant::friction::Stribeck { v_s: 0.1 }),
+            1.9,
+        ),
+        section3(
+            Friction::SevenParameter(capsule_plant::friction::SevenParameter {
                 mu_v: 0.1,
                 v_s: 0.1,
                 tau_d: 0.05,
                 k_s: 4e4,
-            },
+            }),
             1.9,
         ),
     ];
@@ -390,32 +396,32 @@ fn effects(args: &Args) -> Result<()> {
         beta,
         ..Capsule::SECTION3
     };
-    let stribeck = Friction::Stribeck { v_s: 0.1 };
+    let stribeck = Friction::Stribeck(capsule_plant::friction::Stribeck { v_s: 0.1 });
     // memory without pre-sliding: k_s = 0 (not a valid scene value, built here directly)
-    let memory = Friction::SevenParameter {
+    let memory = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
         mu_v: 0.1,
         v_s: 0.1,
         tau_d: 0.05,
         k_s: 0.0,
-    };
-    let memory_off = Friction::SevenParameter {
+    });
+    let memory_off = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
         mu_v: 0.1,
         v_s: 0.1,
         tau_d: 0.0,
         k_s: 0.0,
-    };
-    let full = Friction::SevenParameter {
+    });
+    let full = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
         mu_v: 0.1,
         v_s: 0.1,
         tau_d: 0.05,
         k_s: 4e4,
-    };
+    });
     let rows: Vec<(&str, Model, f64, Method)> = vec![
         (
             "Coulomb, no contact spring",
             Model {
                 capsule: cap(0.0),
-                friction: Friction::Coulomb,
+                friction: Friction::COULOMB,
             },
             0.0,
             Method::Exact,
@@ -424,7 +430,7 @@ fn effects(args: &Args) -> Result<()> {
             "+ contact spring",
             Model {
                 capsule: cap(15.0),
-                friction: Friction::Coulomb,
+                friction: Friction::COULOMB,
             },
             0.0,
             Method::Exact,
@@ -433,7 +439,7 @@ fn effects(args: &Args) -> Result<()> {
             "+ viscous",
             Model {
                 capsule: cap(15.0),
-                friction: Friction::Viscous { mu_v: 0.1 },
+                friction: Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
             },
             0.0,
             Method::Exact,
@@ -442,7 +448,7 @@ fn effects(args: &Args) -> Result<()> {
             "Coulomb + contact, adaptive",
             Model {
                 capsule: cap(15.0),
-                friction: Friction::Coulomb,
+                friction: Friction::COULOMB,
             },
             0.0,
             Method::Adaptive,

@@ -99,7 +99,14 @@ fn caption_params(s: &Scene) -> String {
 fn figs_2_7(ctx: &Ctx) -> Result<Vec<Fig>> {
     let v = values(0.1, 2.0, ctx.steps);
     let sweeps: Vec<Vec<SweepPoint>> = (0..4)
-        .map(|i| sweep(&section3(Friction::LAWS[i], 0.8), Param::Alpha, &v, &|| {}))
+        .map(|i| {
+            sweep(
+                &section3(Friction::PAPER_LAWS[i], 0.8),
+                Param::Alpha,
+                &v,
+                &|| {},
+            )
+        })
         .collect();
     let (mut dots, mut lines) = (Vec::new(), Vec::new());
     let mut ours2 = String::new();
@@ -109,7 +116,7 @@ fn figs_2_7(ctx: &Ctx) -> Result<Vec<Fig>> {
         d.title = format!(
             "({}) {}",
             (b'a' + i as u8) as char,
-            Friction::LAWS[i].title()
+            Friction::PAPER_LAWS[i].title()
         );
         l.title = d.title.clone();
         dots.push(d);
@@ -117,20 +124,20 @@ fn figs_2_7(ctx: &Ctx) -> Result<Vec<Fig>> {
         let _ = write!(
             ours2,
             "{}: periodic at {:.0} % of the values; ",
-            Friction::LAWS[i].title(),
+            Friction::PAPER_LAWS[i].title(),
             100.0 * periodic_share(pts)
         );
         let (a, p) = best(pts);
         let _ = write!(
             ours7,
             "{}: fastest {p:+.3}/period at alpha {a:.3}; ",
-            Friction::LAWS[i].title()
+            Friction::PAPER_LAWS[i].title()
         );
     }
     let cap = vec![format!(
         "{} values of alpha in [0.1, 2.0], each from rest; {}",
         ctx.steps,
-        caption_params(&section3(Friction::Coulomb, 0.8))
+        caption_params(&section3(Friction::COULOMB, 0.8))
             .replace("alpha 0.8, ", "")
             .replace(
                 "exact method",
@@ -158,7 +165,7 @@ fn fig_8(ctx: &Ctx) -> Result<Vec<Fig>> {
     let mut dots = Vec::new();
     let mut ours = String::new();
     for (i, xi) in [0.01, 0.02, 0.03, 0.05].into_iter().enumerate() {
-        let mut s = section3(Friction::Coulomb, 0.8);
+        let mut s = section3(Friction::COULOMB, 0.8);
         s.model.capsule.xi = xi;
         let pts = sweep(&s, Param::Alpha, &v, &|| {});
         let (mut d, _) = svg::bifurcation_panels("alpha", &pts);
@@ -192,7 +199,7 @@ fn fig_9(ctx: &Ctx) -> Result<Vec<Fig>> {
     let v = values(0.8, 1.2, ctx.steps);
     let mut panels = Vec::new();
     let mut ours = String::new();
-    for (i, law) in Friction::LAWS.iter().enumerate() {
+    for (i, law) in Friction::PAPER_LAWS.iter().enumerate() {
         let name = law.title();
         let pts = sweep(&section3(*law, 0.8), Param::Omega, &v, &|| {});
         let (mut d, mut l) = svg::bifurcation_panels("omega", &pts);
@@ -265,7 +272,7 @@ fn phase_and_time(title: &str, rows: &[Snapshot], delta: f64) -> (Panel, Panel) 
 fn four_laws_at(number: u32, omega: f64, claim: &'static str) -> Result<Fig> {
     let mut panels = Vec::new();
     let mut ours = String::new();
-    for (i, law) in Friction::LAWS.iter().enumerate() {
+    for (i, law) in Friction::PAPER_LAWS.iter().enumerate() {
         let name = law.title();
         let mut s = section3(*law, 0.8);
         s.drive.omega = omega;
@@ -363,7 +370,7 @@ fn basin_fig(
 }
 
 fn fig_11(ctx: &Ctx) -> Result<Vec<Fig>> {
-    let mut s = section3(Friction::Coulomb, 0.8);
+    let mut s = section3(Friction::COULOMB, 0.8);
     s.drive.omega = 0.85;
     Ok(vec![basin_fig(
         11,
@@ -376,7 +383,7 @@ fn fig_11(ctx: &Ctx) -> Result<Vec<Fig>> {
 }
 
 fn fig_18(ctx: &Ctx) -> Result<Vec<Fig>> {
-    let base = section3(Friction::Coulomb, 0.8);
+    let base = section3(Friction::COULOMB, 0.8);
     let scenes = [0.682, 0.9, 1.1, 1.3, 1.5, 1.64]
         .into_iter()
         .map(|a| (Some(a), Param::Alpha.apply(&base, a)))
@@ -392,7 +399,7 @@ fn fig_18(ctx: &Ctx) -> Result<Vec<Fig>> {
 }
 
 fn fig_19(ctx: &Ctx) -> Result<Vec<Fig>> {
-    let base = section3(Friction::Coulomb, 1.5);
+    let base = section3(Friction::COULOMB, 1.5);
     let scenes = [0.0, 0.05, 0.1]
         .into_iter()
         .map(|k| (Some(k), Param::Kp.apply(&base, k)))
@@ -461,7 +468,7 @@ fn fig_15(ctx: &Ctx) -> Result<Vec<Fig>> {
 }
 
 fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
-    let off = section3(Friction::LAWS[2], 1.3);
+    let off = section3(Friction::PAPER_LAWS[2], 1.3);
     let mut on = off.clone();
     on.control.kp = 1.0;
     let (r0, h0) = history(&off, 10)?;
@@ -536,7 +543,7 @@ fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
 }
 
 fn fig_20(_: &Ctx) -> Result<Vec<Fig>> {
-    let mut scene = section3(Friction::Coulomb, 1.3);
+    let mut scene = section3(Friction::COULOMB, 1.3);
     scene.initial = State {
         x1: -1.5,
         y1: 0.0,

@@ -16,7 +16,7 @@ use clap::Args;
 fn friction_law() -> impl TypedValueParser<Value = Friction> {
     PossibleValuesParser::new(Friction::LAWS.map(|l| l.name()))
         // every possible value is a law's name
-        .map(|name| Friction::by_name(&name).unwrap_or(Friction::Coulomb))
+        .map(|name| Friction::by_name(&name).unwrap_or(Friction::COULOMB))
 }
 
 /// A scene parameter to sweep or continue in: the names of [`Param::ALL`].

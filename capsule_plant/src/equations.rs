@@ -456,7 +456,7 @@ mod tests {
 
     #[test]
     fn stick_entry_saltation_removes_the_velocity() {
-        let eq = Equations::new(model(Friction::Coulomb), DRIVE);
+        let eq = Equations::new(model(Friction::COULOMB), DRIVE);
         let slip = Regime {
             phase: Phase::Slip(1.0),
             contact: false,

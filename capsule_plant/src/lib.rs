@@ -1,11 +1,12 @@
 //! The vibro-impact capsule of Liu, Pavlovskaia, Wiercigroch and Peng (2014), simulated exactly.
 //!
-//! A pure library (no ROS, no I/O): the model and its four friction laws ([`model`]), actuator
+//! A pure library (no ROS, no I/O): the model ([`model`]), its friction laws ([`friction`]), actuator
 //! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
 //! scene files ([`scene`]), and a prototype's sensor and actuator as models ([`device`]).
 
 pub mod device;
 pub mod equations;
+pub mod friction;
 pub mod law;
 pub mod model;
 mod roots;

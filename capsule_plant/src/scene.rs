@@ -648,7 +648,7 @@ impl Default for Scene {
     fn default() -> Self {
         let model = Model {
             capsule: Capsule::SECTION3,
-            friction: Friction::Coulomb,
+            friction: Friction::COULOMB,
         };
         Scene {
             name: "default".into(),
@@ -1035,7 +1035,7 @@ impl Rule {
 
 /// The law and its constants; a constant the law uses and the file leaves out is the paper's.
 fn friction_from(spec: &mut FrictionSpec) -> Result<Friction, Invalid> {
-    let law = spec.law.as_deref().unwrap_or(Friction::Coulomb.name());
+    let law = spec.law.as_deref().unwrap_or(Friction::COULOMB.name());
     let mut friction = Friction::by_name(law)
         .ok_or_else(|| Invalid::new("friction.law", Fault::UnknownLaw(law.to_string())))?;
     for c in &FRICTION_CONSTANTS {
@@ -1148,12 +1148,12 @@ mod tests {
     #[test]
     fn printed_scenes_read_back_the_same() {
         let mut s = Scene::from_toml_str(GOOD, "good.toml").unwrap_or_else(|e| panic!("{e}"));
-        s.model.friction = Friction::SevenParameter {
+        s.model.friction = Friction::SevenParameter(crate::friction::SevenParameter {
             mu_v: 0.2,
             v_s: 0.3,
             tau_d: 0.04,
             k_s: 1e4,
-        };
+        });
         s.solver.method = Method::Adaptive;
         s.initial = State::from_array([0.1, -0.2, 0.3, 1e-7]);
         let back = Scene::from_toml_str(&s.to_toml(), "x").unwrap_or_else(|e| panic!("{e}"));

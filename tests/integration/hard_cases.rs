@@ -57,8 +57,8 @@ fn stiff_pre_sliding_stays_bounded_and_converges() {
     for k_s in [4e4, 1e6] {
         let mut s = short(scene("fig02d_seven_parameter.toml"), 16);
         s.drive.alpha = 1.9; // a periodic window of Fig 2d
-        if let Friction::SevenParameter { k_s: ref mut k, .. } = s.model.friction {
-            *k = k_s;
+        if let Friction::SevenParameter(ref mut law) = s.model.friction {
+            law.k_s = k_s;
         }
         let coarse = checked(&adaptive(&s, 1e-7));
         let fine = checked(&adaptive(&s, 1e-10));
@@ -176,11 +176,8 @@ fn frictional_memory_delay_below_and_far_above_the_step() {
     for tau_d in [1e-3, 2.0] {
         let mut s = short(scene("fig02d_seven_parameter.toml"), 10);
         s.drive.alpha = 1.9;
-        if let Friction::SevenParameter {
-            tau_d: ref mut d, ..
-        } = s.model.friction
-        {
-            *d = tau_d;
+        if let Friction::SevenParameter(ref mut law) = s.model.friction {
+            law.tau_d = tau_d;
         }
         let coarse = checked(&adaptive(&s, 1e-7));
         let fine = checked(&adaptive(&s, 1e-11));
@@ -194,17 +191,18 @@ fn frictional_memory_delay_below_and_far_above_the_step() {
 
 fn friction_strategy() -> impl Strategy<Value = Friction> {
     prop_oneof![
-        Just(Friction::Coulomb),
-        (0.0..1.0f64).prop_map(|mu_v| Friction::Viscous { mu_v }),
-        (0.02..1.0f64).prop_map(|v_s| Friction::Stribeck { v_s }),
+        Just(Friction::COULOMB),
+        (0.0..1.0f64).prop_map(|mu_v| Friction::Viscous(capsule_plant::friction::Viscous { mu_v })),
+        (0.02..1.0f64)
+            .prop_map(|v_s| Friction::Stribeck(capsule_plant::friction::Stribeck { v_s })),
         (0.0..1.0f64, 0.02..1.0f64, 0.0..0.5f64, 1e3..1e5f64).prop_map(
             |(mu_v, v_s, tau_d, k_s)| {
-                Friction::SevenParameter {
+                Friction::SevenParameter(capsule_plant::friction::SevenParameter {
                     mu_v,
                     v_s,
                     tau_d,
                     k_s,
-                }
+                })
             }
         ),
     ]
@@ -270,9 +268,9 @@ fn energy(model: &Model, s: &capsule_plant::Snapshot, p: f64) -> f64 {
 fn without_a_drive_the_energy_never_grows() {
     // released from a compressed contact spring with no drive: friction and damping only take
     for friction in [
-        Friction::Coulomb,
-        Friction::Viscous { mu_v: 0.1 },
-        Friction::Stribeck { v_s: 0.1 },
+        Friction::COULOMB,
+        Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
+        Friction::Stribeck(capsule_plant::friction::Stribeck { v_s: 0.1 }),
     ] {
         let model = Model {
             capsule: Capsule {

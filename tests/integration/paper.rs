@@ -171,7 +171,7 @@ fn exact_and_adaptive_agree_to_1e8_in_average_progression() {
     for s in scenes {
         assert!(matches!(
             s.model.friction,
-            Friction::Coulomb | Friction::Viscous { .. }
+            Friction::Coulomb(_) | Friction::Viscous(_)
         ));
         let mut a = s.clone();
         a.solver.method = Method::Adaptive;

@@ -143,7 +143,9 @@ fn pre_sliding_keeps_the_stuck_capsule_within_the_spring_reach() {
     let mut s = scene("fig02d_seven_parameter.toml");
     s.horizon.periods = 12;
     s.horizon.transient = 0;
-    let Friction::SevenParameter { k_s, .. } = s.model.friction else {
+    let Friction::SevenParameter(capsule_plant::friction::SevenParameter { k_s, .. }) =
+        s.model.friction
+    else {
         panic!("law")
     };
     let snaps = snapshots(&s, 400);

@@ -1,4 +1,5 @@
-//! Exact piecewise solution for the linear regimes (Coulomb and viscous friction).
+//! Exact piecewise solution for the linear regimes (the piecewise-linear friction laws:
+//! [`crate::friction::FrictionLaw::linear`]).
 //!
 //! In every regime the state `v = [z, y1, y2, p, dx2]` obeys `v' = A v + b0 + e1 f(tau)` with a
 //! constant matrix `A`, a constant `b0` and the harmonic drive `f(tau) = alpha cos(omega tau)` on
@@ -13,6 +14,7 @@
 
 use super::{EventKind, Phase, Regime, SimError, Simulator, Transition};
 use crate::equations::{Core, EventFn};
+use crate::friction::LinearSliding;
 use crate::law::AffineLaw;
 use crate::roots::first_crossing;
 
@@ -40,7 +42,7 @@ struct Linear {
     mu: f64,
     /// Pre-sliding stiffness (stick with pre-sliding only).
     ks: f64,
-    /// Constant force on the capsule: `-H3 beta delta - dir` in slip.
+    /// Constant force on the capsule: `-H3 beta delta - dir coulomb` in slip.
     c2: f64,
     /// `1 / gamma`.
     inv_gamma: f64,
@@ -52,8 +54,18 @@ impl Linear {
         let h3 = if regime.contact { cap.beta } else { 0.0 };
         let xi2 = 2.0 * cap.xi;
         let presliding = sim.model.friction.presliding();
+        // only a piecewise-linear law reaches the exact method (Simulator::new refuses others)
+        let sliding = sim.model.friction.linear().unwrap_or(LinearSliding {
+            coulomb: 1.0,
+            viscous: 0.0,
+        });
         let (moves, mu, ks, c2) = match regime.phase {
-            Phase::Slip(d) => (true, sim.model.friction.viscous(), 0.0, -h3 * cap.delta - d),
+            Phase::Slip(d) => (
+                true,
+                sliding.viscous,
+                0.0,
+                -h3 * cap.delta - d * sliding.coulomb,
+            ),
             Phase::Stick => match presliding {
                 Some(ks) => (true, 0.0, ks, -h3 * cap.delta),
                 None => (false, 0.0, 0.0, 0.0),

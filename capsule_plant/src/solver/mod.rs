@@ -14,7 +14,6 @@
 //! at events; [`Simulator`] applies the same switching rules whichever method found the event.
 
 mod exact;
-pub(crate) mod friction;
 mod history;
 mod rk;
 
@@ -476,10 +475,10 @@ impl Simulator {
                 LawShape::PiecewiseAffine(drive) => self.advance_exact(&drive, tau_end, on_event),
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
-            Method::Adaptive => friction::with_friction!(self.model.friction, f => {
+            Method::Adaptive => crate::friction::with_friction!(self.model.friction, f => {
                 self.advance_adaptive(law, f, tau_end, on_event)
             }),
-            Method::Fixed => friction::with_friction!(self.model.friction, f => {
+            Method::Fixed => crate::friction::with_friction!(self.model.friction, f => {
                 self.advance_fixed(law, f, tau_end, on_event)
             }),
         };

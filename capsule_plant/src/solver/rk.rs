@@ -5,10 +5,10 @@
 //! Dormand-Prince coefficients and the continuous extension are those of Hairer, Norsett and
 //! Wanner, *Solving ODEs I*, sec. II.5-6 (the `dopri5` code).
 
-use super::friction::SlidingLaw;
 use super::history::Piece;
 use super::{EventKind, Phase, SimError, Simulator, Transition, MAX_STEPS_PER_TIME};
 use crate::equations::{field, EventFn};
+use crate::friction::FrictionLaw;
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::State;
 use crate::roots::{first_crossing, BOUNDARY};
@@ -131,7 +131,7 @@ fn dense(c: &[V; 5], i: usize, th: f64) -> (f64, f64) {
 }
 
 impl Simulator {
-    fn rk_rhs<L: ActuatorLaw, F: SlidingLaw>(&self, ctx: &Rhs<'_, L, F>, tau: f64, v: &V) -> V {
+    fn rk_rhs<L: ActuatorLaw, F: FrictionLaw>(&self, ctx: &Rhs<'_, L, F>, tau: f64, v: &V) -> V {
         let [z, y1, y2, p, dx2, _] = *v;
         let model = &self.model;
         let (contact, sigma) = if ctx.located {
@@ -159,7 +159,7 @@ impl Simulator {
         };
         let fcap = model.capsule_force(z, y1, y2, contact);
         let presliding = if F::PRESLIDING {
-            Some(ctx.friction.k_s())
+            ctx.friction.presliding()
         } else {
             None
         };
@@ -181,7 +181,7 @@ impl Simulator {
         [dz, dy1, dy2, dp, dx, fa * y1]
     }
 
-    fn dopri_step<L: ActuatorLaw, F: SlidingLaw>(
+    fn dopri_step<L: ActuatorLaw, F: FrictionLaw>(
         &mut self,
         ctx: &Rhs<'_, L, F>,
         y: &V,
@@ -239,7 +239,7 @@ impl Simulator {
         [z, y1, y2, p, 0.0, 0.0]
     }
 
-    pub(super) fn advance_adaptive<L: ActuatorLaw, F: SlidingLaw>(
+    pub(super) fn advance_adaptive<L: ActuatorLaw, F: FrictionLaw>(
         &mut self,
         law: &L,
         friction: F,
@@ -398,7 +398,7 @@ impl Simulator {
         self.commit(h, [z, y1, y2, p], dx2, dw)
     }
 
-    pub(super) fn advance_fixed<L: ActuatorLaw, F: SlidingLaw>(
+    pub(super) fn advance_fixed<L: ActuatorLaw, F: FrictionLaw>(
         &mut self,
         law: &L,
         friction: F,
