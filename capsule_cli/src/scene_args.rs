@@ -67,10 +67,10 @@ pub struct SceneArgs {
     /// Position feedback gain k_p (u = k_p |x2 - x1|), [-1e12, 1e12].
     #[arg(long, value_parser = ranges::finite())]
     pub kp: Option<f64>,
-    /// Viscous friction coefficient (viscous, seven-parameter), [0, 1e12].
+    /// Viscous friction coefficient (viscous, seven-parameter, gaussian-stribeck), [0, 1e12].
     #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
     pub mu_v: Option<f64>,
-    /// Stribeck velocity (stribeck, seven-parameter), (0, 1e12].
+    /// Stribeck velocity (stribeck, seven-parameter, gaussian-stribeck), (0, 1e12].
     #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub v_s: Option<f64>,
     /// Frictional-memory delay (seven-parameter), [0, 1e12].

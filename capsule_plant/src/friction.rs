@@ -11,7 +11,8 @@
 //!
 //! The laws (Table 1 of the paper, garbled in the seed text; reconstructed from ref. \[14\],
 //! Liu, Pavlovskaia, Wiercigroch 2013, and the seven-parameter model of ref. \[27\], Wojewoda et
-//! al. 2008). `s = sign(y2)`, `v_s` the Stribeck velocity, `y2d = y2(tau - tau_d)`:
+//! al. 2008), plus one from the friction-compensation literature. `s = sign(y2)`, `v_s` the
+//! Stribeck velocity, `y2d = y2(tau - tau_d)`:
 //!
 //! | law | sliding friction `f_s` | threshold `f_b` | in stick |
 //! |---|---|---|---|
@@ -19,6 +20,7 @@
 //! | Coulomb + viscous | `s + mu_v y2` | 1 | `y2 = 0` |
 //! | Coulomb + Stribeck | `s (1 + exp(-abs(y2) / v_s))` | 2 | `y2 = 0` |
 //! | seven-parameter | `s + mu_v y2 + s / (1 + (y2d / v_s)^2)` | 2 | pre-sliding spring `k_s p` |
+//! | Gaussian Stribeck + viscous | `s (1 + exp(-(y2 / v_s)^2)) + mu_v y2` | 2 | `y2 = 0` |
 //!
 //! Each sliding law equals its threshold at `y2 -> 0` (Stribeck: `1 + e^0 = 2`; seven-parameter
 //! with the delayed velocity still zero just after break-away: `1 + 1 = 2`), so the friction
@@ -255,6 +257,43 @@ impl<const MEM: bool, const PRE: bool> FrictionLaw for SevenParameterWith<MEM, P
     }
 }
 
+/// Coulomb plus a Gaussian Stribeck curve plus viscous damping:
+/// `f_s = sign(y2) (1 + exp(-(y2 / v_s)^2)) + mu_v y2`, `f_b = 2`: the Stribeck-friction model
+/// `F_C + (F_S - F_C) exp(-(v / v_s)^2) + F_v v` with the Gaussian exponent 2 discussed by
+/// Armstrong-Helouvry, Dupont and Canudas de Wit, "A survey of models, analysis tools and
+/// compensation methods for the control of machines with friction", Automatica 30(7), 1994,
+/// 1083-1138, with the static level twice the kinetic one as in the paper's Stribeck law. Unlike
+/// that law's exponent 1, the Gaussian curve is flat at zero velocity: it falls off only once
+/// the capsule slides at about `v_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaussianStribeck {
+    /// Viscous coefficient `mu_v`.
+    pub mu_v: f64,
+    /// Stribeck velocity `v_s`.
+    pub v_s: f64,
+}
+
+impl FrictionLaw for GaussianStribeck {
+    const NAME: &'static str = "gaussian-stribeck";
+    const TITLE: &'static str = "Gaussian Stribeck viscous";
+    fn threshold(&self) -> f64 {
+        2.0
+    }
+    #[inline(always)]
+    fn sliding(&self, dir: f64, y2: f64, _: f64) -> f64 {
+        let r = y2 / self.v_s;
+        dir * (1.0 + (-r * r).exp()) + self.mu_v * y2
+    }
+    fn slope(&self, dir: f64, y2: f64) -> f64 {
+        let r = y2 / self.v_s;
+        self.mu_v - dir * 2.0 * r * (-r * r).exp() / self.v_s
+    }
+    fn constants_mut(&mut self) -> Vec<(&'static FrictionConstant, &mut f64)> {
+        vec![(&MU_V, &mut self.mu_v), (&V_S, &mut self.v_s)]
+    }
+}
+
 /// The friction law of a scene, with its constants: the scene file's `[friction] law = "..."`
 /// tag. Each variant holds one [`FrictionLaw`]; everything else is asked of the law.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -268,6 +307,8 @@ pub enum Friction {
     Stribeck(Stribeck),
     /// [`SevenParameter`].
     SevenParameter(SevenParameter),
+    /// [`GaussianStribeck`].
+    GaussianStribeck(GaussianStribeck),
 }
 
 /// `$body` with `$f` bound to the law a [`Friction`] holds (by reference, as `$friction` is).
@@ -281,6 +322,7 @@ macro_rules! with_law {
             F::Viscous($f) => $body,
             F::Stribeck($f) => $body,
             F::SevenParameter($f) => $body,
+            F::GaussianStribeck($f) => $body,
         }
     }};
 }
@@ -382,7 +424,7 @@ impl Friction {
 
     /// Every law with the default constants (the paper's): the one list from which scene files,
     /// the command line and error messages take the laws and their names.
-    pub const LAWS: [Friction; 4] = Friction::laws_with(MU_V.paper, TAU_D.paper, K_S.paper);
+    pub const LAWS: [Friction; 5] = Friction::laws_with(MU_V.paper, TAU_D.paper, K_S.paper);
 
     /// The paper's four laws (its Table 1), as its figures show them.
     pub const PAPER_LAWS: [Friction; 4] = [
@@ -393,7 +435,7 @@ impl Friction {
     ];
 
     /// Every law with these constants (`v_s` the paper's); the unit tests probe other values.
-    pub(crate) const fn laws_with(mu_v: f64, tau_d: f64, k_s: f64) -> [Friction; 4] {
+    pub(crate) const fn laws_with(mu_v: f64, tau_d: f64, k_s: f64) -> [Friction; 5] {
         let v_s = V_S.paper;
         [
             Friction::Coulomb(Coulomb),
@@ -405,6 +447,7 @@ impl Friction {
                 tau_d,
                 k_s,
             }),
+            Friction::GaussianStribeck(GaussianStribeck { mu_v, v_s }),
         ]
     }
 
@@ -537,6 +580,26 @@ mod tests {
         // memory: the Stribeck term follows the delayed velocity, not the current one
         assert!((seven.sliding(1.0, 5.0, 0.0) - 2.0).abs() < 1e-15);
         assert!((seven.sliding(1.0, 0.0, 5.0) - 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_gaussian_curve_is_flat_at_rest_and_falls_past_v_s() {
+        let g = GaussianStribeck {
+            mu_v: 0.0,
+            v_s: 0.1,
+        };
+        let s = Stribeck { v_s: 0.1 };
+        // at a tenth of v_s the Gaussian curve has lost 1 %, the exponential one 10 %
+        assert!((g.sliding(1.0, 0.01, 0.0) - (1.0 + (-0.01f64).exp())).abs() < 1e-15);
+        assert!(g.sliding(1.0, 0.01, 0.0) > s.sliding(1.0, 0.01, 0.0));
+        // at 3 v_s it is Coulomb to 1e-4, the exponential one to 5e-2
+        assert!((g.sliding(1.0, 0.3, 0.0) - 1.0).abs() < 2e-4);
+        assert_eq!(g.slope(1.0, 0.0), 0.0);
+        assert_eq!(
+            Friction::by_name("gaussian-stribeck").map(|l| l.threshold()),
+            Some(2.0)
+        );
+        assert!(!Friction::GaussianStribeck(g).is_piecewise_linear());
     }
 
     #[test]

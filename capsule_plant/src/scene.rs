@@ -1140,7 +1140,7 @@ mod tests {
         let e = Scene::from_toml_str("[friction]\nlaw = \"dry\"\n", "t.toml").err();
         let e = e.map(|e| e.to_string()).unwrap_or_default();
         assert!(
-            e.contains("coulomb, viscous, stribeck or seven-parameter"),
+            e.contains("coulomb, viscous, stribeck, seven-parameter or gaussian-stribeck"),
             "{e}"
         );
     }

@@ -195,6 +195,9 @@ fn friction_strategy() -> impl Strategy<Value = Friction> {
         (0.0..1.0f64).prop_map(|mu_v| Friction::Viscous(capsule_plant::friction::Viscous { mu_v })),
         (0.02..1.0f64)
             .prop_map(|v_s| Friction::Stribeck(capsule_plant::friction::Stribeck { v_s })),
+        (0.0..1.0f64, 0.02..1.0f64).prop_map(|(mu_v, v_s)| Friction::GaussianStribeck(
+            capsule_plant::friction::GaussianStribeck { mu_v, v_s }
+        )),
         (0.0..1.0f64, 0.02..1.0f64, 0.0..0.5f64, 1e3..1e5f64).prop_map(
             |(mu_v, v_s, tau_d, k_s)| {
                 Friction::SevenParameter(capsule_plant::friction::SevenParameter {
@@ -271,6 +274,10 @@ fn without_a_drive_the_energy_never_grows() {
         Friction::COULOMB,
         Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
         Friction::Stribeck(capsule_plant::friction::Stribeck { v_s: 0.1 }),
+        Friction::GaussianStribeck(capsule_plant::friction::GaussianStribeck {
+            mu_v: 0.1,
+            v_s: 0.1,
+        }),
     ] {
         let model = Model {
             capsule: Capsule {

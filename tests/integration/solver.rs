@@ -206,3 +206,53 @@ fn a_long_run_keeps_the_progression_to_rounding() {
         r2.avg_progression
     );
 }
+
+#[test]
+fn the_gaussian_stribeck_law_converges_holds_its_threshold_and_is_its_own_law() {
+    // the fifth law (capsule_plant::friction::GaussianStribeck) on Fig 2c's scene at alpha 1.9
+    let mut s = scene("fig02c_stribeck.toml");
+    s.drive.alpha = 1.9;
+    s.horizon.periods = 30;
+    s.horizon.transient = 20;
+    let stribeck = run(&s).unwrap_or_else(|e| panic!("{e}")).avg_progression;
+    s.model.friction = Friction::by_name("gaussian-stribeck").unwrap_or_else(|| panic!("law"));
+    let at = |method: Method, tol: f64, step: f64| {
+        let mut t = s.clone();
+        t.solver = SolverConfig { method, tol, step };
+        run(&t).unwrap_or_else(|e| panic!("{e}")).avg_progression
+    };
+    let reference = at(Method::Adaptive, 1e-12, 0.0);
+    let adaptive: Vec<f64> = [1e-6, 1e-8, 1e-10]
+        .iter()
+        .map(|&t| (at(Method::Adaptive, t, 0.0) - reference).abs())
+        .collect();
+    assert!(
+        adaptive[0] > adaptive[1] && adaptive[1] > adaptive[2] && adaptive[2] < 1e-8,
+        "adaptive: {adaptive:?}"
+    );
+    let fixed: Vec<f64> = [1e-3, 1e-4]
+        .iter()
+        .map(|&h| (at(Method::Fixed, 0.0, h) - reference).abs())
+        .collect();
+    assert!(fixed[0] > fixed[1] && fixed[0] < 1e-3, "fixed: {fixed:?}");
+    // a law of its own: the flat Gaussian curve moves the capsule differently
+    assert!(
+        (reference - stribeck).abs() > 0.01,
+        "{reference} {stribeck}"
+    );
+    // stuck: zero velocity, friction within the law's threshold of 2
+    let snaps = snapshots(&s, 200);
+    let stuck: Vec<_> = snaps.iter().filter(|x| x.stuck).collect();
+    assert!(!stuck.is_empty() && stuck.len() < snaps.len());
+    for x in stuck {
+        assert_eq!(x.state.y2, 0.0);
+        assert!(x.friction_force.abs() <= 2.0 + 1e-9, "{}", x.friction_force);
+    }
+    // the exact method needs a piecewise-linear law
+    let mut exact = s.clone();
+    exact.solver.method = Method::Exact;
+    assert!(matches!(
+        Simulator::new(exact.model, exact.initial, 0.0, exact.solver),
+        Err(SimError::ExactNeedsLinearLaw("gaussian-stribeck"))
+    ));
+}
