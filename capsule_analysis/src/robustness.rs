@@ -295,20 +295,14 @@ mod tests {
         assert_eq!((a.period, a.seen_period), (Some(1), Some(1)), "{a:?}");
         // with 1 % noise the fit over 12 samples errs far less than the last two's difference
         let typical = DeviceModel::typical(&s.physical);
-        let fit = closed_loop(
-            &s,
-            &LoopCase {
-                velocity_window: 12,
+        let over = |velocity_window| {
+            let c = LoopCase {
+                velocity_window,
                 ..case(0.2, typical)
-            },
-        )?;
-        let difference = closed_loop(
-            &s,
-            &LoopCase {
-                velocity_window: 2,
-                ..case(0.2, typical)
-            },
-        )?;
+            };
+            closed_loop(&s, &c)
+        };
+        let (fit, difference) = (over(12)?, over(2)?);
         assert!(
             fit.velocity_error < 0.2 * difference.velocity_error,
             "{fit:?} {difference:?}"

@@ -64,6 +64,28 @@ fn table_head(md: &mut String, first: &str, columns: impl Iterator<Item = String
     let _ = writeln!(md, "|---|{}", "---|".repeat(columns.len()));
 }
 
+/// The orbit tables' header: `first`, then per mode its period, the period seen and the
+/// velocity estimate's error.
+fn orbit_head(md: &mut String, first: &str) {
+    let columns = MODES
+        .iter()
+        .map(|(m, _)| format!("{m}: period, seen, velocity error"));
+    table_head(md, first, columns);
+}
+
+/// An orbit table's cell: the period, the period seen (`-`: none) and the velocity error.
+fn orbit_cell(run: Option<LoopResult>) -> String {
+    let p = |p: Option<usize>| p.map_or("-".to_string(), |p| p.to_string());
+    run.map_or("failed".into(), |x| {
+        format!(
+            "{}, {}, {:.3}",
+            p(x.period),
+            p(x.seen_period),
+            x.velocity_error
+        )
+    })
+}
+
 /// Runs the study and writes its files.
 pub fn main(args: Args) -> Result<()> {
     let scene = match &args.scene {
@@ -291,51 +313,18 @@ pub fn main(args: Args) -> Result<()> {
         let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
     }
     let _ = writeln!(md, "\n## The orbit\n\nThe orbit's period in drive periods, as the controller's orbit watch (the status's `orbit_period`) reads it on the true state, then as it sees it from the measured positions and its velocity estimate (a least-squares line over {window} samples, read at its middle; `capsule_controller::velocity`), and that estimate's RMS error on the mass velocity against the truth when the sensor sampled (non-dimensional: the filter's error, the latency left out). `-`: no period up to 12 (chaos, or too noisy to tell) within the watch's tolerance on the section, 0.02 on the true state and {} as the controller sees it (`--orbit-tolerance`).\n", args.orbit_tolerance);
-    table_head(
-        &mut md,
-        "device / plant",
-        MODES
-            .iter()
-            .map(|(m, _)| format!("{m}: period, seen, velocity error")),
-    );
-    let p = |p: Option<usize>| p.map_or("-".to_string(), |p| p.to_string());
+    orbit_head(&mut md, "device / plant");
     for (r, (label, _, _)) in rows.iter().enumerate() {
-        let cells: Vec<String> = (0..MODES.len())
-            .map(|m| {
-                row(r, m).map_or("failed".into(), |x| {
-                    format!(
-                        "{}, {}, {:.3}",
-                        p(x.period),
-                        p(x.seen_period),
-                        x.velocity_error
-                    )
-                })
-            })
-            .collect();
+        let cells: Vec<String> = (0..MODES.len()).map(|m| orbit_cell(row(r, m))).collect();
         let _ = writeln!(md, "| {label} | {} |", cells.join(" | "));
     }
     let _ = writeln!(md, "\n## The velocity estimate's window\n\nThe typical device (positions only, 1 % noise, 1 um resolution, 2 ms late): the period seen and the estimate's RMS velocity error for windows from the backward difference (2 samples) up. The default, {window} samples, is an eighth of a drive period at {} Hz.\n", args.rate_hz);
-    table_head(
-        &mut md,
-        "window (samples)",
-        MODES
-            .iter()
-            .map(|(m, _)| format!("{m}: period, seen, velocity error")),
-    );
+    orbit_head(&mut md, "window (samples)");
     for (w, n) in typical_windows.iter().enumerate() {
         let cells: Vec<String> = (0..MODES.len())
             .map(|m| {
-                window_results.iter().find(|(k, _)| *k == (w, m)).map_or(
-                    "failed".into(),
-                    |(_, x)| {
-                        format!(
-                            "{}, {}, {:.3}",
-                            p(x.period),
-                            p(x.seen_period),
-                            x.velocity_error
-                        )
-                    },
-                )
+                let found = window_results.iter().find(|(k, _)| *k == (w, m));
+                orbit_cell(found.map(|(_, x)| *x))
             })
             .collect();
         let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
