@@ -2,8 +2,8 @@
 //! and the error a sampled (zero-order-hold) controller adds at each control rate.
 
 use crate::run::{run, RunReport};
-use capsule_controller::FeedbackLaw;
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{ConstantForce, Method, SimError, Simulator, SolverConfig, Work};
 use serde::Serialize;
 use std::time::Instant;
@@ -127,11 +127,7 @@ pub fn ladder(scene: &Scene, repeat: u32) -> Result<Vec<Point>, SimError> {
 /// Average progression of `scene` when the feedback law is sampled `samples` times per drive
 /// period and held (zero-order hold), as a ROS controller driving the plant does.
 pub fn sampled_progression(scene: &Scene, samples: u32) -> Result<f64, SimError> {
-    let law = FeedbackLaw {
-        alpha: scene.drive.alpha,
-        omega: scene.drive.omega,
-        kp: scene.control.kp,
-    };
+    let law = AffineLaw::paper(scene.drive.alpha, scene.drive.omega, scene.control.kp);
     let period = law.period();
     let dt = period / samples as f64;
     let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
@@ -143,7 +139,7 @@ pub fn sampled_progression(scene: &Scene, samples: u32) -> Result<f64, SimError>
         for i in 0..samples {
             let t0 = n as f64 * period + i as f64 * dt;
             let s = sim.state();
-            let hold = ConstantForce(law.force(t0, s.x1, s.x2));
+            let hold = ConstantForce(law.force_at(t0, s.x1, s.x2));
             let t1 = if i + 1 == samples {
                 (n + 1) as f64 * period
             } else {

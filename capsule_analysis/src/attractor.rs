@@ -10,10 +10,11 @@
 //!
 //! [`RunReport`]: crate::RunReport
 
-use crate::run::PaperLaw;
 use crate::run::{detect_period, PERIOD_TOL};
 use crate::schedule::GainSchedule;
+use capsule_controller::period::{close, reduced};
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{EventKind, SimError, Simulator, Snapshot, Work};
 use serde::Serialize;
 
@@ -171,7 +172,7 @@ impl Trajectory {
     /// snapshots through the period (its end included).
     pub fn step(
         &mut self,
-        law: &PaperLaw,
+        law: &AffineLaw,
         samples: u32,
         sample: &mut dyn FnMut(&Snapshot),
     ) -> Result<(), SimError> {
@@ -235,7 +236,7 @@ impl Trajectory {
     fn cycle(&self, n: usize, k: usize) -> Attractor {
         let hits: u32 = self.impacts[n - k..n].iter().sum();
         let last = &self.points[n - k..n];
-        let d = reduced_period(last, Catalogue::SAME_TOL);
+        let d = reduced(last, Catalogue::SAME_TOL);
         Attractor {
             period: Some(d),
             impacts_per_period: f64::from(hits) / k as f64,
@@ -359,17 +360,6 @@ pub fn settle(
     })
 }
 
-/// The smallest `d` dividing the cycle's length whose shift maps the cycle onto itself within
-/// `tol`. An orbit approached along a multiplier near -1 (or a complex pair) repeats at the
-/// period tolerance with a multiple of its period before it does with the period itself.
-pub fn reduced_period(cycle: &[[f64; 3]], tol: f64) -> usize {
-    let k = cycle.len();
-    (1..=k)
-        .filter(|&d| (k / d) * d == k)
-        .find(|&d| (0..k).all(|i| dist(&cycle[i], &cycle[(i + d) % k]) <= tol))
-        .unwrap_or(k)
-}
-
 /// A cycle rotated to start at its point of lowest `y1` (ties broken by the other coordinates).
 pub fn canonical(cycle: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let start = (0..cycle.len())
@@ -387,17 +377,10 @@ pub fn canonical(cycle: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
-
 /// `a` and `b` are the same cycle, whatever point each starts at, within `tol`.
 pub fn same_cycle(a: &[[f64; 3]], b: &[[f64; 3]], tol: f64) -> bool {
     let k = a.len();
-    k == b.len() && k > 0 && (0..k).any(|r| (0..k).all(|i| dist(&a[i], &b[(i + r) % k]) <= tol))
+    k == b.len() && k > 0 && (0..k).any(|r| (0..k).all(|i| close(&a[i], &b[(i + r) % k], tol)))
 }
 
 /// Follows a trajectory along a known attractor: which one, which of its points comes next,
@@ -417,7 +400,7 @@ impl Follow {
         let periodic = |i: usize| known.attractors[i].period.is_some();
         let next = self.on.and_then(|(i, j)| {
             let pts = &known.attractors[i].poincare;
-            (dist(p, &pts[j]) <= config.known_tol).then_some((i, (j + 1) % pts.len()))
+            close(p, &pts[j], config.known_tol).then_some((i, (j + 1) % pts.len()))
         });
         match next {
             Some(on) => {
@@ -431,7 +414,7 @@ impl Follow {
                     .find_map(|i| {
                         let pts = &known.attractors[i].poincare;
                         pts.iter()
-                            .position(|q| dist(p, q) <= config.known_tol)
+                            .position(|q| close(p, q, config.known_tol))
                             .map(|j| (i, (j + 1) % pts.len()))
                     });
                 if self.on.is_none() {
@@ -554,9 +537,9 @@ mod tests {
             [0.5 + 2e-6, 1.0, 1.2],
             [0.5, 1.0 - 1e-6, 1.2],
         ];
-        assert_eq!(reduced_period(&near, 1e-4), 1);
-        assert_eq!(reduced_period(&a, 1e-4), 3);
-        assert_eq!(reduced_period(&[a[0], a[1], a[0], a[1]], 1e-4), 2);
+        assert_eq!(reduced(&near, 1e-4), 1);
+        assert_eq!(reduced(&a, 1e-4), 3);
+        assert_eq!(reduced(&[a[0], a[1], a[0], a[1]], 1e-4), 2);
     }
 
     #[test]

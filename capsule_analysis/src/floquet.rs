@@ -18,9 +18,9 @@
 //! direction out (a multiplier exactly 0 for any orbit that sticks). If the orbit is stuck at the
 //! section, perturbations live on `y2 = 0` only and the `y2` column of the Jacobian is zeroed.
 
-use crate::run::PaperLaw;
 use capsule_plant::equations::{expm, mat_mul, Core, Equations, Mat4, IDENTITY};
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
 use thiserror::Error;
@@ -72,7 +72,7 @@ pub fn equations_of(scene: &Scene) -> Result<Equations, StabilityError> {
     if f.memory_delay().is_some() || f.presliding().is_some() {
         return Err(StabilityError::UnsupportedLaw(f.name()));
     }
-    let shape = capsule_plant::ActuatorLaw::shape(&PaperLaw::of(scene));
+    let shape = capsule_plant::ActuatorLaw::shape(&scene.law());
     let capsule_plant::LawShape::PiecewiseAffine(drive) = shape else {
         return Err(StabilityError::UnsupportedLaw(f.name()));
     };
@@ -141,7 +141,7 @@ fn flow_jacobian(eq: &Equations, regime: &Regime, tau: f64, v: &Core, dt: f64) -
 pub fn advance_linearized(
     sim: &mut Simulator,
     eq: &Equations,
-    law: &PaperLaw,
+    law: &AffineLaw,
     tau_end: f64,
     events: &mut Vec<EventKind>,
     transversality: &mut f64,
@@ -218,7 +218,7 @@ pub fn poincare_map(
     periods: usize,
 ) -> Result<Linearization, StabilityError> {
     let eq = equations_of(scene)?;
-    let law = PaperLaw::of(scene);
+    let law = scene.law();
     let mut sim = start(scene, x, 0.0)?;
     let stuck = sim.regime().phase == Phase::Stick;
     let mut events = Vec::new();
@@ -244,7 +244,7 @@ pub fn poincare_map(
 
 /// The Poincaré map alone (no Jacobian), for finite differences and Newton residuals.
 pub fn map_only(scene: &Scene, x: [f64; 3], periods: usize) -> Result<[f64; 3], SimError> {
-    let law = PaperLaw::of(scene);
+    let law = scene.law();
     let mut sim = start(scene, x, 0.0)?;
     sim.advance(&law, periods as f64 * scene.drive.period())?;
     let c = sim.core();

@@ -10,9 +10,10 @@
 //!   ([`lyapunov`], over [`LYAPUNOV_PERIODS`] periods from where the run ended): chaotic when it
 //!   is clearly positive, quasi-periodic or slowly converging when it is near zero.
 
-use crate::attractor::{canonical, reduced_period, Catalogue};
+use crate::attractor::{canonical, Catalogue};
 use crate::floquet::{eigenvalues3, map_only, modulus, poincare_map};
 use crate::lyapunov::lyapunov;
+use capsule_controller::period::reduced;
 use capsule_plant::scene::{Horizon, Scene};
 use capsule_plant::State;
 
@@ -113,7 +114,7 @@ pub fn refine(scene: &Scene, cycle: &[[f64; 3]]) -> Option<Refined> {
         points.push(to_section(&p));
         p = map_only(scene, p, 1).ok()?;
     }
-    let d = reduced_period(&points, Catalogue::SAME_TOL * 1e-3);
+    let d = reduced(&points, Catalogue::SAME_TOL * 1e-3);
     let jac = poincare_map(scene, x, d).ok()?.jacobian;
     let largest_modulus = eigenvalues3(&jac).iter().map(modulus).fold(0.0, f64::max);
     Some(Refined {

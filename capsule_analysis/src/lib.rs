@@ -18,6 +18,6 @@ pub mod stability;
 pub mod sweep;
 pub mod switch;
 
-pub use run::{run, run_sampled, run_scheduled, run_scheduled_until, PaperLaw, RunReport};
+pub use run::{run, run_sampled, run_scheduled, run_scheduled_until, RunReport};
 pub use schedule::{GainSchedule, Pulse};
 pub use sweep::{sweep, sweep_following, Param, SweepPoint};

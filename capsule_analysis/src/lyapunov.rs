@@ -11,9 +11,9 @@
 //! (written `null` in JSON): the stretching factor is zero, not small.
 
 use crate::floquet::{advance_linearized, equations_of, StabilityError};
-use crate::run::PaperLaw;
 use crate::sweep::{at_each_value, Param};
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{Phase, Simulator, State};
 use serde::Serialize;
 
@@ -136,8 +136,8 @@ fn complement(basis: &[[f64; 3]]) -> [f64; 3] {
 }
 
 /// The scene's run at the end of its transient, with the law that drives it.
-fn past_transient(scene: &Scene) -> Result<(PaperLaw, Simulator), StabilityError> {
-    let law = PaperLaw::of(scene);
+fn past_transient(scene: &Scene) -> Result<(AffineLaw, Simulator), StabilityError> {
+    let law = scene.law();
     let mut sim = Simulator::new(scene.model, scene.initial, 0.0, scene.solver)?;
     sim.advance(&law, scene.horizon.transient as f64 * scene.drive.period())?;
     Ok((law, sim))

@@ -13,13 +13,14 @@
 
 use std::collections::VecDeque;
 
+use capsule_controller::mode::ProgressMeter;
 use capsule_controller::switch::{OrbitWatch, SwitchSettings};
 use capsule_controller::velocity::LineFit;
-use capsule_controller::{law::FeedbackLaw, mode::ProgressMeter};
 use capsule_plant::device::prototype::Prototype;
 use capsule_plant::device::sensor::{Reading, Truth};
 use capsule_plant::device::DeviceModel;
 use capsule_plant::scene::{PhysicalScale, Scene};
+use capsule_plant::AffineLaw;
 use capsule_plant::{SimError, Simulator};
 
 /// How the real plant differs from the scene the controller was set up with.
@@ -117,11 +118,7 @@ pub fn closed_loop_observed(
     model.capsule.delta *= case.mismatch.stiffness / case.mismatch.friction;
     let sim = Simulator::new(model, scene.initial_state(), 0.0, scene.solver())?;
     let mut proto = Prototype::new(sim, real, &case.device);
-    let law = FeedbackLaw {
-        alpha: scene.drive.alpha,
-        omega: scene.drive.omega,
-        kp: case.kp,
-    };
+    let law = AffineLaw::paper(scene.drive.alpha, scene.drive.omega, case.kp);
     let dt = 1.0 / case.rate_hz;
     // measured on the true state, in the scene's (nominal) units
     let mut meter = ProgressMeter::new(law.period());
@@ -156,7 +153,7 @@ pub fn closed_loop_observed(
         if r.displacement_m.is_finite() && r.capsule_m.is_finite() {
             x1x2 = ((r.displacement_m + r.capsule_m) / l, r.capsule_m / l);
         }
-        let force_n = law.force(tau, x1x2.0, x1x2.1) * nominal.force_n();
+        let force_n = law.force_at(tau, x1x2.0, x1x2.1) * nominal.force_n();
         let truth = proto.truth();
         let true_state = [
             truth.x1_m / l,

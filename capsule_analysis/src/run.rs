@@ -1,44 +1,11 @@
 //! One run of a scene: transient, then measured periods.
 
-use capsule_controller::FeedbackLaw;
+use capsule_controller::period::{self, Over};
 use capsule_plant::scene::Scene;
-use capsule_plant::{
-    ActuatorLaw, AffineLaw, EventKind, LawShape, SimError, Simulator, Snapshot, State, Work,
-};
+use capsule_plant::{EventKind, SimError, Simulator, Snapshot, State, Work};
 use serde::Serialize;
 
 use crate::schedule::GainSchedule;
-
-/// The controller's law seen by the simulator: harmonic drive plus `k_p |x2 - x1|`.
-#[derive(Debug, Clone, Copy)]
-pub struct PaperLaw(pub FeedbackLaw);
-
-impl ActuatorLaw for PaperLaw {
-    fn force(&self, tau: f64, s: &State) -> f64 {
-        self.0.force(tau, s.x1, s.x2)
-    }
-
-    fn shape(&self) -> LawShape {
-        let FeedbackLaw { alpha, omega, kp } = self.0;
-        LawShape::PiecewiseAffine(AffineLaw {
-            alpha,
-            omega,
-            bias: 0.0,
-            kp,
-        })
-    }
-}
-
-impl PaperLaw {
-    /// The law of a scene: its drive and gain.
-    pub fn of(scene: &Scene) -> Self {
-        PaperLaw(FeedbackLaw {
-            alpha: scene.drive.alpha,
-            omega: scene.drive.omega,
-            kp: scene.control.kp,
-        })
-    }
-}
 
 /// Largest period searched for on the Poincaré section.
 pub const MAX_PERIOD: usize = 64;
@@ -180,21 +147,15 @@ pub fn run_scheduled_until(
 }
 
 /// Smallest `k <= MAX_PERIOD` with `|P[n] - P[n-k]| <= tol` for every `n >= k`, if the section
-/// has at least `k + 1` points.
+/// has at least `k + 1` points (the one detector: [`capsule_controller::period`]).
 pub fn detect_period(points: &[[f64; 3]], tol: f64) -> Option<usize> {
-    (1..=MAX_PERIOD.min(points.len().saturating_sub(1))).find(|&k| {
-        (k..points.len()).all(|n| {
-            points[n]
-                .iter()
-                .zip(points[n - k].iter())
-                .all(|(a, b)| (a - b).abs() <= tol)
-        })
-    })
+    period::smallest_lag(points, MAX_PERIOD, Over::All, tol)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use capsule_plant::{ActuatorLaw, AffineLaw, LawShape};
 
     #[test]
     fn detects_the_smallest_repeating_period() {
@@ -210,11 +171,7 @@ mod tests {
 
     #[test]
     fn paper_law_shape_agrees_with_its_force() {
-        let law = PaperLaw(FeedbackLaw {
-            alpha: 1.3,
-            omega: 0.95,
-            kp: -0.4,
-        });
+        let law = AffineLaw::paper(1.3, 0.95, -0.4);
         let LawShape::PiecewiseAffine(AffineLaw {
             alpha,
             omega,

@@ -1,9 +1,8 @@
 //! A feedback-gain schedule over drive periods: a gain before, an optional pulse of another gain
 //! for some periods, and a gain after (the paper's Fig 20 and intermittent control, its ref. \[21\]).
 
-use crate::run::PaperLaw;
-use capsule_controller::FeedbackLaw;
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use serde::Serialize;
 
 /// A pulse of gain `kp` for `periods` drive periods starting at period `at` (0-based).
@@ -65,12 +64,8 @@ impl GainSchedule {
 
     /// The paper's law (the scene's drive) with the gain of period `n`: the actuator law the
     /// simulator integrates over that period, piecewise affine, so the exact method applies.
-    pub fn law(&self, scene: &Scene, n: u32) -> PaperLaw {
-        PaperLaw(FeedbackLaw {
-            alpha: scene.drive.alpha,
-            omega: scene.drive.omega,
-            kp: self.kp_at(n),
-        })
+    pub fn law(&self, scene: &Scene, n: u32) -> AffineLaw {
+        AffineLaw::paper(scene.drive.alpha, scene.drive.omega, self.kp_at(n))
     }
 
     /// Check the schedule against a run of `periods` drive periods: finite gains, a pulse of at

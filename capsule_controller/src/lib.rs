@@ -1,11 +1,11 @@
-//! The capsule's control law, without ROS or I/O: the harmonic drive plus the position feedback
-//! `u = k_p |x2 - x1|` of Liu et al. 2014 (eq. 2-3).
+//! The capsule's controller, without ROS or I/O: the modes that set the gain of the paper's law
+//! (Liu et al. 2014, eq. 2-3: the harmonic drive plus `u = k_p |x2 - x1|`, which is
+//! `capsule_plant::AffineLaw`, the one actuator-law type), attractor switching by a gain pulse,
+//! and the velocities a real capsule does not measure.
 //!
 //! Everything here is non-dimensional (the paper's units); the ROS nodes convert to SI.
 
-pub mod law;
 pub mod mode;
+pub mod period;
 pub mod switch;
 pub mod velocity;
-
-pub use law::FeedbackLaw;

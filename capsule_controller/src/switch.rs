@@ -10,6 +10,8 @@
 
 use std::collections::VecDeque;
 
+use crate::period::{self, Over};
+
 /// How an attractor switch is bounded and judged (the controller's settings).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SwitchSettings {
@@ -124,7 +126,7 @@ impl SwitchRequest {
 
 /// Where a switch is (codes as in `ControllerStatus.SWITCH_*`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Phase {
+pub enum SwitchState {
     /// Watching the section until the orbit's period is known.
     Observing,
     /// The pulse gain is applied.
@@ -139,34 +141,37 @@ pub enum Phase {
     Cancelled,
 }
 
-impl Phase {
+impl SwitchState {
     /// The wire code (`ControllerStatus.SWITCH_OBSERVING` = 1, ...; 0 = no switch yet).
     pub fn code(self) -> u8 {
         match self {
-            Phase::Observing => 1,
-            Phase::Pulsing => 2,
-            Phase::Settling => 3,
-            Phase::Succeeded => 4,
-            Phase::Failed => 5,
-            Phase::Cancelled => 6,
+            SwitchState::Observing => 1,
+            SwitchState::Pulsing => 2,
+            SwitchState::Settling => 3,
+            SwitchState::Succeeded => 4,
+            SwitchState::Failed => 5,
+            SwitchState::Cancelled => 6,
         }
     }
 
     /// The name, for humans.
     pub fn name(self) -> &'static str {
         match self {
-            Phase::Observing => "observing",
-            Phase::Pulsing => "pulsing",
-            Phase::Settling => "settling",
-            Phase::Succeeded => "succeeded",
-            Phase::Failed => "failed",
-            Phase::Cancelled => "cancelled",
+            SwitchState::Observing => "observing",
+            SwitchState::Pulsing => "pulsing",
+            SwitchState::Settling => "settling",
+            SwitchState::Succeeded => "succeeded",
+            SwitchState::Failed => "failed",
+            SwitchState::Cancelled => "cancelled",
         }
     }
 
     /// True once the switch is over.
     pub fn is_done(self) -> bool {
-        matches!(self, Phase::Succeeded | Phase::Failed | Phase::Cancelled)
+        matches!(
+            self,
+            SwitchState::Succeeded | SwitchState::Failed | SwitchState::Cancelled
+        )
     }
 }
 
@@ -223,10 +228,10 @@ impl Section {
     }
 }
 
-/// The period of the orbit the last section points show: the smallest `k <= max_period` for
-/// which each of the last `cycles * k` points is within `tol` (max norm) of the point `k`
-/// before it (so `(cycles + 1) k` points are needed), reduced to the smallest divisor `d` of
-/// `k` whose shift maps the last `k` points onto themselves within `reduce_tol`; or `None`.
+/// The period of the orbit the last section points show: the smallest lag `k <= max_period`
+/// with which each of the last `cycles * k` points repeats within `tol` (so `(cycles + 1) k`
+/// points are needed), reduced to the smallest period of those `k` points within `reduce_tol`
+/// ([`crate::period`]); or `None`.
 ///
 /// The reduction is needed because an orbit approached along a Floquet multiplier near -1 (the
 /// period-1 orbit at alpha 1.5 is one: its section points alternate about it and close in by
@@ -240,16 +245,8 @@ pub fn orbit_period(
     tol: f64,
     reduce_tol: f64,
 ) -> Option<usize> {
-    let n = points.len();
-    let close =
-        |a: &[f64; 3], b: &[f64; 3], tol: f64| a.iter().zip(b).all(|(a, b)| (a - b).abs() <= tol);
-    let k = (1..=max_period)
-        .take_while(|k| (cycles + 1) * k <= n)
-        .find(|&k| (n - cycles * k..n).all(|i| close(&points[i], &points[i - k], tol)))?;
-    let last = &points[n - k..];
-    (1..=k)
-        .filter(|d| k % d == 0)
-        .find(|&d| (0..k).all(|i| close(&last[i], &last[(i + d) % k], reduce_tol)))
+    let k = period::smallest_lag(points, max_period, Over::Cycles(cycles), tol)?;
+    Some(period::reduced(&points[points.len() - k..], reduce_tol))
 }
 
 /// Full cycles a period must repeat for [`orbit_period`] to accept it here.
@@ -308,7 +305,7 @@ pub struct AttractorSwitch {
     base_gain: f64,
     section: Section,
     points: Vec<[f64; 3]>,
-    phase: Phase,
+    state: SwitchState,
     tries: i32,
     crossings: u32,
     delay: u32,
@@ -336,7 +333,7 @@ impl AttractorSwitch {
             base_gain,
             section: Section::new(period),
             points: Vec::new(),
-            phase: Phase::Observing,
+            state: SwitchState::Observing,
             tries: 0,
             crossings: 0,
             delay: 0,
@@ -356,8 +353,8 @@ impl AttractorSwitch {
     }
 
     /// Where the switch is.
-    pub fn phase(&self) -> Phase {
-        self.phase
+    pub fn state(&self) -> SwitchState {
+        self.state
     }
 
     /// Pulses started so far.
@@ -392,15 +389,15 @@ impl AttractorSwitch {
 
     /// Cancels the switch (another mode was requested).
     pub fn cancel(&mut self) {
-        if !self.phase.is_done() {
-            self.phase = Phase::Cancelled;
+        if !self.state.is_done() {
+            self.state = SwitchState::Cancelled;
         }
     }
 
     /// Adds a sample at `tau` with state `[x1, y1, x2, y2]`; returns the gain to apply from this
     /// sample on.
     pub fn sample(&mut self, tau: f64, s: [f64; 4]) -> f64 {
-        if self.phase.is_done() {
+        if self.state.is_done() {
             return self.base_gain;
         }
         if let Some(p) = self.section.sample(tau, s) {
@@ -415,15 +412,15 @@ impl AttractorSwitch {
             self.release_pending = false;
             self.pulse_end = Some(tau);
         }
-        match self.phase {
-            Phase::Pulsing => self.request.gain,
+        match self.state {
+            SwitchState::Pulsing => self.request.gain,
             _ => self.base_gain,
         }
     }
 
     fn start_pulse(&mut self) {
         self.tries += 1;
-        self.phase = Phase::Pulsing;
+        self.state = SwitchState::Pulsing;
         self.crossings = 0;
         self.pulse_pending = true;
     }
@@ -451,8 +448,8 @@ impl AttractorSwitch {
 
     fn crossing(&mut self, p: [f64; 3]) {
         self.crossings += 1;
-        match self.phase {
-            Phase::Observing | Phase::Settling => {
+        match self.state {
+            SwitchState::Observing | SwitchState::Settling => {
                 if self.delay > 0 {
                     // shifting the next pulse along the cycle: don't judge, just wait
                     self.delay -= 1;
@@ -480,13 +477,13 @@ impl AttractorSwitch {
                     return;
                 }
                 self.detected = period;
-                if self.phase == Phase::Observing {
+                if self.state == SwitchState::Observing {
                     self.before = period;
                 }
                 if period == Some(self.request.target_period as usize) {
-                    self.phase = Phase::Succeeded;
+                    self.state = SwitchState::Succeeded;
                 } else if self.tries >= self.request.max_tries {
-                    self.phase = Phase::Failed;
+                    self.state = SwitchState::Failed;
                 } else if self.tries == 0 {
                     // the cycle as seen, ending with the point the first pulse starts at
                     if let Some(k) = period {
@@ -497,15 +494,15 @@ impl AttractorSwitch {
                     self.retry(p);
                 }
             }
-            Phase::Pulsing => {
+            SwitchState::Pulsing => {
                 if self.crossings >= self.request.pulse_periods as u32 {
-                    self.phase = Phase::Settling;
+                    self.state = SwitchState::Settling;
                     self.crossings = 0;
                     self.points.clear();
                     self.release_pending = true;
                 }
             }
-            Phase::Succeeded | Phase::Failed | Phase::Cancelled => {}
+            SwitchState::Succeeded | SwitchState::Failed | SwitchState::Cancelled => {}
         }
     }
 }
@@ -663,7 +660,7 @@ mod tests {
         for good in 0..3 {
             let mut sw = AttractorSwitch::new(request(), settings, 0.0, 1.0);
             let gains = drive_fake(&mut sw, 200, good);
-            assert_eq!(sw.phase(), Phase::Succeeded, "good phase {good}");
+            assert_eq!(sw.state(), SwitchState::Succeeded, "good phase {good}");
             assert_eq!(sw.before(), Some(3));
             assert_eq!(sw.detected(), Some(1));
             assert!((1..=3).contains(&sw.tries()), "{}", sw.tries());
@@ -687,7 +684,7 @@ mod tests {
         let mut sw = AttractorSwitch::new(request(), settings, 0.05, 1.0);
         // no phase works
         let gains = drive_fake(&mut sw, 300, 99);
-        assert_eq!(sw.phase(), Phase::Failed);
+        assert_eq!(sw.state(), SwitchState::Failed);
         assert_eq!(sw.tries(), 3);
         assert_eq!(sw.detected(), Some(3));
         assert_eq!(gains.last(), Some(&0.05));
@@ -705,11 +702,11 @@ mod tests {
             1.0,
         );
         drive_fake(&mut sw, 40, 0);
-        assert_eq!((sw.phase(), sw.tries()), (Phase::Succeeded, 0));
+        assert_eq!((sw.state(), sw.tries()), (SwitchState::Succeeded, 0));
         sw.cancel();
         assert_eq!(
-            sw.phase(),
-            Phase::Succeeded,
+            sw.state(),
+            SwitchState::Succeeded,
             "a finished switch stays finished"
         );
     }

@@ -3,10 +3,10 @@
 //! k_p = 0.3 moves the orbit to period 1, and it stays after the release.
 
 use capsule_controller::switch::{
-    AttractorSwitch, OrbitWatch, Phase, SwitchRequest, SwitchSettings,
+    AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings, SwitchState,
 };
-use capsule_controller::FeedbackLaw;
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{ConstantForce, Simulator};
 
 /// The bundled live scene of the switch: alpha 1.5, k_p 0, from (-1.5, 0, 0, 0).
@@ -14,7 +14,7 @@ const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/switch_alpha
 
 struct Loop {
     sim: Simulator,
-    law: FeedbackLaw,
+    law: AffineLaw,
     dt: f64,
     k: u64,
 }
@@ -26,11 +26,7 @@ impl Loop {
         let dt = 1e-3 * scene.physical.omega0();
         let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
             .expect("simulator");
-        let law = FeedbackLaw {
-            alpha: scene.drive.alpha,
-            omega: scene.drive.omega,
-            kp: 0.0,
-        };
+        let law = AffineLaw::paper(scene.drive.alpha, scene.drive.omega, 0.0);
         Loop { sim, law, dt, k: 0 }
     }
 
@@ -39,7 +35,7 @@ impl Loop {
         let tau = self.k as f64 * self.dt;
         let s = self.sim.state().to_array();
         self.law.kp = gain_of(tau, s);
-        let f = self.law.force(tau, s[0], s[2]);
+        let f = self.law.force_at(tau, s[0], s[2]);
         self.k += 1;
         self.sim
             .advance(&ConstantForce(f), self.k as f64 * self.dt)
@@ -69,21 +65,21 @@ fn a_one_period_pulse_moves_period_3_to_period_1_in_closed_loop() {
     };
     let mut sw = AttractorSwitch::new(request, settings, 0.0, period);
     let mut n = 0;
-    let mut last = (sw.phase(), sw.tries());
-    while !sw.phase().is_done() && n < 400 * steps_per_period {
+    let mut last = (sw.state(), sw.tries());
+    while !sw.state().is_done() && n < 400 * steps_per_period {
         let (tau, s) = lp.step(&mut |tau, s| sw.sample(tau, s));
         if let Some(p) = watch.sample(tau, s) {
             if std::env::var_os("SWITCH_TRACE").is_some() {
                 eprintln!(
                     "{:.1} {:?} {:?} {p:?}",
                     tau / period,
-                    sw.phase(),
+                    sw.state(),
                     sw.detected()
                 );
             }
         }
-        if (sw.phase(), sw.tries()) != last {
-            last = (sw.phase(), sw.tries());
+        if (sw.state(), sw.tries()) != last {
+            last = (sw.state(), sw.tries());
             eprintln!(
                 "period {:.2}: {:?} try {} (orbit seen: {:?})",
                 tau / period,
@@ -96,7 +92,7 @@ fn a_one_period_pulse_moves_period_3_to_period_1_in_closed_loop() {
     }
     eprintln!(
         "phase {:?} tries {} before {:?} detected {:?} pulse {:?}..{:?} after {} periods",
-        sw.phase(),
+        sw.state(),
         sw.tries(),
         sw.before(),
         sw.detected(),
@@ -104,7 +100,7 @@ fn a_one_period_pulse_moves_period_3_to_period_1_in_closed_loop() {
         sw.pulse_end(),
         n / steps_per_period
     );
-    assert_eq!(sw.phase(), Phase::Succeeded);
+    assert_eq!(sw.state(), SwitchState::Succeeded);
     assert_eq!(sw.before(), Some(3));
     assert!((1..=3).contains(&sw.tries()), "tries {}", sw.tries());
     // released: 40 more periods at k_p = 0 stay on period 1

@@ -14,13 +14,13 @@
 use capsule_args::ranges;
 use capsule_msgs::names::topics;
 use capsule_plant::scene::PhysicalScale;
+use capsule_plant::AffineLaw;
 use std::time::{Duration, Instant};
 
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
     switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
     velocity::LineFit,
-    FeedbackLaw,
 };
 use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
@@ -43,7 +43,7 @@ use capsule_ros_base::{
 #[derive(Debug, Clone)]
 pub struct ControllerCore {
     scale: PhysicalScale,
-    law: FeedbackLaw,
+    law: AffineLaw,
     config: ModeConfig,
     mode: Mode,
     pending: Vec<(i64, Mode, f64)>,
@@ -76,7 +76,7 @@ impl ControllerCore {
         config: ModeConfig,
         stale_s: f64,
     ) -> Self {
-        let law = FeedbackLaw { alpha, omega, kp };
+        let law = AffineLaw::paper(alpha, omega, kp);
         ControllerCore {
             scale,
             law,
@@ -101,7 +101,7 @@ impl ControllerCore {
 
     /// The switch in progress, if one is.
     fn running_switch(&self) -> Option<&(AttractorSwitch, Mode)> {
-        self.switch.as_ref().filter(|(sw, _)| !sw.phase().is_done())
+        self.switch.as_ref().filter(|(sw, _)| !sw.state().is_done())
     }
 
     /// The mode and gain the controller settles in: the current ones, or during an attractor
@@ -145,7 +145,7 @@ impl ControllerCore {
     }
 
     /// Current law (drive and gain).
-    pub fn law(&self) -> FeedbackLaw {
+    pub fn law(&self) -> AffineLaw {
         self.law
     }
 
@@ -328,11 +328,11 @@ impl ControllerCore {
                 .state(tau, x1, s.mass_velocity / v, x2, s.capsule_velocity / v)
         {
             self.watch.sample(tm, nd);
-            if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.phase().is_done()) {
-                let was = (sw.phase(), sw.tries());
+            if let Some((sw, back)) = self.switch.as_mut().filter(|(sw, _)| !sw.state().is_done()) {
+                let was = (sw.state(), sw.tries());
                 self.law.kp = sw.sample(tm, nd);
-                self.switch_event |= (sw.phase(), sw.tries()) != was;
-                if sw.phase().is_done() {
+                self.switch_event |= (sw.state(), sw.tries()) != was;
+                if sw.state().is_done() {
                     let back = *back;
                     let kp = sw.base_gain();
                     self.mode = back;
@@ -341,7 +341,7 @@ impl ControllerCore {
                 }
             }
         }
-        let f = self.law.force(tau, x1, x2);
+        let f = self.law.force_at(tau, x1, x2);
         if !f.is_finite() {
             self.ignored_samples += 1;
             return None;
@@ -424,7 +424,7 @@ impl ControllerCore {
                 ..ControllerStatus::default()
             },
             Some(sw) => ControllerStatus {
-                switch_state: sw.phase().code(),
+                switch_state: sw.state().code(),
                 switch_target_period: sw.request().target_period,
                 switch_tries: sw.tries(),
                 switch_max_tries: sw.request().max_tries,
@@ -643,7 +643,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
                             let st = core.status(clock.now());
                             info!(
                                 "attractor switch: {} (try {}, orbit period {}, k_p {})",
-                                core.attractor_switch().map_or("?", |s| s.phase().name()),
+                                core.attractor_switch().map_or("?", |s| s.state().name()),
                                 st.switch_tries, st.orbit_period, st.gain
                             );
                             params.push(&core);

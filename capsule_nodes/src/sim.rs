@@ -13,6 +13,7 @@ impl PlantSim for SimulatedPlant {
     fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
         self.0
             .advance(&ConstantForce(force), tau_end)
+            .map(|_| ())
             .with_context(|| format!("simulation failed on the way to tau = {tau_end}"))
     }
 

@@ -26,11 +26,80 @@
 
 use crate::law::AffineLaw;
 use crate::model::Model;
-use crate::solver::{EventKind, Phase, Regime};
+use serde::{Deserialize, Serialize};
 
 /// Continuous state in the solvers' coordinates: `[z = x1 - x2, y1, y2, p]`, `p` the pre-sliding
 /// displacement (zero unless the law has pre-sliding and the capsule is stuck).
 pub type Core = [f64; 4];
+
+/// Stick or slip of the capsule.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Phase {
+    /// The capsule is held by static friction (`y2 = 0`, or pre-sliding on the stiff spring).
+    Stick,
+    /// The capsule slides in direction `+1` or `-1`.
+    Slip(f64),
+}
+
+/// The discrete part of the state: what is switched by events.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Regime {
+    /// Stick or slip.
+    pub phase: Phase,
+    /// The mass touches the secondary spring (`H3 = 1`).
+    pub contact: bool,
+    /// Side of the feedback kink: `sign(x1 - x2)`, so `|x2 - x1| = sigma (x1 - x2)`.
+    pub sigma: f64,
+}
+
+/// What happened at an event.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EventKind {
+    /// The mass reaches the secondary spring (an impact).
+    ContactOn,
+    /// The mass leaves the secondary spring.
+    ContactOff,
+    /// The stuck capsule starts to slip in direction `dir`.
+    BreakAway {
+        /// Direction of the new slip.
+        dir: f64,
+    },
+    /// The slipping capsule's velocity reaches zero and it sticks.
+    SlipEnd,
+    /// The slipping capsule's velocity reaches zero and it slips on in direction `dir`
+    /// (normally the other way: a reversal).
+    Reversal {
+        /// Direction of the new slip.
+        dir: f64,
+    },
+    /// `x1 - x2` changes sign: the kink of the feedback `k_p |x2 - x1|`.
+    Kink,
+}
+
+/// A located event.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// When it happened.
+    pub tau: f64,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// An event with the regime and state on both sides (state in the solvers' coordinates).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    /// The event.
+    pub event: Event,
+    /// Regime before.
+    pub regime_before: Regime,
+    /// `[z, y1, y2, p]` before.
+    pub before: Core,
+    /// Regime after.
+    pub regime_after: Regime,
+    /// `[z, y1, y2, p]` after (the reset applied).
+    pub after: Core,
+}
 
 /// A 4 x 4 matrix on [`Core`], row-major.
 pub type Mat4 = [[f64; 4]; 4];
@@ -204,7 +273,7 @@ impl Equations {
     /// `v'` in `regime` at time `tau` (without the capsule position).
     pub fn rhs(&self, tau: f64, regime: &Regime, v: &Core) -> Core {
         let m = &self.model;
-        let fa = self.drive.force(tau, v[0], regime.sigma);
+        let fa = self.drive.force_on_side(tau, v[0], regime.sigma);
         let fcap = m.capsule_force(v[0], v[1], v[2], regime.contact);
         let f = field(
             m.capsule.gamma,

@@ -6,7 +6,7 @@
 //! published friction force, the scene reader and the command line.
 //!
 //! Adding a law: a type with its `impl FrictionLaw`, a variant of [`Friction`] holding it, its
-//! arm in [`with_law!`], and its entry in [`Friction::LAWS`]. The scene file's keys, the
+//! arm in `with_law!`, and its entry in [`Friction::LAWS`]. The scene file's keys, the
 //! `--friction` choices and the error messages follow from them (docs/architecture.md).
 //!
 //! The laws (Table 1 of the paper, garbled in the seed text; reconstructed from ref. \[14\],
@@ -167,7 +167,7 @@ impl FrictionLaw for Stribeck {
 
 /// The seven-parameter law: Stribeck with frictional memory and pre-sliding, `f_b = 2`. A zero
 /// `tau_d` or `k_s` switches that effect off (the solvers then compile it out:
-/// [`SevenParameterWith`]).
+/// `SevenParameterWith`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SevenParameter {

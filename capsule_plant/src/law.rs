@@ -16,26 +16,72 @@ pub enum LawShape {
     General,
 }
 
-/// Piecewise-affine actuator law `alpha cos(omega tau) + bias + kp |x2 - x1|` (the paper's
-/// eq. 2-3; a held command is `bias` alone): the one form in which solvers, the equations and
-/// the analyses take it.
+/// Piecewise-affine actuator law `alpha cos(omega tau) + bias + kp |x2 - x1|`: the paper's
+/// harmonic drive plus position feedback (eq. 2-3, `bias` 0), and a held command (`bias`
+/// alone). The one actuator-law type from the command line to the solver: the controller node
+/// computes its commands with it, the analyses simulate it, the exact solver and the equations
+/// read its coefficients.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AffineLaw {
-    /// Harmonic amplitude.
+    /// Drive amplitude `alpha = P_d / P_f`.
     pub alpha: f64,
-    /// Harmonic frequency.
+    /// Drive frequency `omega = Omega / Omega_0`.
     pub omega: f64,
     /// Constant part.
     pub bias: f64,
-    /// Gain on `|x2 - x1|`.
+    /// Position feedback gain `k_p` on `|x2 - x1|`; 0 switches the feedback off.
     pub kp: f64,
 }
 
 impl AffineLaw {
-    /// The actuator force at `tau` for relative displacement `z` on side `sigma` of the kink.
+    /// The paper's law (eq. 2-3): drive `alpha cos(omega tau)` plus `k_p |x2 - x1|`.
+    pub const fn paper(alpha: f64, omega: f64, kp: f64) -> AffineLaw {
+        AffineLaw {
+            alpha,
+            omega,
+            bias: 0.0,
+            kp,
+        }
+    }
+
+    /// The harmonic part of the force, `alpha cos(omega tau)`.
     #[inline]
-    pub fn force(&self, tau: f64, z: f64, sigma: f64) -> f64 {
+    pub fn drive(&self, tau: f64) -> f64 {
+        self.alpha * (self.omega * tau).cos()
+    }
+
+    /// The feedback part of the force, `k_p |x2 - x1|`.
+    #[inline]
+    pub fn feedback(&self, x1: f64, x2: f64) -> f64 {
+        self.kp * (x2 - x1).abs()
+    }
+
+    /// The actuator force on the inner mass at `tau` for mass and capsule positions.
+    #[inline]
+    pub fn force_at(&self, tau: f64, x1: f64, x2: f64) -> f64 {
+        self.drive(tau) + self.feedback(x1, x2) + self.bias
+    }
+
+    /// The same force in the equations' coordinates: relative displacement `z = x1 - x2` on
+    /// side `sigma = sign(z)` of the kink, where `|x2 - x1| = sigma z` is linear.
+    #[inline]
+    pub fn force_on_side(&self, tau: f64, z: f64, sigma: f64) -> f64 {
         self.alpha * (self.omega * tau).cos() + self.bias + self.kp * sigma * z
+    }
+
+    /// The drive period `2 pi / omega`.
+    pub fn period(&self) -> f64 {
+        std::f64::consts::TAU / self.omega
+    }
+}
+
+impl ActuatorLaw for AffineLaw {
+    fn force(&self, tau: f64, s: &State) -> f64 {
+        self.force_at(tau, s.x1, s.x2)
+    }
+
+    fn shape(&self) -> LawShape {
+        LawShape::PiecewiseAffine(*self)
     }
 }
 
@@ -75,5 +121,41 @@ impl<L: ActuatorLaw + ?Sized> ActuatorLaw for &L {
     }
     fn shape(&self) -> LawShape {
         (**self).shape()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feedback_matches_eq3_on_both_sides_of_the_kink() {
+        // eq. 3: f_p = k_p|x2-x1| + (x2-x1) = (1-k_p)(x2-x1) if x1 >= x2, (1+k_p)(x2-x1) otherwise
+        let law = AffineLaw::paper(0.0, 1.0, 0.3);
+        for (x1, x2) in [(0.5, 0.1), (0.1, 0.5), (-0.2, -0.2)] {
+            let fp = law.feedback(x1, x2) + (x2 - x1);
+            let expected = if x1 >= x2 {
+                (1.0 - 0.3) * (x2 - x1)
+            } else {
+                (1.0 + 0.3) * (x2 - x1)
+            };
+            assert!(
+                (fp - expected).abs() < 1e-15,
+                "x1={x1} x2={x2}: {fp} vs {expected}"
+            );
+            // the equations' form on the side of the kink gives the same force
+            let z = x1 - x2;
+            let sigma = if z < 0.0 { -1.0 } else { 1.0 };
+            let on_side = law.force_on_side(0.0, z, sigma);
+            assert!((law.force_at(0.0, x1, x2) - on_side).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn drive_is_alpha_at_phase_zero_and_period_is_two_pi_over_omega() {
+        let law = AffineLaw::paper(1.6, 1.1, 0.0);
+        assert_eq!(law.drive(0.0), 1.6);
+        assert!((law.drive(law.period()) - 1.6).abs() < 1e-12);
+        assert!((law.drive(law.period() / 2.0) + 1.6).abs() < 1e-12);
     }
 }

@@ -16,6 +16,6 @@ pub mod solver;
 pub use law::{ActuatorLaw, AffineLaw, ConstantForce, LawShape};
 pub use model::{Capsule, Friction, Model, State};
 pub use solver::{
-    Event, EventKind, Method, Phase, Regime, SimError, Simulator, Snapshot, SolverConfig,
+    Event, EventKind, Method, Phase, Regime, SimError, Simulator, Snapshot, SolverConfig, Stop,
     Transition, Work,
 };

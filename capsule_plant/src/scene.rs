@@ -772,6 +772,11 @@ impl Scene {
             .unwrap_or_else(|| DeviceModel::typical(&self.physical))
     }
 
+    /// The scene's actuator law: its drive and gain `k_p` (paper eq. 2-3).
+    pub fn law(&self) -> crate::law::AffineLaw {
+        crate::law::AffineLaw::paper(self.drive.alpha, self.drive.omega, self.control.kp)
+    }
+
     /// What the controller node takes from the scene.
     pub fn controller_view(&self) -> ControllerView {
         ControllerView {

@@ -3,9 +3,9 @@
 //! scenes for the same invariants.
 
 use crate::scene;
-use capsule_analysis::{run, PaperLaw, RunReport};
-use capsule_controller::FeedbackLaw;
+use capsule_analysis::{run, RunReport};
 use capsule_plant::scene::Scene;
+use capsule_plant::AffineLaw;
 use capsule_plant::{
     Capsule, ConstantForce, Friction, Method, Model, SimError, Simulator, SolverConfig, State,
 };
@@ -226,7 +226,7 @@ proptest! {
         friction in friction_strategy(),
     ) {
         let model = Model { capsule: Capsule { gamma, beta, delta, xi }, friction };
-        let law = PaperLaw(FeedbackLaw { alpha, omega, kp });
+        let law = AffineLaw::paper(alpha, omega, kp);
         let cfg = SolverConfig { tol: 1e-9, ..SolverConfig::most_accurate_for(&model) };
         let period = std::f64::consts::TAU / omega;
         let mut sim = Simulator::new(model, State::default(), 0.0, cfg)

@@ -1,7 +1,7 @@
 //! The simulator's physics and numerics: stick-slip, events, methods, effects that cost nothing.
 
 use crate::scene;
-use capsule_analysis::{run, run_sampled, PaperLaw};
+use capsule_analysis::{run, run_sampled};
 use capsule_plant::scene::Scene;
 use capsule_plant::{
     ConstantForce, EventKind, Friction, Method, SimError, Simulator, SolverConfig, State,
@@ -52,7 +52,7 @@ fn a_stuck_capsule_has_exactly_zero_velocity_and_friction_within_the_threshold()
 #[test]
 fn a_slipping_capsule_sticks_or_reverses_only_where_the_force_says_so() {
     let s = scene("fig02a_coulomb.toml");
-    let law = PaperLaw::of(&s);
+    let law = s.law();
     let mut sim =
         Simulator::new(s.model, s.initial, 0.0, s.solver).unwrap_or_else(|e| panic!("{e}"));
     let mut ends = Vec::new();
@@ -114,12 +114,12 @@ fn effects_a_scene_leaves_out_are_not_simulated() {
     let mut s = scene("control_point.toml");
     s.horizon.periods = 20;
     s.horizon.transient = 0;
-    let law = PaperLaw::of(&s);
+    let law = s.law();
     let count = |s: &Scene| {
         let mut sim =
             Simulator::new(s.model, s.initial, 0.0, s.solver).unwrap_or_else(|e| panic!("{e}"));
         let (mut kinks, mut contacts) = (0, 0);
-        sim.advance_observed(&PaperLaw::of(s), 100.0, &mut |e| match e.kind {
+        sim.advance_observed(&s.law(), 100.0, &mut |e| match e.kind {
             EventKind::Kink => kinks += 1,
             EventKind::ContactOn | EventKind::ContactOff => contacts += 1,
             _ => {}
@@ -255,4 +255,40 @@ fn the_gaussian_stribeck_law_converges_holds_its_threshold_and_is_its_own_law() 
         Simulator::new(exact.model, exact.initial, 0.0, exact.solver),
         Err(SimError::ExactNeedsLinearLaw("gaussian-stribeck"))
     ));
+}
+
+#[test]
+fn an_advance_says_why_it_stopped_and_an_observer_can_stop_it_at_an_event() {
+    use capsule_plant::Stop;
+    use std::ops::ControlFlow;
+    for method in [Method::Exact, Method::Adaptive, Method::Fixed] {
+        let mut s = scene("fig02a_coulomb.toml");
+        s.solver.method = method;
+        let law = s.law();
+        let new = || Simulator::new(s.model, s.initial, 0.0, s.solver);
+        let mut whole = new().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(whole.advance(&law, 60.0).ok(), Some(Stop::Horizon));
+        // stop at the first impact: the state is the one just after it
+        let mut sim = new().unwrap_or_else(|e| panic!("{e}"));
+        let stop = sim
+            .advance_until(&law, 60.0, &mut |t| {
+                if t.event.kind == EventKind::ContactOn {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+        let Stop::Requested(event) = stop else {
+            panic!("{method:?}: no impact before 60: {stop:?}")
+        };
+        assert_eq!(event.kind, EventKind::ContactOn, "{method:?}");
+        assert_eq!(sim.time(), event.tau, "{method:?}");
+        assert!(sim.regime().contact && event.tau < 60.0, "{method:?}");
+        // and it goes on from there to the same end as the run that was not stopped
+        assert_eq!(sim.advance(&law, 60.0).ok(), Some(Stop::Horizon));
+        let (a, b) = (sim.state(), whole.state());
+        let gap = (a.x1 - b.x1).abs().max((a.y2 - b.y2).abs());
+        assert!(gap < 1e-6, "{method:?}: {gap}");
+    }
 }

@@ -12,11 +12,12 @@
 //! Every event function is linear in `v`, so along the step it is the scalar polynomial
 //! `sum (c . V_k) t^k`, whose first crossing is located to rounding.
 
-use super::{EventKind, Phase, Regime, SimError, Simulator, Transition};
+use super::{EventKind, Phase, Regime, SimError, Simulator, Stop, Transition};
 use crate::equations::{Core, EventFn};
 use crate::friction::LinearSliding;
 use crate::law::AffineLaw;
 use crate::roots::first_crossing;
+use std::ops::ControlFlow;
 
 /// Series terms kept per step.
 const K: usize = 30;
@@ -127,8 +128,8 @@ impl Simulator {
         &mut self,
         drive: &AffineLaw,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Transition),
-    ) -> Result<(), SimError> {
+        on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
+    ) -> Result<Stop, SimError> {
         let mut series = [[0.0f64; 5]; K + 1];
         let mut gser = [0.0f64; K + 1];
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
@@ -242,10 +243,12 @@ impl Simulator {
             self.work.steps += 1;
             if let Some(kind) = hit {
                 let ev = self.switch(kind)?;
-                on_event(&ev);
+                if on_event(&ev).is_break() {
+                    return Ok(Stop::Requested(ev.event));
+                }
             }
         }
-        Ok(())
+        Ok(Stop::Horizon)
     }
 
     /// `integral_0^t f_a y1` over a step from the series of `z`, `y1` and the drive: the product

@@ -18,9 +18,11 @@ mod history;
 mod rk;
 
 use crate::equations::{self, Core, EventFn};
+pub use crate::equations::{Event, EventKind, Phase, Regime, Transition};
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::{Model, State};
 use serde::{Deserialize, Serialize};
+use std::ops::ControlFlow;
 use thiserror::Error;
 
 /// Integration method.
@@ -148,73 +150,13 @@ pub enum SimError {
 /// non-dimensional time, plus this many at the start of every advance.
 pub const MAX_STEPS_PER_TIME: f64 = 2e4;
 
-/// Stick or slip of the capsule.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum Phase {
-    /// The capsule is held by static friction (`y2 = 0`, or pre-sliding on the stiff spring).
-    Stick,
-    /// The capsule slides in direction `+1` or `-1`.
-    Slip(f64),
-}
-
-/// The discrete part of the state: what is switched by events.
+/// Why [`Simulator::advance_until`] (and the other advances) returned.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Regime {
-    /// Stick or slip.
-    pub phase: Phase,
-    /// The mass touches the secondary spring (`H3 = 1`).
-    pub contact: bool,
-    /// Side of the feedback kink: `sign(x1 - x2)`, so `|x2 - x1| = sigma (x1 - x2)`.
-    pub sigma: f64,
-}
-
-/// What happened at an event.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum EventKind {
-    /// The mass reaches the secondary spring (an impact).
-    ContactOn,
-    /// The mass leaves the secondary spring.
-    ContactOff,
-    /// The stuck capsule starts to slip in direction `dir`.
-    BreakAway {
-        /// Direction of the new slip.
-        dir: f64,
-    },
-    /// The slipping capsule's velocity reaches zero and it sticks.
-    SlipEnd,
-    /// The slipping capsule's velocity reaches zero and it slips on in direction `dir`
-    /// (normally the other way: a reversal).
-    Reversal {
-        /// Direction of the new slip.
-        dir: f64,
-    },
-    /// `x1 - x2` changes sign: the kink of the feedback `k_p |x2 - x1|`.
-    Kink,
-}
-
-/// A located event.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Event {
-    /// When it happened.
-    pub tau: f64,
-    /// What happened.
-    pub kind: EventKind,
-}
-
-/// An event with the regime and state on both sides (state in the solvers' coordinates).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Transition {
-    /// The event.
-    pub event: Event,
-    /// Regime before.
-    pub regime_before: Regime,
-    /// `[z, y1, y2, p]` before.
-    pub before: Core,
-    /// Regime after.
-    pub regime_after: Regime,
-    /// `[z, y1, y2, p]` after (the reset applied).
-    pub after: Core,
+pub enum Stop {
+    /// It reached `tau_end`.
+    Horizon,
+    /// The observer asked to stop at this event.
+    Requested(Event),
 }
 
 /// Work done by an integrator.
@@ -445,8 +387,8 @@ impl Simulator {
     }
 
     /// Integrate to `tau_end` under the actuator law `law`.
-    pub fn advance(&mut self, law: &impl ActuatorLaw, tau_end: f64) -> Result<(), SimError> {
-        self.advance_observed(law, tau_end, &mut |_| {})
+    pub fn advance(&mut self, law: &impl ActuatorLaw, tau_end: f64) -> Result<Stop, SimError> {
+        self.advance_until(law, tau_end, &mut |_| ControlFlow::Continue(()))
     }
 
     /// Integrate to `tau_end`, calling `on_event` for every event.
@@ -455,8 +397,11 @@ impl Simulator {
         law: &impl ActuatorLaw,
         tau_end: f64,
         on_event: &mut impl FnMut(&Event),
-    ) -> Result<(), SimError> {
-        self.advance_traced(law, tau_end, &mut |t| on_event(&t.event))
+    ) -> Result<Stop, SimError> {
+        self.advance_until(law, tau_end, &mut |t| {
+            on_event(&t.event);
+            ControlFlow::Continue(())
+        })
     }
 
     /// Integrate to `tau_end`, calling `on_transition` for every event with the regime and state
@@ -466,7 +411,22 @@ impl Simulator {
         law: &impl ActuatorLaw,
         tau_end: f64,
         on_event: &mut impl FnMut(&Transition),
-    ) -> Result<(), SimError> {
+    ) -> Result<Stop, SimError> {
+        self.advance_until(law, tau_end, &mut |t| {
+            on_event(t);
+            ControlFlow::Continue(())
+        })
+    }
+
+    /// Integrate to `tau_end` or until `on_event` breaks at an event (the state is then just
+    /// after that event's reset); says which. Every event is handed over with the regime and
+    /// state on both sides of it.
+    pub fn advance_until(
+        &mut self,
+        law: &impl ActuatorLaw,
+        tau_end: f64,
+        on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
+    ) -> Result<Stop, SimError> {
         if !tau_end.is_finite() {
             return Err(SimError::NonFinite { tau: self.tau });
         }

@@ -6,12 +6,13 @@
 //! Wanner, *Solving ODEs I*, sec. II.5-6 (the `dopri5` code).
 
 use super::history::Piece;
-use super::{EventKind, Phase, SimError, Simulator, Transition, MAX_STEPS_PER_TIME};
+use super::{EventKind, Phase, SimError, Simulator, Stop, Transition, MAX_STEPS_PER_TIME};
 use crate::equations::{field, EventFn};
 use crate::friction::FrictionLaw;
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::State;
 use crate::roots::{first_crossing, BOUNDARY};
+use std::ops::ControlFlow;
 
 type V = [f64; 6];
 
@@ -143,7 +144,7 @@ impl Simulator {
             )
         };
         let fa = match ctx.shape {
-            LawShape::PiecewiseAffine(drive) => drive.force(tau, z, sigma),
+            LawShape::PiecewiseAffine(drive) => drive.force_on_side(tau, z, sigma),
             LawShape::General => {
                 let x2 = ctx.x2_base + dx2;
                 ctx.law.force(
@@ -244,8 +245,8 @@ impl Simulator {
         law: &L,
         friction: F,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Transition),
-    ) -> Result<(), SimError> {
+        on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
+    ) -> Result<Stop, SimError> {
         let shape = law.shape();
         let kink = Self::kink_gain(law) != 0.0;
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
@@ -338,7 +339,9 @@ impl Simulator {
             if let Some((th, ev)) = hit {
                 if th == 0.0 {
                     let e = self.switch(ev.kind)?;
-                    on_event(&e);
+                    if on_event(&e).is_break() {
+                        return Ok(Stop::Requested(e.event));
+                    }
                     self.rk_step = self.rk_step.max(h * 0.1);
                     continue;
                 }
@@ -368,14 +371,16 @@ impl Simulator {
                 h = hs;
                 self.finish_rk_step(h, &step)?;
                 let e = self.switch(ev.kind)?;
-                on_event(&e);
+                if on_event(&e).is_break() {
+                    return Ok(Stop::Requested(e.event));
+                }
             } else {
                 self.finish_rk_step(h, &step)?;
                 // the derivative does not depend on the increments dx2 and w, which restart at 0
                 fsal = Some(step.k7);
             }
         }
-        Ok(())
+        Ok(Stop::Horizon)
     }
 
     fn finish_rk_step(&mut self, h: f64, s: &DopriStep) -> Result<(), SimError> {
@@ -403,8 +408,8 @@ impl Simulator {
         law: &L,
         friction: F,
         tau_end: f64,
-        on_event: &mut impl FnMut(&Transition),
-    ) -> Result<(), SimError> {
+        on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
+    ) -> Result<Stop, SimError> {
         let shape = law.shape();
         let kink = Self::kink_gain(law) != 0.0;
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
@@ -453,10 +458,12 @@ impl Simulator {
                 .collect();
             for kind in pending {
                 let e = self.switch(kind)?;
-                on_event(&e);
+                if on_event(&e).is_break() {
+                    return Ok(Stop::Requested(e.event));
+                }
             }
         }
-        Ok(())
+        Ok(Stop::Horizon)
     }
 }
 
