@@ -337,17 +337,6 @@ pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
 /// The plant node's command timeout range \[s\].
 pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
 
-/// What the controller node takes from a scene: the physical scale, the drive and the gain.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ControllerView {
-    /// SI scale.
-    pub physical: PhysicalScale,
-    /// The drive.
-    pub drive: Drive,
-    /// The feedback gain.
-    pub control: Control,
-}
-
 // The file as written: every table and key optional (defaults from `Scene::default`), the same
 // shape serialized by `Scene::to_toml`.
 
@@ -775,15 +764,6 @@ impl Scene {
     /// The scene's actuator law: its drive and gain `k_p` (paper eq. 2-3).
     pub fn law(&self) -> crate::law::AffineLaw {
         crate::law::AffineLaw::paper(self.drive.alpha, self.drive.omega, self.control.kp)
-    }
-
-    /// What the controller node takes from the scene.
-    pub fn controller_view(&self) -> ControllerView {
-        ControllerView {
-            physical: self.physical,
-            drive: self.drive,
-            control: self.control,
-        }
     }
 
     /// Check every value; the first bad one is refused with its key and the reason.

@@ -78,12 +78,9 @@ struct Cli {
 }
 
 fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, ControllerOptions)> {
+    // what the controller takes from a scene: the physical scale, the drive and the gain
     let view = match cli.scene.as_deref() {
-        Some(path) => Some(
-            SceneFile::read(std::path::Path::new(path))?
-                .scene
-                .controller_view(),
-        ),
+        Some(path) => Some(SceneFile::read(std::path::Path::new(path))?.scene),
         None => None,
     };
     let pick = |flag: Option<f64>, from_scene: Option<f64>, name: &str| -> Result<f64> {
@@ -92,16 +89,16 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
     };
     // every value is in range: the flags' parsers and the scene's validation checked it
     let scale = PhysicalScale {
-        m1_kg: pick(cli.m1_kg, view.map(|v| v.physical.m1_kg), "m1-kg")?,
+        m1_kg: pick(cli.m1_kg, view.as_ref().map(|v| v.physical.m1_kg), "m1-kg")?,
         k1_n_per_m: pick(
             cli.k1_n_per_m,
-            view.map(|v| v.physical.k1_n_per_m),
+            view.as_ref().map(|v| v.physical.k1_n_per_m),
             "k1-n-per-m",
         )?,
-        pf_n: pick(cli.pf_n, view.map(|v| v.physical.pf_n), "pf-n")?,
+        pf_n: pick(cli.pf_n, view.as_ref().map(|v| v.physical.pf_n), "pf-n")?,
     };
-    let alpha = pick(cli.alpha, view.map(|v| v.drive.alpha), "alpha")?;
-    let omega = pick(cli.omega, view.map(|v| v.drive.omega), "omega")?;
+    let alpha = pick(cli.alpha, view.as_ref().map(|v| v.drive.alpha), "alpha")?;
+    let omega = pick(cli.omega, view.as_ref().map(|v| v.drive.omega), "omega")?;
     // a drive beyond the plant's default force limit would only ever be saturated (a scene's
     // alpha; the flag's range says the same)
     let limit = capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF;
@@ -109,7 +106,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
         bail!("--alpha {alpha:?}: must satisfy |alpha| <= {limit} (the plant's default force limit in units of P_f)");
     }
     let config = cli.gains.config()?;
-    let scene_kp = view.map(|v| v.control.kp).unwrap_or(0.0);
+    let scene_kp = view.as_ref().map(|v| v.control.kp).unwrap_or(0.0);
     let (mode, gain) = match cli.mode.as_deref() {
         Some(name) => {
             let mode = Mode::parse_name(name).with_context(|| {
