@@ -249,11 +249,13 @@ impl<const MEM: bool, const PRE: bool> FrictionLaw for SevenParameterWith<MEM, P
     fn slope(&self, dir: f64, y2: f64) -> f64 {
         self.law.slope(dir, y2)
     }
+    #[inline(always)]
     fn presliding(&self) -> Option<f64> {
-        self.law.presliding()
+        // known at compile time: the right-hand side reads it every evaluation
+        PRE.then_some(self.law.k_s)
     }
     fn memory(&self) -> Option<f64> {
-        self.law.memory()
+        MEM.then_some(self.law.tau_d)
     }
 }
 
