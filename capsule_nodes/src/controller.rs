@@ -130,7 +130,7 @@ impl ControllerCore {
         self.velocity.reset();
         // an attractor switch was about the last plant's orbit
         if let Some((mode, kp)) = self.running_switch().map(|_| self.settled_mode()) {
-            self.switch(mode, kp);
+            self.change_mode(mode, kp);
         }
     }
 
@@ -187,7 +187,7 @@ impl ControllerCore {
         // a new drive ends an attractor switch (its orbits are gone) as a new mode does
         if (mode, kp) != self.settled_mode() || (drive_changed && self.running_switch().is_some()) {
             self.pending.clear();
-            self.switch(mode, kp);
+            self.change_mode(mode, kp);
         }
     }
 
@@ -197,7 +197,7 @@ impl ControllerCore {
     }
 
     /// Goes to `mode` with `kp` (ending an attractor switch in progress: cancelled).
-    fn switch(&mut self, mode: Mode, kp: f64) {
+    fn change_mode(&mut self, mode: Mode, kp: f64) {
         if let Some((sw, _)) = &mut self.switch {
             sw.cancel();
         }
@@ -231,7 +231,7 @@ impl ControllerCore {
         }
         let (mode, kp) = self.settled_mode();
         self.pending.clear();
-        self.switch(Mode::SwitchAttractor, kp);
+        self.change_mode(Mode::SwitchAttractor, kp);
         let sw = AttractorSwitch::new(request, self.switch_settings, kp, self.law.period());
         self.switch = Some((sw, mode));
         SetModeResponse {
@@ -263,7 +263,7 @@ impl ControllerCore {
                 let now = self.last.map(|(_, t)| t).unwrap_or(i64::MIN);
                 if req.effective_from.is_zero() || at <= now {
                     self.pending.clear();
-                    self.switch(mode, kp);
+                    self.change_mode(mode, kp);
                     SetModeResponse {
                         accepted: true,
                         mode: mode.code(),
@@ -316,7 +316,7 @@ impl ControllerCore {
         self.feedback.sample(s.rejected_commands, s.command_stale);
         while let Some(i) = self.pending.iter().position(|(t, _, _)| *t <= stamp) {
             let (_, mode, kp) = self.pending.remove(i);
-            self.switch(mode, kp);
+            self.change_mode(mode, kp);
         }
         let tau = s.header.stamp.as_secs_f64() / self.scale.time_s();
         let x1 = s.mass_position / self.scale.length_m();

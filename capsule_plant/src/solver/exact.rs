@@ -134,13 +134,13 @@ impl Simulator {
         let mut gser = [0.0f64; K + 1];
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
         let mut lin = Linear::new(self, &self.regime, drive);
-        let mut lin_mode = self.regime;
+        let mut lin_regime = self.regime;
         // the step the series allowed last time: terms are summed only as far as that needs
         let mut h_natural = f64::INFINITY;
         while self.tau < tau_end {
-            if lin_mode != self.regime {
+            if lin_regime != self.regime {
                 lin = Linear::new(self, &self.regime, drive);
-                lin_mode = self.regime;
+                lin_regime = self.regime;
             }
             // Taylor coefficients of the state over the step
             let [z, y1, y2, p] = self.core;
@@ -242,7 +242,7 @@ impl Simulator {
             self.commit(t_hit, core, v[4], dw)?;
             self.work.steps += 1;
             if let Some(kind) = hit {
-                let ev = self.switch(kind)?;
+                let ev = self.cross(kind)?;
                 if on_event(&ev).is_break() {
                     return Ok(Stop::Requested(ev.event));
                 }

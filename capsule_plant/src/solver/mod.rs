@@ -480,8 +480,9 @@ impl Simulator {
         Ok(())
     }
 
-    /// Apply the switching rule for event `kind` at the current state; returns the event.
-    fn switch(&mut self, kind: EventKind) -> Result<Transition, SimError> {
+    /// Crosses event `kind` at the current state: applies its transition (the new regime and
+    /// reset); returns it.
+    fn cross(&mut self, kind: EventKind) -> Result<Transition, SimError> {
         self.zeno += 1;
         if self.zeno > 64 {
             return Err(SimError::Zeno {

@@ -338,7 +338,7 @@ impl Simulator {
             }
             if let Some((th, ev)) = hit {
                 if th == 0.0 {
-                    let e = self.switch(ev.kind)?;
+                    let e = self.cross(ev.kind)?;
                     if on_event(&e).is_break() {
                         return Ok(Stop::Requested(e.event));
                     }
@@ -370,7 +370,7 @@ impl Simulator {
                 }
                 h = hs;
                 self.finish_rk_step(h, &step)?;
-                let e = self.switch(ev.kind)?;
+                let e = self.cross(ev.kind)?;
                 if on_event(&e).is_break() {
                     return Ok(Stop::Requested(e.event));
                 }
@@ -457,7 +457,7 @@ impl Simulator {
                 .map(|ev| ev.kind)
                 .collect();
             for kind in pending {
-                let e = self.switch(kind)?;
+                let e = self.cross(kind)?;
                 if on_event(&e).is_break() {
                     return Ok(Stop::Requested(e.event));
                 }
