@@ -9,7 +9,7 @@
 //! --workspace` compiled (same features, same profile) instead of compiling a second time; a
 //! user's plain `colcon build` compiles into its own `build/` (15 min from a fresh clone here).
 
-use super::harness::{json_number, netns_with_peer_from, root};
+use super::harness::{assert_state_at_1khz, json_number, netns_with_peer_from, root};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -151,10 +151,7 @@ fn colcon_build_installs_the_nodes_where_ros2_run_finds_them() {
         stop $P"#,
     );
     run.assert_ok();
-    let state = run.json_with("rate_hz");
-    // the stamps' rate: the scene's 1 kHz, to rounding
-    let rate = json_number(state, "rate_hz").unwrap_or(f64::NAN);
-    assert!((rate - 1000.0).abs() < 1e-6, "{state}");
+    let state = assert_state_at_1khz(&run);
     assert!(json_number(state, "samples") >= Some(100.0), "{state}");
 }
 

@@ -126,6 +126,27 @@ pub fn assert_contains(text: &str, needles: &[&str]) {
     }
 }
 
+/// A peer's `state` report (the line with `rate_hz`): its stamps' rate is the scene's 1 kHz, to
+/// rounding. Returns the report.
+#[track_caller]
+pub fn assert_state_at_1khz(run: &Run) -> &str {
+    let state = run.json_with("rate_hz");
+    let rate = json_number(state, "rate_hz").unwrap_or(f64::NAN);
+    assert!((rate - 1000.0).abs() < 1e-6, "rate {rate}: {state}");
+    state
+}
+
+/// A peer's `force` report: the plant applied its commands, and refused the bad one it sent.
+#[track_caller]
+pub fn assert_force_applied_and_bad_refused(run: &Run) {
+    let force = run.json_with("applied_samples");
+    assert_at_least(force, "applied_samples", 5.0);
+    assert!(
+        json_number(force, "refused_after") > json_number(force, "refused_before"),
+        "{force}"
+    );
+}
+
 /// Panics unless the number after `"key":` in `json` is at least `min` (missing: fails).
 #[track_caller]
 pub fn assert_at_least(json: &str, key: &str, min: f64) {

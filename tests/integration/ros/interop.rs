@@ -1,7 +1,10 @@
 //! A real peer: the Eclipse Cyclone DDS Python binding reads the state, commands the plant and
 //! calls the mode service in the rmw_cyclonedds request/reply mapping.
 
-use super::harness::{assert_at_least, assert_contains, json_number, netns_with_peer};
+use super::harness::{
+    assert_contains, assert_force_applied_and_bad_refused, assert_state_at_1khz, json_number,
+    netns_with_peer,
+};
 
 #[test]
 fn cyclone_peer_reads_state_and_commands_the_plant() {
@@ -14,15 +17,8 @@ fn cyclone_peer_reads_state_and_commands_the_plant() {
         stop $P"#,
     );
     run.assert_ok();
-    let state = run.json_with("rate_hz");
-    let rate = json_number(state, "rate_hz").unwrap_or(f64::NAN);
-    assert!((rate - 1000.0).abs() < 1e-6, "rate {rate}: {state}");
-    let force = run.json_with("applied_samples");
-    assert_at_least(force, "applied_samples", 5.0);
-    assert!(
-        json_number(force, "refused_after") > json_number(force, "refused_before"),
-        "{force}"
-    );
+    assert_state_at_1khz(&run);
+    assert_force_applied_and_bad_refused(&run);
 }
 
 #[test]
