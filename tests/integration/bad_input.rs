@@ -197,6 +197,12 @@ capsule | simulate --x0 1,2,3 | four comma-separated
 capsule | simulate --x0 0,0,0,0,0 | four comma-separated
 capsule | simulate --x0 0,nan,0,0 | finite
 capsule | simulate --mu-v 0.2 | does not apply
+capsule | simulate --friction gaussian-stribeck --k-s 1 | does not apply
+capsule | simulate --device --rate-hz 0 | must be in
+capsule | simulate --device --orbit-tolerance nan | finite
+capsule | simulate --device --orbit-tolerance 0.5 | must be in
+capsule | robustness --velocity-window 1 | from 2 to
+capsule | robustness --orbit-tolerance 0 | must be in
 capsule | sweep --param alpha --from 1 --to 2 --steps 4294967296 | from 1 to
 capsule | sweep --param alpha --from 1 --to 2 --steps 18446744073709551615 | from 1 to
 capsule | sweep --param alpha --from 1 --to 2 --steps 0 | from 1 to
@@ -214,6 +220,7 @@ capsule | replay {rec} --duration -1 | must be > 0
 capsule_plant | --scene scenes/control_point.toml --check --startup-timeout-s 1e308 | <= 1e6
 capsule_plant | --scene scenes/control_point.toml --check --rate-hz 1e-300 | must be in
 capsule_plant | --scene scenes/control_point.toml --check --rate-hz nan | finite
+capsule_controller | --scene scenes/control_point.toml --check --orbit-tolerance 0.5 | must be in
 capsule_plant | --scene scenes/control_point.toml --check --command-timeout-s 0 | must be > 0
 capsule_plant | --scene scenes/control_point.toml --check --until-s -1 | must be > 0
 capsule_plant | --scene scenes/control_point.toml --check --retransmit-ms 4294967296 | from 1 to 60000
@@ -268,7 +275,7 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         assert_refused(&run(name, &args), 2, words, &format!("{name} {args:?}"));
         n += 1;
     }
-    assert_eq!(n, 69, "OUT_OF_RANGE lost cases");
+    assert_eq!(n, 76, "OUT_OF_RANGE lost cases");
 }
 
 #[test]

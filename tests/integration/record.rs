@@ -795,6 +795,17 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     let published = json_u64(&plant, "samples").unwrap_or_else(|| panic!("{plant}\n{all}"));
     assert!(published > 5000, "{plant}");
     let v = python_decode(&file, "both");
+    // Foxglove's own readers decode every message of the live graph's file, /diagnostics too
+    let total: u64 = v["rosbags"]["topics"]
+        .as_object()
+        .map(|t| t.values().filter_map(|x| x["count"].as_u64()).sum())
+        .unwrap_or(0);
+    let fox = foxglove_decode(&file);
+    foxglove_agrees(&fox, &v, total);
+    assert!(
+        fox["topics"]["/diagnostics"]["count"].as_u64() > Some(0),
+        "{fox}"
+    );
     for reader in ["mcap", "rosbags"] {
         let t = &v[reader]["topics"];
         // every state the plant published, in order, none twice
