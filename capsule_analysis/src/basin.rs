@@ -150,6 +150,18 @@ pub struct Grid {
 }
 
 impl Grid {
+    /// The paper's basin window: `n` by `n` initial states over x1 - x2 and y1 - y2 in
+    /// [-2, 2], the capsule at rest (Figs 11, 18, 19; `capsule basins`' default).
+    pub fn paper(n: usize) -> Grid {
+        Grid {
+            plane: Plane::RELATIVE,
+            nx: n,
+            ny: n,
+            x_range: (-2.0, 2.0),
+            y_range: (-2.0, 2.0),
+        }
+    }
+
     /// Check the grid: at least one cell a side, at most [`MAX_SIDE`] and [`MAX_CELLS`], finite
     /// ranges with the low end below the high one (or equal for one cell). Errors name the
     /// setting and the reason.
@@ -379,13 +391,7 @@ mod tests {
         assert!(Plane::parse("x1,x1").is_err());
         assert!(Plane::parse("x3,y1").is_err());
         assert!(Plane::parse("x1").is_err());
-        let g = Grid {
-            plane: Plane::RELATIVE,
-            nx: 10,
-            ny: 10,
-            x_range: (-2.0, 2.0),
-            y_range: (-2.0, 2.0),
-        };
+        let g = Grid::paper(10);
         assert_eq!(g.validate(), Ok(()));
         let err = |g: Grid| g.validate().unwrap_err().0;
         assert_eq!(err(Grid { nx: 0, ..g }), "grid (NX)");

@@ -23,6 +23,7 @@ use capsule_plant::scene::Scene;
 use capsule_plant::AffineLaw;
 use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
+use std::ops::ControlFlow;
 use thiserror::Error;
 
 /// Largest RK4 step for the variational equation of a nonlinear regime.
@@ -148,7 +149,10 @@ pub fn advance_linearized(
 ) -> Result<Mat4, StabilityError> {
     let mut trace: Vec<Transition> = Vec::new();
     let (mut t, mut regime, mut core) = (sim.time(), sim.regime(), sim.core());
-    sim.advance_traced(law, tau_end, &mut |tr| trace.push(*tr))?;
+    sim.advance_until(law, tau_end, &mut |tr| {
+        trace.push(*tr);
+        ControlFlow::Continue(())
+    })?;
     let mut j = IDENTITY;
     for tr in &trace {
         let tau = tr.event.tau;

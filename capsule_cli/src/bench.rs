@@ -539,18 +539,12 @@ fn effects(args: &Args) -> Result<()> {
 /// stop without recognising known attractors, and the cost per event.
 fn basins(args: &Args) -> Result<()> {
     use capsule_analysis::attractor::{settle, Catalogue, SettleConfig};
-    use capsule_analysis::basin::{basins, Grid, Plane};
+    use capsule_analysis::basin::{basins, Grid};
     use capsule_analysis::{run, GainSchedule};
     let mut scene = Scene::default();
     scene.drive.alpha = 1.5;
     let n = args.basin_grid.max(2);
-    let grid = Grid {
-        plane: Plane::RELATIVE,
-        nx: n,
-        ny: n,
-        x_range: (-2.0, 2.0),
-        y_range: (-2.0, 2.0),
-    };
+    let grid = Grid::paper(n);
     grid.validate()
         .map_err(|(k, r)| anyhow::anyhow!("--basin-grid: {k}: {r}"))?;
     let cfg = SettleConfig::for_scene(&scene);

@@ -7,7 +7,7 @@ use crate::bench::{section3, section5};
 use crate::svg::{self, Curve, Panel, Style};
 use crate::switch;
 use anyhow::{Context, Result};
-use capsule_analysis::basin::{Grid, Plane};
+use capsule_analysis::basin::Grid;
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{run_sampled, sweep, GainSchedule, Param, Pulse, SweepPoint};
 use capsule_plant::model::V_S;
@@ -327,13 +327,7 @@ fn basin_fig(
     claim: &'static str,
 ) -> Result<Fig> {
     let g = ctx.grid;
-    let grid = Grid {
-        plane: Plane::RELATIVE,
-        nx: g,
-        ny: g,
-        x_range: (-2.0, 2.0),
-        y_range: (-2.0, 2.0),
-    };
+    let grid = Grid::paper(g);
     let cancel = AtomicBool::new(false);
     let maps: Vec<Computed> = basins::compute_with(&scenes, &grid, 1e-4, &cancel, &|| {});
     let panels: Vec<svg::BasinPanel> = maps

@@ -207,62 +207,32 @@ pub fn split_service(text: &str) -> (&str, &str) {
     (text, "")
 }
 
-macro_rules! msg_interface {
-    ($ty:ty, $name:literal, $file:literal) => {
+/// `impl RosInterface for Type: "package" / "kind" / "Name" = definition`.
+macro_rules! interface {
+    ($ty:ty: $package:literal / $kind:literal / $name:literal = $definition:expr) => {
         impl RosInterface for $ty {
-            const PACKAGE: &'static str = "capsule_msgs";
-            const KIND: &'static str = "msg";
+            const PACKAGE: &'static str = $package;
+            const KIND: &'static str = $kind;
             const NAME: &'static str = $name;
             fn definition() -> &'static str {
-                include_str!($file)
+                $definition
             }
         }
     };
 }
 
-msg_interface!(CapsuleState, "CapsuleState", "../msg/CapsuleState.msg");
-msg_interface!(ActuatorForce, "ActuatorForce", "../msg/ActuatorForce.msg");
-msg_interface!(
-    ControllerStatus,
-    "ControllerStatus",
-    "../msg/ControllerStatus.msg"
-);
-
-impl RosInterface for SetModeRequest {
-    const PACKAGE: &'static str = "capsule_msgs";
-    const KIND: &'static str = "srv";
-    const NAME: &'static str = "SetMode_Request";
-    fn definition() -> &'static str {
-        split_service(SET_MODE_SRV).0
-    }
-}
-
-impl RosInterface for SetModeResponse {
-    const PACKAGE: &'static str = "capsule_msgs";
-    const KIND: &'static str = "srv";
-    const NAME: &'static str = "SetMode_Response";
-    fn definition() -> &'static str {
-        split_service(SET_MODE_SRV).1
-    }
-}
-
-impl RosInterface for Header {
-    const PACKAGE: &'static str = "std_msgs";
-    const KIND: &'static str = "msg";
-    const NAME: &'static str = "Header";
-    fn definition() -> &'static str {
-        HEADER_MSG
-    }
-}
-
-impl RosInterface for Time {
-    const PACKAGE: &'static str = "builtin_interfaces";
-    const KIND: &'static str = "msg";
-    const NAME: &'static str = "Time";
-    fn definition() -> &'static str {
-        TIME_MSG
-    }
-}
+interface!(CapsuleState: "capsule_msgs" / "msg" / "CapsuleState" =
+    include_str!("../msg/CapsuleState.msg"));
+interface!(ActuatorForce: "capsule_msgs" / "msg" / "ActuatorForce" =
+    include_str!("../msg/ActuatorForce.msg"));
+interface!(ControllerStatus: "capsule_msgs" / "msg" / "ControllerStatus" =
+    include_str!("../msg/ControllerStatus.msg"));
+interface!(SetModeRequest: "capsule_msgs" / "srv" / "SetMode_Request" =
+    split_service(SET_MODE_SRV).0);
+interface!(SetModeResponse: "capsule_msgs" / "srv" / "SetMode_Response" =
+    split_service(SET_MODE_SRV).1);
+interface!(Header: "std_msgs" / "msg" / "Header" = HEADER_MSG);
+interface!(Time: "builtin_interfaces" / "msg" / "Time" = TIME_MSG);
 
 #[cfg(test)]
 mod tests;

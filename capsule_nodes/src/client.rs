@@ -8,7 +8,7 @@ use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
 use ros2_client::{service::Client, Node};
 
-use capsule_ros_base::ros::{qos, types, RosSettings, Wire};
+use capsule_ros_base::ros::{qos, subscribe, types, RosSettings, Wire};
 
 /// The `effective_from` of a request to switch at sim time `at_s` \[s\] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used
@@ -158,8 +158,7 @@ pub fn state_subscription(
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
     let topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
     let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 2000 });
-    node.create_subscription::<CapsuleState>(&topic, Some(reader_qos))
-        .context("state subscription")
+    subscribe::<CapsuleState>(node, &topic, &reader_qos)
 }
 
 /// A subscription to the status topic of the controller whose mode service is `service`
@@ -174,8 +173,7 @@ pub fn status_subscription(
         .with_context(|| format!("service {service:?}: expected .../NODE/set_mode"))?;
     let name = format!("{controller}/status");
     let topic = settings.topic(node, &name, types::status(), &qos::data())?;
-    node.create_subscription::<capsule_msgs::ControllerStatus>(&topic, Some(qos::data_reader()))
-        .context("status subscription")
+    subscribe::<capsule_msgs::ControllerStatus>(node, &topic, &qos::data_reader())
 }
 
 #[cfg(test)]

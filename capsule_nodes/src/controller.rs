@@ -35,7 +35,7 @@ use crate::{
 };
 use capsule_ros_base::{
     conflicts::TopicRule,
-    ros::{qos, types, RosSettings, Wire},
+    ros::{qos, subscribe, types, RosSettings, Wire},
     throttle::Throttle,
 };
 
@@ -502,9 +502,7 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
     let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
     let status_topic = settings.topic(&node, topics::STATUS, types::status(), &qos::data())?;
-    let state_sub = node
-        .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
-        .context("state subscription")?;
+    let state_sub = subscribe::<CapsuleState>(&mut node, &state_topic, &qos::data_reader())?;
     let force_pub = node
         .create_publisher::<ActuatorForce>(&force_topic, None)
         .context("force publisher")?;
@@ -540,15 +538,11 @@ pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
             ),
         ],
     );
-    let server = node
-        .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
-            settings.mapping.into(),
-            &settings.ros_name(topics::SET_MODE)?,
-            &types::set_mode(),
-            qos::service(),
-            qos::service(),
-        )
-        .context("set_mode service")?;
+    let server = settings.server::<SetModeRequest, SetModeResponse>(
+        &mut node,
+        topics::SET_MODE,
+        &types::set_mode(),
+    )?;
     let mut diagnostics = opts
         .diagnostics
         .then(|| crate::views::Diagnostics::create(&mut node, &settings))

@@ -32,15 +32,11 @@ pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
 
 /// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads.
 pub fn serve(node: &mut Node, settings: &RosSettings, engaged: Arc<AtomicBool>) -> Result<()> {
-    let server = node
-        .create_server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
-            settings.mapping.into(),
-            &settings.ros_name(topics::EMERGENCY_STOP_SERVICE)?,
-            &types::set_bool(),
-            qos::service(),
-            qos::service(),
-        )
-        .context("emergency_stop service")?;
+    let server = settings.server::<SetBoolRequest, SetBoolResponse>(
+        node,
+        topics::EMERGENCY_STOP_SERVICE,
+        &types::set_bool(),
+    )?;
     let topic = settings.topic(node, topics::EMERGENCY_STOP, types::bool(), &qos::latched())?;
     let state = node
         .create_publisher::<Bool>(&topic, None)

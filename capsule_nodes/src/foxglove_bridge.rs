@@ -28,7 +28,7 @@ use serde_json::json;
 use tracing::{info, warn};
 
 use crate::views::BODY_FRAME;
-use capsule_ros_base::ros::{qos, types, RosSettings};
+use capsule_ros_base::ros::{qos, subscribe, types, RosSettings};
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
 pub const FRAME_TOPIC: &str = "/capsule/frame";
@@ -273,15 +273,9 @@ pub async fn run(
         .with_context(|| format!("topic {status_name}"))?;
     let force_name = settings.resolve_name(topics::FORCE);
     let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
-    let force_sub = node
-        .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
-        .context("force subscription")?;
-    let state_sub = node
-        .create_subscription::<CapsuleState>(&state_topic, Some(qos::data_reader()))
-        .context("state subscription")?;
-    let status_sub = node
-        .create_subscription::<ControllerStatus>(&status_topic, Some(qos::data_reader()))
-        .context("status subscription")?;
+    let force_sub = subscribe::<ActuatorForce>(&mut node, &force_topic, &qos::data_reader())?;
+    let state_sub = subscribe::<CapsuleState>(&mut node, &state_topic, &qos::data_reader())?;
+    let status_sub = subscribe::<ControllerStatus>(&mut node, &status_topic, &qos::data_reader())?;
 
     let state_ch = channel(&state_name, STATE_SCHEMA)?;
     let status_ch = channel(&status_name, STATUS_SCHEMA)?;

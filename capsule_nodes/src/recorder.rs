@@ -31,7 +31,7 @@ use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
 use tracing::{info, warn};
 
-use capsule_ros_base::ros::{qos, types, RosSettings};
+use capsule_ros_base::ros::{qos, subscribe, types, RosSettings};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -400,21 +400,11 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
     let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
         depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
     });
-    let force_sub = node
-        .create_subscription::<ActuatorForce>(&topics[1], Some(reader_qos.clone()))
-        .context("force subscription")?;
-    let status_sub = node
-        .create_subscription::<ControllerStatus>(&topics[2], Some(slow_qos.clone()))
-        .context("status subscription")?;
-    let clock_sub = node
-        .create_subscription::<Clock>(&topics[3], Some(reader_qos.clone()))
-        .context("clock subscription")?;
-    let event_sub = node
-        .create_subscription::<SetModeEvent>(&topics[4], Some(slow_qos.clone()))
-        .context("service-event subscription")?;
-    let diagnostics_sub = node
-        .create_subscription::<DiagnosticArray>(&topics[5], Some(slow_qos))
-        .context("/diagnostics subscription")?;
+    let force_sub = subscribe::<ActuatorForce>(&mut node, &topics[1], &reader_qos)?;
+    let status_sub = subscribe::<ControllerStatus>(&mut node, &topics[2], &slow_qos)?;
+    let clock_sub = subscribe::<Clock>(&mut node, &topics[3], &reader_qos)?;
+    let event_sub = subscribe::<SetModeEvent>(&mut node, &topics[4], &slow_qos)?;
+    let diagnostics_sub = subscribe::<DiagnosticArray>(&mut node, &topics[5], &slow_qos)?;
     if !graph
         .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)
         .await
@@ -424,9 +414,7 @@ pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<Recorde
             opts.wait_publishers
         );
     }
-    let state_sub = node
-        .create_subscription::<CapsuleState>(&topics[0], Some(reader_qos))
-        .context("state subscription")?;
+    let state_sub = subscribe::<CapsuleState>(&mut node, &topics[0], &reader_qos)?;
     info!(
         "{}: recording {} to {}",
         settings.describe(),

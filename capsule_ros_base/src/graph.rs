@@ -23,7 +23,8 @@ use std::{
     time::Duration,
 };
 
-use crate::error::{Context as _, Result};
+use crate::error::Result;
+use crate::ros::subscribe;
 use capsule_msgs::Time;
 use futures::StreamExt;
 use ros2_client::Node;
@@ -236,9 +237,7 @@ impl RosClock {
         }
         let topic = settings.topic(node, topics::CLOCK, types::clock(), &qos::clock())?;
         // best effort, like rclcpp's and rclpy's time source
-        let sub = node
-            .create_subscription::<Clock>(&topic, Some(qos::clock_reader()))
-            .context("clock subscription")?;
+        let sub = subscribe::<Clock>(node, &topic, &qos::clock_reader())?;
         let nanos = Arc::new(AtomicI64::new(0));
         let n = Arc::clone(&nanos);
         tokio::spawn(async move {

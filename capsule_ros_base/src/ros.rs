@@ -8,6 +8,7 @@ use crate::error::{bail, BoxError, Context as _, NodeError, Result};
 use clap::{Args, ValueEnum};
 use ros2_client::{
     qos::{Durability, History, WhenFull},
+    service::Server,
     Context, Message, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue,
     QosProfile, ServiceMapping, ServiceTypeName,
 };
@@ -243,6 +244,28 @@ impl RosSettings {
             .with_context(|| format!("topic {name}"))
     }
 
+    /// A server of the service `name` (resolved as [`RosSettings::ros_name`]) in the chosen
+    /// mapping, with the services' QoS.
+    pub fn server<Req, Resp>(
+        &self,
+        node: &mut Node,
+        name: &str,
+        type_name: &ServiceTypeName,
+    ) -> Result<Server<Wire<Req>, Wire<Resp>>>
+    where
+        Req: Serialize + DeserializeOwned + Clone + 'static,
+        Resp: Serialize + DeserializeOwned + 'static,
+    {
+        node.create_server(
+            self.mapping.into(),
+            &self.ros_name(name)?,
+            type_name,
+            qos::service(),
+            qos::service(),
+        )
+        .with_context(|| format!("service {name}"))
+    }
+
     /// Creates the DDS participant (loopback only when the range says so) and the ROS context.
     pub fn context(&self) -> Result<Context> {
         let mut builder = rustdds::DomainParticipantBuilder::new(self.domain_id);
@@ -326,6 +349,17 @@ fn normalize_namespace(ns: &str) -> Result<String> {
     Ok(ns)
 }
 
+/// A subscription to `topic` with `qos`; a failure names the topic.
+pub fn subscribe<M: 'static>(
+    node: &mut Node,
+    topic: &rustdds::Topic,
+    qos: &QosProfile,
+) -> Result<ros2_client::Subscription<M>> {
+    use rustdds::TopicDescription as _;
+    node.create_subscription(topic, Some(qos.clone()))
+        .with_context(|| format!("subscription to {}", topic.name()))
+}
+
 /// A message carried as is; lets capsule_msgs' plain serde types travel as ros2-client
 /// [`Message`]s without capsule_msgs depending on ROS.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -342,6 +376,10 @@ pub mod types {
     fn message(full: &str) -> MessageTypeName {
         let (package, name) = split(full);
         MessageTypeName::new(package, name)
+    }
+    fn service(full: &str) -> ServiceTypeName {
+        let (package, name) = split(full);
+        ServiceTypeName::new(package, name)
     }
     /// `capsule_msgs/msg/CapsuleState`.
     pub fn state() -> MessageTypeName {
@@ -365,8 +403,7 @@ pub mod types {
     }
     /// `capsule_msgs/srv/SetMode`.
     pub fn set_mode() -> ServiceTypeName {
-        let (package, name) = split(n::SET_MODE);
-        ServiceTypeName::new(package, name)
+        service(n::SET_MODE)
     }
     /// `diagnostic_msgs/msg/DiagnosticArray` (`/diagnostics`).
     pub fn diagnostics() -> MessageTypeName {
@@ -378,8 +415,7 @@ pub mod types {
     }
     /// `std_srvs/srv/SetBool` (the emergency stop).
     pub fn set_bool() -> ServiceTypeName {
-        let (package, name) = split(n::SET_BOOL);
-        ServiceTypeName::new(package, name)
+        service(n::SET_BOOL)
     }
 }
 

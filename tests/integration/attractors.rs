@@ -3,7 +3,7 @@
 
 use crate::common::{command, json, line, stderr, TempDir};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins, BasinMap, Grid, Plane};
+use capsule_analysis::basin::{basins, BasinMap, Grid};
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{GainSchedule, Pulse};
 use capsule_plant::scene::Scene;
@@ -18,17 +18,6 @@ fn coulomb(alpha: f64, kp: f64) -> Scene {
     s
 }
 
-/// The plane: (x1 - x2, y1 - y2) over [-2, 2]^2, capsule at rest.
-fn grid(n: usize) -> Grid {
-    Grid {
-        plane: Plane::RELATIVE,
-        nx: n,
-        ny: n,
-        x_range: (-2.0, 2.0),
-        y_range: (-2.0, 2.0),
-    }
-}
-
 fn map(scene: &Scene, n: usize) -> BasinMap {
     let cfg = SettleConfig::for_scene(scene);
     let schedule = GainSchedule::constant(scene.control.kp);
@@ -36,7 +25,7 @@ fn map(scene: &Scene, n: usize) -> BasinMap {
         scene,
         &schedule,
         &cfg,
-        &grid(n),
+        &Grid::paper(n),
         &|| {},
         &AtomicBool::new(false),
     )

@@ -76,6 +76,13 @@ pub fn assert_ok(o: &Output) {
     assert!(o.status.success(), "{}", stderr(o));
 }
 
+/// Asserts that the program `what` succeeded (its stderr in the message); returns its stdout.
+#[track_caller]
+pub fn succeeded(o: &Output, what: &str) -> String {
+    assert!(o.status.success(), "{what} failed:\n{}", stderr(o));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 /// Asserts that the run `what` exited with `code`, and that its stderr holds `words` and no
 /// panic; returns stderr.
 pub fn assert_refused(o: &Output, code: i32, words: &str, what: &str) -> String {

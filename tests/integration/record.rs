@@ -17,7 +17,7 @@ use capsule_record::{
 };
 use serde_json::Value;
 
-use crate::common::{assert_holds, assert_ok, capsule, capsule_ok, line, TempDir};
+use crate::common::{assert_holds, assert_ok, capsule, capsule_ok, line, succeeded, TempDir};
 use crate::root;
 
 /// Decodes with the reference readers (their own ROS 2 decoders) and returns their JSON.
@@ -29,11 +29,7 @@ pub fn python_decode(path: &Path, reader: &str) -> Value {
         .args(["--reader", reader])
         .output()
         .unwrap_or_else(|e| panic!("python3: {e} (run .ci/record-setup.sh)"));
-    assert!(
-        out.status.success(),
-        "mcap_decode.py failed (run .ci/record-setup.sh): {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out, "mcap_decode.py (run .ci/record-setup.sh)");
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("not JSON: {e}"))
 }
 

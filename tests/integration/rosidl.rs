@@ -5,6 +5,7 @@
 //! installs them). What those tools read must be what our crate serialises: the fields, their
 //! order and types, and the constants, compared with `capsule_msgs::interface`.
 
+use crate::common::succeeded;
 use capsule_msgs::interface::{parse_definition, RosInterface, HEADER_MSG, TIME_MSG};
 use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
@@ -47,10 +48,9 @@ fn rosidl_report() -> Value {
         .arg(work.join("out"))
         .output()
         .expect("run /usr/bin/python3 (Debian's, where python3-rosidl lives)");
-    assert!(
-        out.status.success(),
-        "ROS 2's rosidl tools refused capsule_msgs (run .ci/ros-setup.sh for the packages):\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeeded(
+        &out,
+        "ROS 2's rosidl tools on capsule_msgs (run .ci/ros-setup.sh for the packages)",
     );
     let text = std::fs::read_to_string(work.join("out/rosidl.json")).expect("the tools' report");
     serde_json::from_str(&text).expect("the report is JSON")

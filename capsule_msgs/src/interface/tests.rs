@@ -199,33 +199,18 @@ fn check(shape: &Shape, text: &str, path: &str) -> Result<(), String> {
 
 #[test]
 fn every_rust_type_matches_its_interface_file_field_for_field() {
-    let cases: Vec<(&str, Shape, &str)> = vec![
-        (
-            "CapsuleState",
-            shape_of::<CapsuleState>(),
-            CapsuleState::definition(),
-        ),
-        (
-            "ActuatorForce",
-            shape_of::<ActuatorForce>(),
-            ActuatorForce::definition(),
-        ),
-        (
-            "ControllerStatus",
-            shape_of::<ControllerStatus>(),
-            ControllerStatus::definition(),
-        ),
-        (
-            "SetMode_Request",
-            shape_of::<SetModeRequest>(),
-            SetModeRequest::definition(),
-        ),
-        (
-            "SetMode_Response",
-            shape_of::<SetModeResponse>(),
-            SetModeResponse::definition(),
-        ),
-        ("Header", shape_of::<Header>(), HEADER_MSG),
+    /// A type's name, its serde shape and its interface text.
+    fn case<T: RosInterface + Serialize + Default>() -> (&'static str, Shape, &'static str) {
+        (T::NAME, shape_of::<T>(), T::definition())
+    }
+    let cases = [
+        case::<CapsuleState>(),
+        case::<ActuatorForce>(),
+        case::<ControllerStatus>(),
+        case::<SetModeRequest>(),
+        case::<SetModeResponse>(),
+        case::<Header>(),
+        case::<Time>(),
     ];
     for (name, shape, text) in cases {
         assert!(

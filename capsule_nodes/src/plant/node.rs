@@ -17,7 +17,7 @@ use crate::recorder::{drain_into, graph_topics, Channel, GraphRecording};
 use capsule_ros_base::{
     conflicts::{self, TopicRule},
     graph::Graph,
-    ros::{qos, types, RosSettings},
+    ros::{qos, subscribe, types, RosSettings},
     throttle::Throttle,
 };
 
@@ -146,13 +146,10 @@ pub async fn run<S: PlantSim + Send + 'static>(
         clock_pub: node
             .create_publisher::<Clock>(&clock_topic, None)
             .context("clock publisher")?,
-        force_sub: node
-            .create_subscription::<ActuatorForce>(&force_topic, Some(qos::data_reader()))
-            .context("force subscription")?,
+        force_sub: subscribe::<ActuatorForce>(&mut node, &force_topic, &qos::data_reader())?,
         joint_sub: joint_topic
-            .map(|t| node.create_subscription::<JointState>(&t, Some(qos::data_reader())))
-            .transpose()
-            .context("joint command subscription")?,
+            .map(|t| subscribe::<JointState>(&mut node, &t, &qos::data_reader()))
+            .transpose()?,
         graph: graph.clone(),
         views: crate::views::Views::create(
             &mut node,
@@ -206,12 +203,8 @@ pub async fn run<S: PlantSim + Send + 'static>(
             info!("recording the graph in-process to {}", r.output.display());
             Some(InPlantRecording {
                 rec,
-                status_sub: node
-                    .create_subscription(&status_topic, Some(deep.clone()))
-                    .context("status subscription")?,
-                event_sub: node
-                    .create_subscription(&event_topic, Some(deep))
-                    .context("service-event subscription")?,
+                status_sub: subscribe(&mut node, &status_topic, &deep)?,
+                event_sub: subscribe(&mut node, &event_topic, &deep)?,
                 last_poll: Instant::now(),
             })
         }

@@ -404,20 +404,6 @@ impl Simulator {
         })
     }
 
-    /// Integrate to `tau_end`, calling `on_transition` for every event with the regime and state
-    /// on both sides of it (what the stability analysis needs to build saltation matrices).
-    pub fn advance_traced(
-        &mut self,
-        law: &impl ActuatorLaw,
-        tau_end: f64,
-        on_event: &mut impl FnMut(&Transition),
-    ) -> Result<Stop, SimError> {
-        self.advance_until(law, tau_end, &mut |t| {
-            on_event(t);
-            ControlFlow::Continue(())
-        })
-    }
-
     /// Integrate to `tau_end` or until `on_event` breaks at an event (the state is then just
     /// after that event's reset); says which. Every event is handed over with the regime and
     /// state on both sides of it.

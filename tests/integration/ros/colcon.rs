@@ -10,6 +10,7 @@
 //! user's plain `colcon build` compiles into its own `build/` (15 min from a fresh clone here).
 
 use super::harness::{assert_state_at_1khz, json_number, netns_with_peer_from, root};
+use crate::common::succeeded;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -80,12 +81,7 @@ fn sourced_ament_prefix_path(install: &Path) -> String {
         .env_remove("AMENT_PREFIX_PATH")
         .output()
         .expect("run sh");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
+    succeeded(&out, "sourcing install/setup.sh")
 }
 
 /// `ros2 run PACKAGE EXECUTABLE`'s look-up: the first prefix of `AMENT_PREFIX_PATH` whose ament
@@ -211,11 +207,7 @@ fn the_ros2_launch_file_is_installed_and_starts_the_launchers_graph() {
                 .arg("--check")
                 .output()
                 .expect("run an installed node");
-            assert!(
-                out.status.success(),
-                "{exe} {arguments:?} --check: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
+            succeeded(&out, &format!("{exe} {arguments:?} --check"));
         }
     }
     // recording: the plant waits for controller and recorder, as capsule_launch.sh has it

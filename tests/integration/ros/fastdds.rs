@@ -6,52 +6,30 @@
 //! next to an rclcpp node on a default installation.
 
 use super::harness::{
-    assert_at_least, assert_contains, assert_force_applied_and_bad_refused, assert_state_at_1khz,
-    json_number, netns_with_fastdds_peer,
+    assert_at_least, assert_contains, assert_peer_read_state_and_commanded,
+    assert_set_mode_answers, json_number, netns_with_fastdds_peer, set_mode_calls,
+    state_and_force_script,
 };
 
 #[test]
 fn fastdds_peer_reads_state_and_commands_the_plant() {
-    let run = netns_with_fastdds_peer(
-        120,
-        r#"
-        start_plant --until-s 14
-        fpeer state --samples 200 || exit 1
-        fpeer force --force 0.05 || exit 1
-        stop $P"#,
-    );
-    run.assert_ok();
-    assert_state_at_1khz(&run);
-    assert_force_applied_and_bad_refused(&run);
+    let run = netns_with_fastdds_peer(120, &state_and_force_script("fpeer", 14));
+    assert_peer_read_state_and_commanded(&run);
 }
 
 #[test]
 fn fastdds_peer_calls_set_mode_and_the_parameter_services_in_the_fastrtps_mapping() {
     let run = netns_with_fastdds_peer(
         120,
-        r#"
-        start_controller --mode forward
-        fpeer set-mode 2 0.1 || exit 1
-        fpeer set-mode 9 0.1 || exit 1
-        fpeer set-mode 4 nan || exit 1
-        fpeer params --node /capsule_controller --set gain=0.5 --set gain=5.0 || exit 1
-        stop $C"#,
+        &format!(
+            "start_controller --mode forward
+            {}
+            fpeer params --node /capsule_controller --set gain=0.5 --set gain=5.0 || exit 1
+            stop $C",
+            set_mode_calls("fpeer")
+        ),
     );
-    run.assert_ok();
-    let answers = run.lines_starting("{\"accepted\"");
-    assert_eq!(answers.len(), 3, "{}", run.all());
-    assert_contains(answers[0], &["\"accepted\": true", "\"mode\": 2"]);
-    assert_eq!(
-        json_number(answers[0], "gain"),
-        Some(-0.1),
-        "{}",
-        answers[0]
-    );
-    assert_contains(
-        answers[1],
-        &["\"accepted\": false", "unknown mode 9", "\"mode\": 2"],
-    );
-    assert_contains(answers[2], &["\"accepted\": false", "not finite"]);
+    assert_set_mode_answers(&run);
     let p = run.json_with("names");
     for name in [
         "mode",

@@ -136,9 +136,55 @@ pub fn assert_state_at_1khz(run: &Run) -> &str {
     state
 }
 
-/// A peer's `force` report: the plant applied its commands, and refused the bad one it sent.
+/// The script in which `peer` (the script's command for a peer: `peer`, `fpeer`) reads 200 states
+/// of a plant that runs until `until_s`, then commands it (see
+/// [`assert_peer_read_state_and_commanded`]).
+pub fn state_and_force_script(peer: &str, until_s: u32) -> String {
+    format!(
+        "start_plant --until-s {until_s}
+        {peer} state --samples 200 || exit 1
+        {peer} force --force 0.05 || exit 1
+        stop $P"
+    )
+}
+
+/// The script lines in which `peer` calls `set_mode` for BACKWARD with gain 0.1, then for an
+/// unknown mode 9, then CUSTOM with a NaN gain (see [`assert_set_mode_answers`]).
+pub fn set_mode_calls(peer: &str) -> String {
+    format!(
+        "{peer} set-mode 2 0.1 || exit 1
+        {peer} set-mode 9 0.1 || exit 1
+        {peer} set-mode 4 nan || exit 1"
+    )
+}
+
+/// The answers to [`set_mode_calls`]: BACKWARD taken with the gain -0.1, the unknown mode and
+/// the NaN gain refused, the mode left BACKWARD.
 #[track_caller]
-pub fn assert_force_applied_and_bad_refused(run: &Run) {
+pub fn assert_set_mode_answers(run: &Run) {
+    run.assert_ok();
+    let answers = run.lines_starting("{\"accepted\"");
+    assert_eq!(answers.len(), 3, "{}", run.all());
+    assert_contains(answers[0], &["\"accepted\": true", "\"mode\": 2"]);
+    assert_eq!(
+        json_number(answers[0], "gain"),
+        Some(-0.1),
+        "{}",
+        answers[0]
+    );
+    assert_contains(
+        answers[1],
+        &["\"accepted\": false", "unknown mode 9", "\"mode\": 2"],
+    );
+    assert_contains(answers[2], &["\"accepted\": false", "not finite"]);
+}
+
+/// The run of a [`state_and_force_script`] passed: the peer's stamps came at 1 kHz, the plant
+/// applied its commands and refused the bad one it sent.
+#[track_caller]
+pub fn assert_peer_read_state_and_commanded(run: &Run) {
+    run.assert_ok();
+    assert_state_at_1khz(run);
     let force = run.json_with("applied_samples");
     assert_at_least(force, "applied_samples", 5.0);
     assert!(

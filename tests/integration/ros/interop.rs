@@ -2,46 +2,28 @@
 //! calls the mode service in the rmw_cyclonedds request/reply mapping.
 
 use super::harness::{
-    assert_contains, assert_force_applied_and_bad_refused, assert_state_at_1khz, json_number,
-    netns_with_peer,
+    assert_contains, assert_peer_read_state_and_commanded, assert_set_mode_answers, json_number,
+    netns_with_peer, set_mode_calls, state_and_force_script,
 };
 
 #[test]
 fn cyclone_peer_reads_state_and_commands_the_plant() {
-    let run = netns_with_peer(
-        120,
-        r#"
-        start_plant --until-s 12
-        peer state --samples 200 || exit 1
-        peer force --force 0.05 || exit 1
-        stop $P"#,
-    );
-    run.assert_ok();
-    assert_state_at_1khz(&run);
-    assert_force_applied_and_bad_refused(&run);
+    let run = netns_with_peer(120, &state_and_force_script("peer", 12));
+    assert_peer_read_state_and_commanded(&run);
 }
 
 #[test]
 fn cyclone_peer_calls_the_mode_service_in_the_cyclone_mapping() {
     let run = netns_with_peer(
         90,
-        r#"
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller --mode forward
-        peer set-mode 2 0.1 || exit 1
-        peer set-mode 9 0.1 || exit 1
-        peer set-mode 4 nan || exit 1
-        stop $C"#,
+        &format!(
+            "RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller --mode forward
+            {}
+            stop $C",
+            set_mode_calls("peer")
+        ),
     );
-    run.assert_ok();
-    let answers = run.lines_starting("{\"accepted\"");
-    assert_eq!(answers.len(), 3, "{}", run.all());
-    assert_contains(answers[0], &["\"accepted\": true", "\"gain\": -0.1"]);
-    // refused, and the mode stays BACKWARD
-    assert_contains(
-        answers[1],
-        &["\"accepted\": false", "unknown mode 9", "\"mode\": 2"],
-    );
-    assert_contains(answers[2], &["\"accepted\": false", "not finite"]);
+    assert_set_mode_answers(&run);
 }
 
 #[test]
