@@ -160,7 +160,6 @@ pub(crate) fn field(
 pub fn events(model: &Model, regime: &Regime, kink: bool, out: &mut Vec<EventFn>) {
     out.clear();
     let cap = &model.capsule;
-    let h3 = if regime.contact { cap.beta } else { 0.0 };
     if model.has_contact() {
         let (d, kind) = if regime.contact {
             (-1.0, EventKind::ContactOff)
@@ -181,15 +180,16 @@ pub fn events(model: &Model, regime: &Regime, kink: bool, out: &mut Vec<EventFn>
         });
     }
     let fb = model.friction.threshold();
-    let xi2 = 2.0 * cap.xi;
+    let k = model.coupling(regime.contact);
     match regime.phase {
         Phase::Stick => {
             for d in [1.0, -1.0] {
+                // d F - fb, or d ks p - fb with pre-sliding
                 let (c, c0) = match model.friction.presliding() {
                     Some(ks) => ([0.0, 0.0, 0.0, d * ks], -fb),
                     None => (
-                        [d * (1.0 + h3), d * xi2, -d * xi2, 0.0],
-                        -d * h3 * cap.delta - fb,
+                        [d * k.stiffness(), d * k.damping, -d * k.damping, 0.0],
+                        d * k.offset() - fb,
                     ),
                 };
                 out.push(EventFn {
@@ -238,19 +238,30 @@ pub fn transition(
         EventKind::SlipEnd | EventKind::Reversal { .. } => {
             v[2] = 0.0;
             let f = model.capsule_force(v[0], v[1], 0.0, regime.contact);
-            if f.abs() <= model.friction.threshold() {
-                regime.phase = Phase::Stick;
-                if let Some(ks) = model.friction.presliding() {
-                    v[3] = f / ks;
+            let (phase, p) = phase_at_rest(model, f);
+            regime.phase = phase;
+            match phase {
+                Phase::Stick => {
+                    v[3] = p;
+                    EventKind::SlipEnd
                 }
-                EventKind::SlipEnd
-            } else {
-                regime.phase = Phase::Slip(f.signum());
-                EventKind::Reversal { dir: f.signum() }
+                Phase::Slip(dir) => EventKind::Reversal { dir },
             }
         }
     };
     (regime, v, kind)
+}
+
+/// The stick/slip rule of a capsule at rest (`y2 = 0`) under the force `f` (a start, a slip's
+/// end): stuck while `|f|` is within the threshold, held by the pre-sliding deflection
+/// `p = f / ks` where the law has one (else `p = 0`); beyond it, sliding in `f`'s direction.
+pub fn phase_at_rest(model: &Model, f: f64) -> (Phase, f64) {
+    if f.abs() <= model.friction.threshold() {
+        let p = model.friction.presliding().map_or(0.0, |ks| f / ks);
+        (Phase::Stick, p)
+    } else {
+        (Phase::Slip(f.signum()), 0.0)
+    }
 }
 
 /// A model under a piecewise-affine drive: everything the stability analysis differentiates.
@@ -290,15 +301,13 @@ impl Equations {
     /// `d v' / d v` in `regime` at state `v` (the time enters only the drive, which is additive).
     pub fn jacobian(&self, regime: &Regime, v: &Core) -> Mat4 {
         let m = &self.model;
-        let c = &m.capsule;
-        let h3 = if regime.contact { c.beta } else { 0.0 };
-        let xi2 = 2.0 * c.xi;
+        let k = m.coupling(regime.contact);
         // d F / d [z, y1, y2]
-        let fz = 1.0 + h3;
+        let (fz, xi2) = (k.stiffness(), k.damping);
         let mut j = [[0.0; 4]; 4];
         j[0] = [0.0, 1.0, -1.0, 0.0];
         j[1] = [self.drive.kp * regime.sigma - fz, -xi2, xi2, 0.0];
-        let g = 1.0 / c.gamma;
+        let g = 1.0 / m.capsule.gamma;
         match (regime.phase, m.friction.presliding()) {
             (Phase::Stick, Some(ks)) => {
                 j[2] = [fz * g, xi2 * g, -xi2 * g, -ks * g];

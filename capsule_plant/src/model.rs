@@ -77,26 +77,80 @@ impl Model {
         self.capsule.beta > 0.0
     }
 
+    /// The coupling of mass and capsule with the contact flag `H3` (see [`Coupling`]).
+    #[inline(always)]
+    pub fn coupling(&self, contact: bool) -> Coupling {
+        let c = &self.capsule;
+        Coupling {
+            contact,
+            contact_stiffness: if contact { c.beta } else { 0.0 },
+            damping: 2.0 * c.xi,
+            gap: c.delta,
+        }
+    }
+
     /// Force on the capsule from spring, damper and contact, `F = -f_c`, for relative
     /// displacement `z = x1 - x2`, velocities, and the contact flag `H3`.
-    #[inline]
+    #[inline(always)]
     pub fn capsule_force(&self, z: f64, y1: f64, y2: f64, contact: bool) -> f64 {
-        let c = &self.capsule;
-        let mut f = z + 2.0 * c.xi * (y1 - y2);
-        if contact {
-            f += c.beta * (z - c.delta);
-        }
-        f
+        self.coupling(contact).force(z, y1, y2)
     }
 
     /// Force of the secondary spring on the mass (positive pushes the mass back), zero out of contact.
     pub fn contact_force(&self, z: f64) -> f64 {
-        let c = &self.capsule;
-        if self.has_contact() && z >= c.delta {
-            c.beta * (z - c.delta)
+        self.coupling(self.has_contact() && z >= self.capsule.delta)
+            .secondary_spring(z)
+    }
+}
+
+/// The force between mass and capsule in one contact state: the spring, the damper and, in
+/// contact, the secondary spring, `F = z + 2 xi (y1 - y2) + H3 beta (z - delta)` with
+/// `z = x1 - x2`. The one definition of that force: its value for the Runge-Kutta right-hand
+/// side, the transitions and the published forces, and its coefficients for the linear forms
+/// (the exact solver, the break-away events' gradients, the Jacobian).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coupling {
+    /// `H3`: the secondary spring is touched.
+    pub contact: bool,
+    /// `H3 beta`: the secondary spring's stiffness in contact, 0 out of it.
+    pub contact_stiffness: f64,
+    /// `2 xi`: the damper's coefficient on `y1 - y2`.
+    pub damping: f64,
+    /// The gap `delta` before the secondary spring.
+    pub gap: f64,
+}
+
+impl Coupling {
+    /// `F` at relative displacement `z` and velocities `y1`, `y2`.
+    #[inline(always)]
+    pub fn force(&self, z: f64, y1: f64, y2: f64) -> f64 {
+        let mut f = z + self.damping * (y1 - y2);
+        if self.contact {
+            f += self.secondary_spring(z);
+        }
+        f
+    }
+
+    /// The secondary spring's part of `F`, `H3 beta (z - delta)`.
+    #[inline(always)]
+    pub fn secondary_spring(&self, z: f64) -> f64 {
+        if self.contact {
+            self.contact_stiffness * (z - self.gap)
         } else {
             0.0
         }
+    }
+
+    /// `dF/dz`, `1 + H3 beta`.
+    #[inline(always)]
+    pub fn stiffness(&self) -> f64 {
+        1.0 + self.contact_stiffness
+    }
+
+    /// `F` at `z = 0` and no relative velocity, `-H3 beta delta`.
+    #[inline(always)]
+    pub fn offset(&self) -> f64 {
+        -self.contact_stiffness * self.gap
     }
 }
 
@@ -144,5 +198,23 @@ mod tests {
         assert!((m.contact_force(0.03) - 0.15).abs() < 1e-12);
         let f = m.capsule_force(0.03, 0.0, 0.0, true);
         assert!((f - (0.03 + 0.15)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_couplings_linear_coefficients_are_its_force() {
+        let m = Model {
+            capsule: Capsule::SECTION3,
+            friction: Friction::COULOMB,
+        };
+        for contact in [false, true] {
+            let k = m.coupling(contact);
+            for (z, y1, y2) in [(0.0, 0.0, 0.0), (0.03, -0.4, 0.2), (-1.5, 2.0, -0.7)] {
+                let linear = k.stiffness() * z + k.damping * (y1 - y2) + k.offset();
+                let f = k.force(z, y1, y2);
+                assert!((f - linear).abs() < 1e-14, "{contact} {z}: {f} vs {linear}");
+            }
+        }
+        assert_eq!(m.coupling(true).stiffness(), 16.0);
+        assert_eq!(m.coupling(false).offset(), 0.0);
     }
 }

@@ -14,7 +14,6 @@
 
 use super::{EventKind, Phase, Regime, SimError, Simulator, Stop, Transition};
 use crate::equations::{Core, EventFn};
-use crate::friction::LinearSliding;
 use crate::law::AffineLaw;
 use crate::roots::first_crossing;
 use std::ops::ControlFlow;
@@ -50,42 +49,32 @@ struct Linear {
 }
 
 impl Linear {
-    fn new(sim: &Simulator, regime: &Regime, drive: &AffineLaw) -> Self {
-        let cap = &sim.model.capsule;
-        let h3 = if regime.contact { cap.beta } else { 0.0 };
-        let xi2 = 2.0 * cap.xi;
+    /// The regime's linear form; `None` when the friction law has none (`Simulator::new` refuses
+    /// the exact method for such a law, so this is not reached).
+    fn new(sim: &Simulator, regime: &Regime, drive: &AffineLaw) -> Option<Self> {
+        let k = sim.model.coupling(regime.contact);
         let presliding = sim.model.friction.presliding();
-        // only a piecewise-linear law reaches the exact method (Simulator::new refuses others)
-        let sliding = sim.model.friction.linear().unwrap_or(LinearSliding {
-            coulomb: 1.0,
-            viscous: 0.0,
-        });
+        let sliding = sim.model.friction.linear()?;
         let (moves, mu, ks, c2) = match regime.phase {
-            Phase::Slip(d) => (
-                true,
-                sliding.viscous,
-                0.0,
-                -h3 * cap.delta - d * sliding.coulomb,
-            ),
+            Phase::Slip(d) => (true, sliding.viscous, 0.0, k.offset() - d * sliding.coulomb),
             Phase::Stick => match presliding {
-                Some(ks) => (true, 0.0, ks, -h3 * cap.delta),
+                Some(ks) => (true, 0.0, ks, k.offset()),
                 None => (false, 0.0, 0.0, 0.0),
             },
         };
-        let az = drive.kp * regime.sigma - 1.0 - h3;
-        let bz = 1.0 + h3;
-        let inv_gamma = 1.0 / cap.gamma;
-        Linear {
+        // F's own coefficients, moved to the mass's side with the feedback's stiffness
+        let az = drive.kp * regime.sigma - 1.0 - k.contact_stiffness;
+        Some(Linear {
             az,
-            c1: drive.bias + h3 * cap.delta,
-            xi2,
-            bz,
+            c1: drive.bias - k.offset(),
+            xi2: k.damping,
+            bz: k.stiffness(),
             moves,
             mu,
             ks,
             c2,
-            inv_gamma,
-        }
+            inv_gamma: 1.0 / sim.model.capsule.gamma,
+        })
     }
 
     /// `A v`.
@@ -133,13 +122,17 @@ impl Simulator {
         let mut series = [[0.0f64; 5]; K + 1];
         let mut gser = [0.0f64; K + 1];
         let mut events: Vec<EventFn> = Vec::with_capacity(5);
-        let mut lin = Linear::new(self, &self.regime, drive);
+        let linear = |sim: &Simulator| {
+            Linear::new(sim, &sim.regime, drive)
+                .ok_or(SimError::ExactNeedsLinearLaw(sim.model.friction.name()))
+        };
+        let mut lin = linear(self)?;
         let mut lin_regime = self.regime;
         // the step the series allowed last time: terms are summed only as far as that needs
         let mut h_natural = f64::INFINITY;
         while self.tau < tau_end {
             if lin_regime != self.regime {
-                lin = Linear::new(self, &self.regime, drive);
+                lin = linear(self)?;
                 lin_regime = self.regime;
             }
             // Taylor coefficients of the state over the step

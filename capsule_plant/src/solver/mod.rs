@@ -17,7 +17,7 @@ mod exact;
 mod history;
 mod rk;
 
-use crate::equations::{self, Core, EventFn};
+use crate::equations::{self, phase_at_rest, Core, EventFn};
 pub use crate::equations::{Event, EventKind, Phase, Regime, Transition};
 use crate::law::{ActuatorLaw, LawShape};
 use crate::model::{Model, State};
@@ -268,18 +268,10 @@ impl Simulator {
         let z = s0.x1 - s0.x2;
         let contact = model.has_contact() && z >= model.capsule.delta;
         let sigma = if z < 0.0 { -1.0 } else { 1.0 };
-        let f = model.capsule_force(z, s0.y1, s0.y2, contact);
-        let fb = model.friction.threshold();
-        let phase = if s0.y2 != 0.0 {
-            Phase::Slip(s0.y2.signum())
-        } else if f.abs() > fb {
-            Phase::Slip(f.signum())
+        let (phase, p) = if s0.y2 != 0.0 {
+            (Phase::Slip(s0.y2.signum()), 0.0)
         } else {
-            Phase::Stick
-        };
-        let p = match (phase, model.friction.presliding()) {
-            (Phase::Stick, Some(ks)) => f / ks,
-            _ => 0.0,
+            phase_at_rest(&model, model.capsule_force(z, s0.y1, s0.y2, contact))
         };
         let history = model
             .friction
