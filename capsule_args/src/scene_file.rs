@@ -6,11 +6,15 @@ use std::path::Path;
 use capsule_plant::scene::{Fault, Scene, SceneError};
 use capsule_record::SceneRecord;
 
-/// A scene file as read: the scene and the text it came from.
+use crate::node_settings::NodeSettings;
+
+/// A scene file as read: the scene, the nodes' settings and the text they came from.
 #[derive(Debug, Clone)]
 pub struct SceneFile {
     /// The validated scene.
     pub scene: Scene,
+    /// The `[node]` table, validated.
+    pub node: NodeSettings,
     /// The file's text, as read.
     pub text: String,
     /// The file's stem (`control_point` for `scenes/control_point.toml`): recording names.
@@ -27,14 +31,26 @@ impl SceneFile {
             key: "(file)".into(),
             reason: Fault::Unreadable(e.to_string()),
         })?;
-        let scene = Scene::from_toml_bytes(&bytes, &file)?;
-        // from_toml_bytes checked the bytes are UTF-8
-        let text = String::from_utf8_lossy(&bytes).into_owned();
         let stem = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "scene".into());
-        Ok(SceneFile { scene, text, stem })
+        SceneFile::from_bytes(&bytes, &file, stem)
+    }
+
+    /// Reads and validates a scene's bytes (the scene, then its `[node]` table); `file` names
+    /// the source in errors, `stem` the recordings.
+    pub fn from_bytes(bytes: &[u8], file: &str, stem: String) -> Result<SceneFile, SceneError> {
+        let scene = Scene::from_toml_bytes(bytes, file)?;
+        // from_toml_bytes checked the bytes are UTF-8
+        let text = String::from_utf8_lossy(bytes).into_owned();
+        let node = NodeSettings::from_toml_str(&text, file)?;
+        Ok(SceneFile {
+            scene,
+            node,
+            text,
+            stem,
+        })
     }
 
     /// The scene as a recording attaches it: named for the file, with the file's text.

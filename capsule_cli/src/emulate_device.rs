@@ -122,7 +122,7 @@ pub fn main(args: Args) -> Result<()> {
     let file = SceneFile::read(&args.scene)?;
     let scene = &file.scene;
     let device = scene.device_or_typical();
-    let rate = args.rate_hz.unwrap_or(scene.node.rate_hz);
+    let rate = args.rate_hz.unwrap_or(file.node.rate_hz);
     let sim = Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
         .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", file.stem))?;
     let mut proto = Prototype::new(sim, scene.physical, &device);

@@ -36,7 +36,8 @@
 //! m1_kg = 0.05
 //! k1_n_per_m = 200.0
 //! pf_n = 0.1
-//! [node]           # the plant node
+//! [node]           # the plant node's: read and checked by capsule_args::node_settings, which
+//!                  # every binary's scene reader runs; passed over here
 //! rate_hz = 1000.0         # [1e-3, 1e6]
 //! command_timeout_s = 0.1  # [1e-6, 1e6]
 //! [device]         # a prototype's sensor and actuator (device::DeviceModel), SI; optional:
@@ -313,30 +314,6 @@ impl PhysicalScale {
     }
 }
 
-/// Settings of the ROS plant node.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct NodeSettings {
-    /// State publication (and control) rate in Hz.
-    pub rate_hz: f64,
-    /// After this long without a command the plant applies zero force.
-    pub command_timeout_s: f64,
-}
-
-impl Default for NodeSettings {
-    fn default() -> Self {
-        NodeSettings {
-            rate_hz: 1000.0,
-            command_timeout_s: 0.1,
-        }
-    }
-}
-
-/// The plant node's sample rate range \[Hz\]: from one sample per 1000 s to 1 MHz (a period that
-/// every clock and `Duration` holds).
-pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
-/// The plant node's command timeout range \[s\].
-pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
-
 // The file as written: every table and key optional (defaults from `Scene::default`), the same
 // shape serialized by `Scene::to_toml`.
 
@@ -490,15 +467,6 @@ struct PhysicalSpec {
 
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct NodeSpec {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    rate_hz: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    command_timeout_s: Option<f64>,
-}
-
-#[derive(Debug, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 struct DeviceSpec {
     #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<Vec<String>>,
@@ -596,8 +564,10 @@ struct RawScene {
     solver: SolverSpec,
     #[serde(default)]
     physical: PhysicalSpec,
-    #[serde(default)]
-    node: NodeSpec,
+    /// The nodes' table: accepted here, read by `capsule_args::node_settings`.
+    #[serde(default, skip_serializing)]
+    #[allow(dead_code)]
+    node: toml::Table,
     #[serde(skip_serializing_if = "Option::is_none")]
     device: Option<DeviceSpec>,
 }
@@ -623,8 +593,6 @@ pub struct Scene {
     pub solver: SolverConfig,
     /// SI scale.
     pub physical: PhysicalScale,
-    /// ROS node settings.
-    pub node: NodeSettings,
     /// The prototype's sensor and actuator (`[device]`): `None` when the scene has no such
     /// table (the simulator is ideal; the device emulator takes [`DeviceModel::typical`]).
     pub device: Option<DeviceModel>,
@@ -652,7 +620,6 @@ impl Default for Scene {
             horizon: Horizon::default(),
             solver: SolverConfig::most_accurate_for(&model),
             physical: PhysicalScale::default(),
-            node: NodeSettings::default(),
             device: None,
         }
     }
@@ -677,8 +644,8 @@ impl Scene {
         Ok(scene)
     }
 
-    /// The scene as a complete scene file (every key written out); reading it back gives the
-    /// same scene.
+    /// The scene as a complete scene file (every key of its tables written out; the nodes'
+    /// `[node]` table is not the scene's); reading it back gives the same scene.
     pub fn to_toml(&self) -> String {
         let m = &self.model;
         let mut friction = FrictionSpec {
@@ -724,10 +691,7 @@ impl Scene {
                 k1_n_per_m: Some(self.physical.k1_n_per_m),
                 pf_n: Some(self.physical.pf_n),
             },
-            node: NodeSpec {
-                rate_hz: Some(self.node.rate_hz),
-                command_timeout_s: Some(self.node.command_timeout_s),
-            },
+            node: toml::Table::new(),
             device: self.device.as_ref().map(DeviceSpec::of),
         };
         // every field is a plain number, string or array: serializing cannot fail
@@ -748,12 +712,6 @@ impl Scene {
     pub fn solver(&self) -> SolverConfig {
         self.solver
     }
-
-    /// The plant node's sample rate range \[Hz\]: from one sample per 1000 s to 1 MHz (a period that
-    /// every clock and `Duration` holds).
-    pub const NODE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
-    /// The plant node's command timeout range \[s\].
-    pub const NODE_TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
 
     /// The scene's device, or a typical one at its scale when it has no `[device]` table.
     pub fn device_or_typical(&self) -> DeviceModel {
@@ -781,16 +739,6 @@ impl Scene {
             ("initial.state[1] (y1)", self.initial.y1, Rule::Finite),
             ("initial.state[2] (x2)", self.initial.x2, Rule::Finite),
             ("initial.state[3] (y2)", self.initial.y2, Rule::Finite),
-            (
-                "node.rate_hz",
-                self.node.rate_hz,
-                Rule::Within(NODE_RATE_HZ),
-            ),
-            (
-                "node.command_timeout_s",
-                self.node.command_timeout_s,
-                Rule::Within(NODE_TIMEOUT_S),
-            ),
         ];
         let friction = self.model.friction.constants();
         let keys: Vec<String> = friction
@@ -856,6 +804,13 @@ impl Scene {
 
 /// TOML text to the file's shape: syntax errors with their line, shape errors with their key.
 fn parse(text: &str) -> Result<RawScene, Invalid> {
+    read_toml(text)
+}
+
+/// Reads a scene text into `T` (the scene's tables, or another reader's, such as the nodes'
+/// `[node]`): a syntax error first, then a key the format does not have or a value of the wrong
+/// type, with the dotted path of the key and the line.
+pub fn read_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, Invalid> {
     let line = |span: Option<std::ops::Range<usize>>| {
         span.map(|r| text[..r.start.min(text.len())].matches('\n').count() + 1)
     };
@@ -876,20 +831,16 @@ fn parse(text: &str) -> Result<RawScene, Invalid> {
             let inner = e.inner();
             // serde names the reader's own types: a user wrote a table
             let mut message = inner.message().trim().to_string();
-            for spec in [
-                "CapsuleSpec",
-                "FrictionSpec",
-                "DriveSpec",
-                "ControlSpec",
-                "InitialSpec",
-                "HorizonSpec",
-                "SolverSpec",
-                "PhysicalSpec",
-                "NodeSpec",
-                "DeviceSpec",
-                "RawScene",
-            ] {
-                message = message.replace(&format!("struct {spec}"), "a table");
+            // (the readers' table types are all named `...Spec`, the file's `Raw...`)
+            while let Some(at) = message.find("struct ") {
+                let name_len = message[at + 7..]
+                    .find(|c: char| !c.is_alphanumeric() && c != '_')
+                    .unwrap_or(message.len() - at - 7);
+                let name = &message[at + 7..at + 7 + name_len];
+                if !(name.ends_with("Spec") || name.starts_with("Raw")) {
+                    break;
+                }
+                message.replace_range(at..at + 7 + name_len, "a table");
             }
             Invalid::new(
                 if path == "." {
@@ -954,7 +905,6 @@ fn resolve(mut raw: RawScene, file: &str) -> Result<Scene, Invalid> {
         (None, None) => d.horizon,
     };
     let p = &raw.physical;
-    let n = &raw.node;
     let physical = PhysicalScale {
         m1_kg: p.m1_kg.unwrap_or(d.physical.m1_kg),
         k1_n_per_m: p.k1_n_per_m.unwrap_or(d.physical.k1_n_per_m),
@@ -980,25 +930,28 @@ fn resolve(mut raw: RawScene, file: &str) -> Result<Scene, Invalid> {
         horizon,
         solver,
         physical,
-        node: NodeSettings {
-            rate_hz: n.rate_hz.unwrap_or(d.node.rate_hz),
-            command_timeout_s: n.command_timeout_s.unwrap_or(d.node.command_timeout_s),
-        },
         device,
     })
 }
 
+/// What a scene's number must be.
 #[derive(Debug, Clone, Copy)]
-enum Rule {
+pub enum Rule {
+    /// Finite.
     Finite,
+    /// Finite and > 0.
     Positive,
+    /// Finite and >= 0.
     NonNegative,
+    /// In (0, 1).
     Tolerance,
+    /// In `[min, max]`.
     Within((f64, f64)),
 }
 
 impl Rule {
-    fn check(self, key: &str, v: f64) -> Result<(), Invalid> {
+    /// `v`, the value of `key`, is refused with the key and why, or passes.
+    pub fn check(self, key: &str, v: f64) -> Result<(), Invalid> {
         let fault = if !v.is_finite() {
             Fault::NotFinite(v)
         } else {

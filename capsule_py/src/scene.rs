@@ -6,6 +6,7 @@
 //! key and the reason.
 
 use crate::SceneError;
+use capsule_args::scene_file::SceneFile;
 use capsule_plant::model::FRICTION_CONSTANTS;
 use capsule_plant::scene::Scene;
 use pyo3::exceptions::PyTypeError;
@@ -55,6 +56,14 @@ pub fn refused(e: capsule_plant::scene::SceneError) -> PyErr {
     SceneError::new_err(e.to_string())
 }
 
+/// Reads a scene file's bytes as every binary does (`capsule_args::scene_file`): the scene,
+/// then its `[node]` table, so a bad file is refused with the same message.
+fn read(bytes: &[u8], file: &str) -> PyResult<Scene> {
+    SceneFile::from_bytes(bytes, file, String::new())
+        .map(|f| f.scene)
+        .map_err(refused)
+}
+
 /// Parses a complete scene (as [`resolve_scene`] returns it).
 pub fn parse(toml_text: &str) -> PyResult<Scene> {
     Scene::from_toml_str(toml_text, "scene").map_err(refused)
@@ -86,14 +95,11 @@ pub fn resolve_scene(
                     reason: capsule_plant::scene::Fault::Unreadable(e.to_string()),
                 })
             })?;
-            (
-                Scene::from_toml_bytes(&bytes, &file).map_err(refused)?,
-                file,
-            )
+            (read(&bytes, &file)?, file)
         }
         (None, Some(t)) => {
             let source = source.unwrap_or_else(|| "<text>".to_string());
-            (Scene::from_toml_str(&t, &source).map_err(refused)?, source)
+            (read(t.as_bytes(), &source)?, source)
         }
         (None, None) => (Scene::default(), "defaults".to_string()),
     };

@@ -157,11 +157,9 @@ fn build(
 ) -> Result<(RosSettings, Plant, PlantOptions)> {
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
-    // both in range: the scene's validation and the flags' parsers check the same bounds
-    let rate = cli.rate_hz.unwrap_or(scene.node.rate_hz);
-    let timeout = cli
-        .command_timeout_s
-        .unwrap_or(scene.node.command_timeout_s);
+    // both in range: the [node] table's reader and the flags' parsers check the same bounds
+    let rate = cli.rate_hz.unwrap_or(file.node.rate_hz);
+    let timeout = cli.command_timeout_s.unwrap_or(file.node.command_timeout_s);
     if scene.solver.method == Method::Fixed {
         let per_sample = 1.0 / rate / scene.physical.time_s() / scene.solver.step;
         if per_sample > MAX_FIXED_STEPS_PER_SAMPLE {
