@@ -27,7 +27,7 @@ use serde::Serialize;
 
 /// Continuation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
+pub struct ContinuationConfig {
     /// The parameter.
     pub param: Param,
     /// Continue towards this value and stop past it.
@@ -44,10 +44,10 @@ pub struct Settings {
     pub tol: f64,
 }
 
-impl Settings {
+impl ContinuationConfig {
     /// Defaults for continuing `param` to `to`.
     pub fn new(param: Param, to: f64) -> Self {
-        Settings {
+        ContinuationConfig {
             param,
             to,
             step: 0.01,
@@ -352,7 +352,10 @@ fn changes(a: &BranchPoint, ta: [f64; 3], b: &BranchPoint, tb: [f64; 3]) -> Vec<
 /// Continue the periodic orbit the scene settles on (at its own parameter value) towards
 /// `settings.to`. An error before the first point; after it, a branch with `stopped` saying
 /// where and why it ended early.
-pub fn continue_branch(scene: &Scene, settings: &Settings) -> Result<Branch, ContinuationError> {
+pub fn continue_branch(
+    scene: &Scene,
+    settings: &ContinuationConfig,
+) -> Result<Branch, ContinuationError> {
     continue_branch_observed(scene, settings, &mut |_| true)
 }
 
@@ -360,7 +363,7 @@ pub fn continue_branch(scene: &Scene, settings: &Settings) -> Result<Branch, Con
 /// `false` (the user interrupted), the branch so far is returned with `stopped` saying so.
 pub fn continue_branch_observed(
     scene: &Scene,
-    settings: &Settings,
+    settings: &ContinuationConfig,
     on_point: &mut dyn FnMut(&BranchPoint) -> bool,
 ) -> Result<Branch, ContinuationError> {
     let param = settings.param;
@@ -380,7 +383,7 @@ pub fn continue_branch_observed(
 /// `settings.to`.
 pub fn continue_from(
     scene: &Scene,
-    settings: &Settings,
+    settings: &ContinuationConfig,
     k: usize,
     x: [f64; 3],
     p0: f64,
@@ -391,7 +394,7 @@ pub fn continue_from(
 /// [`continue_from`] with [`continue_branch_observed`]'s `on_point`.
 fn continue_observed(
     scene: &Scene,
-    settings: &Settings,
+    settings: &ContinuationConfig,
     k: usize,
     x: [f64; 3],
     p0: f64,
@@ -496,7 +499,7 @@ fn continue_observed(
 /// -1; the period-`2k` branch found is continued towards `settings.to`.
 pub fn switch_at_period_doubling(
     scene: &Scene,
-    settings: &Settings,
+    settings: &ContinuationConfig,
     k: usize,
     sp: &SpecialPoint,
 ) -> Result<Branch, ContinuationError> {
@@ -567,7 +570,7 @@ pub fn switch_at_period_doubling(
 #[allow(clippy::too_many_arguments)]
 fn locate(
     prob: &Problem<'_>,
-    settings: &Settings,
+    settings: &ContinuationConfig,
     kind: SpecialKind,
     u: [f64; 4],
     t: [f64; 4],
@@ -651,11 +654,11 @@ mod tests {
         // is no orbit to correct to, and the smallest step allowed (3) is passed at once
         let mut scene = Scene::default();
         scene.drive.alpha = 1.6;
-        let settings = Settings {
+        let settings = ContinuationConfig {
             step: 10.0,
             max_step: 10.0,
             min_step: 3.0,
-            ..Settings::new(Param::Gamma, -100.0)
+            ..ContinuationConfig::new(Param::Gamma, -100.0)
         };
         let branch = continue_branch(&scene, &settings).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(branch.points.len(), 1, "{:?}", branch.stopped);
@@ -672,7 +675,7 @@ mod tests {
         let mut scene = Scene::default();
         scene.drive.alpha = 1.5;
         scene.initial = capsule_plant::State::from_array([-1.5, 0.0, 0.0, 0.0]);
-        let branch = continue_branch(&scene, &Settings::new(Param::Alpha, 1.75))
+        let branch = continue_branch(&scene, &ContinuationConfig::new(Param::Alpha, 1.75))
             .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(branch.period, 3);
         assert_eq!(branch.stopped, None);

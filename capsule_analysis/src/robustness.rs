@@ -14,7 +14,7 @@
 use std::collections::VecDeque;
 
 use capsule_controller::mode::ProgressMeter;
-use capsule_controller::switch::{OrbitWatch, SwitchSettings};
+use capsule_controller::switch::{OrbitWatch, SwitchConfig};
 use capsule_controller::velocity::LineFit;
 use capsule_plant::device::prototype::Prototype;
 use capsule_plant::device::sensor::{Reading, Truth};
@@ -58,7 +58,7 @@ pub struct LoopCase {
     /// Samples in the velocity estimate's window ([`LineFit`]), at least 2.
     pub velocity_window: u32,
     /// The controller's orbit-watch tolerance for the period it sees (the true period is read
-    /// at the simulator's, [`SwitchSettings::DEFAULT`]).
+    /// at the simulator's, [`SwitchConfig::DEFAULT`]).
     pub orbit_tolerance: f64,
 }
 
@@ -126,12 +126,12 @@ pub fn closed_loop_observed(
     let start = f64::from(case.transient) * law.period() * nominal.time_s();
     let steps = (total / dt).ceil() as u64;
     let mut x1x2 = (0.0, 0.0);
-    let settings = SwitchSettings::DEFAULT;
+    let settings = SwitchConfig::DEFAULT;
     let (mut watch, mut seen) = (
         OrbitWatch::new(law.period(), &settings),
         OrbitWatch::new(
             law.period(),
-            &SwitchSettings {
+            &SwitchConfig {
                 tol: case.orbit_tolerance,
                 ..settings
             },
@@ -244,7 +244,7 @@ mod tests {
             transient: 10,
             periods: 20,
             velocity_window: 7,
-            orbit_tolerance: SwitchSettings::DEFAULT.tol,
+            orbit_tolerance: SwitchConfig::DEFAULT.tol,
         }
     }
 

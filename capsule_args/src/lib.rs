@@ -2,13 +2,13 @@
 //! ROS or DDS: the offline toolkit depends on this crate, not on the nodes.
 //!
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
-//! - [`node_settings`]: the scene file's `[node]` table, how the plant node runs the scene
+//! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
 //! - [`storage`]: how a recording is stored (compression, splitting), as rosbag2 users set it
 
 #![warn(missing_docs)]
 
-pub mod node_settings;
+pub mod node_table;
 pub mod ranges;
 pub mod scene_file;
 pub mod storage;

@@ -6,7 +6,7 @@ use std::path::Path;
 use capsule_plant::scene::{Fault, Scene, SceneError};
 use capsule_record::SceneRecord;
 
-use crate::node_settings::NodeSettings;
+use crate::node_table::NodeTable;
 
 /// A scene file as read: the scene, the nodes' settings and the text they came from.
 #[derive(Debug, Clone)]
@@ -14,7 +14,7 @@ pub struct SceneFile {
     /// The validated scene.
     pub scene: Scene,
     /// The `[node]` table, validated.
-    pub node: NodeSettings,
+    pub node: NodeTable,
     /// The file's text, as read.
     pub text: String,
     /// The file's stem (`control_point` for `scenes/control_point.toml`): recording names.
@@ -44,7 +44,7 @@ impl SceneFile {
         let scene = Scene::from_toml_bytes(bytes, file)?;
         // from_toml_bytes checked the bytes are UTF-8
         let text = String::from_utf8_lossy(bytes).into_owned();
-        let node = NodeSettings::from_toml_str(&text, file)?;
+        let node = NodeTable::from_toml_str(&text, file)?;
         Ok(SceneFile {
             scene,
             node,

@@ -185,13 +185,13 @@ fn stability(args: &Args) -> Result<()> {
         best_of(&scene, args.repeat)?.1 * 1e3
     );
     // continuation of the Fig 2a main branch against the brute-force sweep of the same range
-    use capsule_analysis::continuation::{continue_branch, Settings};
+    use capsule_analysis::continuation::{continue_branch, ContinuationConfig};
     let mut fig2a = Scene {
         name: "Fig 2a".into(),
         ..Scene::default()
     };
     fig2a.drive.alpha = 2.0;
-    let settings = Settings::new(Param::Alpha, 0.95);
+    let settings = ContinuationConfig::new(Param::Alpha, 0.95);
     let mut best = f64::INFINITY;
     let mut points = 0;
     for _ in 0..args.repeat.max(1) {

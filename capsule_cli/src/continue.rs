@@ -7,7 +7,8 @@ use crate::svg;
 use crate::work;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::continuation::{
-    continue_branch_observed, switch_at_period_doubling, Branch, BranchPoint, Settings, SpecialKind,
+    continue_branch_observed, switch_at_period_doubling, Branch, BranchPoint, ContinuationConfig,
+    SpecialKind,
 };
 use capsule_analysis::{sweep, Param};
 use capsule_args::ranges;
@@ -61,7 +62,7 @@ pub fn main(args: Args) -> Result<()> {
         bail!("--max-points must be at least 2");
     }
     let scene = args.scene.scene()?;
-    let mut settings = Settings::new(param, args.to);
+    let mut settings = ContinuationConfig::new(param, args.to);
     settings.step = args.arc_step;
     settings.max_step = args.max_arc_step;
     settings.max_points = args.max_points;

@@ -13,7 +13,7 @@ use capsule_analysis::robustness::{
     closed_loop, controller_window, LoopCase, LoopResult, Mismatch,
 };
 use capsule_args::ranges;
-use capsule_controller::switch::SwitchSettings;
+use capsule_controller::switch::SwitchConfig;
 use capsule_plant::device::{DeviceModel, Measured};
 use rayon::prelude::*;
 
@@ -39,7 +39,7 @@ pub struct Args {
     #[arg(long, value_parser = ranges::count_u32(2, 100_000))]
     velocity_window: Option<u32>,
     /// The controller's orbit-watch tolerance for the period it sees (non-dim), 1e-6 to 0.2
-    #[arg(long, default_value_t = SwitchSettings::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
+    #[arg(long, default_value_t = SwitchConfig::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
     orbit_tolerance: f64,
     /// Output prefix: PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist)
     #[arg(

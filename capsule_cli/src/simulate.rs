@@ -36,7 +36,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1000.0, requires = "device", value_parser = ranges::within(1.0, 1e6))]
     rate_hz: f64,
     /// With --device: the controller's orbit-watch tolerance (non-dim), 1e-6 to 0.2.
-    #[arg(long, default_value_t = capsule_controller::switch::SwitchSettings::DEFAULT.tol, requires = "device", value_parser = ranges::within(1e-6, 0.2))]
+    #[arg(long, default_value_t = capsule_controller::switch::SwitchConfig::DEFAULT.tol, requires = "device", value_parser = ranges::within(1e-6, 0.2))]
     orbit_tolerance: f64,
     /// Write the time history to this CSV file.
     #[arg(long, value_name = "FILE")]

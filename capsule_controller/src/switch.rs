@@ -14,7 +14,7 @@ use crate::period::{self, Over};
 
 /// How an attractor switch is bounded and judged (the controller's settings).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SwitchSettings {
+pub struct SwitchConfig {
     /// Longest pulse accepted [drive periods].
     pub max_pulse_periods: i32,
     /// Largest try limit accepted.
@@ -31,12 +31,12 @@ pub struct SwitchSettings {
     pub reduce_tol: f64,
 }
 
-impl SwitchSettings {
+impl SwitchConfig {
     /// Pulses up to 10 periods, up to 20 tries, orbits up to period 12, 6 periods of settling,
     /// 60 periods of patience, a recurrence tolerance of 0.02 (the interpolated section's error
     /// at 100 samples per period is far below it) and a reduction tolerance of 0.25 (the
     /// period-3 cycle's points at alpha 1.5 are about 1 apart).
-    pub const DEFAULT: SwitchSettings = SwitchSettings {
+    pub const DEFAULT: SwitchConfig = SwitchConfig {
         max_pulse_periods: 10,
         max_tries: 20,
         max_period: 12,
@@ -47,9 +47,9 @@ impl SwitchSettings {
     };
 }
 
-impl Default for SwitchSettings {
+impl Default for SwitchConfig {
     fn default() -> Self {
-        SwitchSettings::DEFAULT
+        SwitchConfig::DEFAULT
     }
 }
 
@@ -96,7 +96,7 @@ pub enum SwitchError {
 
 impl SwitchRequest {
     /// Checks the request against the settings and the gain limit.
-    pub fn validate(&self, s: &SwitchSettings, gain_limit: f64) -> Result<(), SwitchError> {
+    pub fn validate(&self, s: &SwitchConfig, gain_limit: f64) -> Result<(), SwitchError> {
         if !self.gain.is_finite() {
             return Err(SwitchError::NonFiniteGain(self.gain));
         }
@@ -264,7 +264,7 @@ pub struct OrbitWatch {
 
 impl OrbitWatch {
     /// A watch over a drive of period `period`, judging orbits as `settings` say.
-    pub fn new(period: f64, settings: &SwitchSettings) -> Self {
+    pub fn new(period: f64, settings: &SwitchConfig) -> Self {
         OrbitWatch {
             section: Section::new(period),
             points: VecDeque::new(),
@@ -301,7 +301,7 @@ impl OrbitWatch {
 #[derive(Debug, Clone, PartialEq)]
 pub struct AttractorSwitch {
     request: SwitchRequest,
-    settings: SwitchSettings,
+    settings: SwitchConfig,
     base_gain: f64,
     section: Section,
     points: Vec<[f64; 3]>,
@@ -323,7 +323,7 @@ impl AttractorSwitch {
     /// `base_gain` between and after the pulses.
     pub fn new(
         request: SwitchRequest,
-        settings: SwitchSettings,
+        settings: SwitchConfig,
         base_gain: f64,
         period: f64,
     ) -> Self {
@@ -522,7 +522,7 @@ mod tests {
 
     #[test]
     fn bad_requests_are_refused_with_the_field_and_reason() {
-        let s = SwitchSettings::default();
+        let s = SwitchConfig::default();
         assert_eq!(request().validate(&s, 2.0), Ok(()));
         let bad = |r: SwitchRequest| r.validate(&s, 2.0).map_err(|e| e.to_string());
         let nan = bad(SwitchRequest {
@@ -653,9 +653,9 @@ mod tests {
 
     #[test]
     fn switch_retries_at_other_phases_until_the_orbit_is_the_target() {
-        let settings = SwitchSettings {
+        let settings = SwitchConfig {
             tol: 1e-6,
-            ..SwitchSettings::default()
+            ..SwitchConfig::default()
         };
         for good in 0..3 {
             let mut sw = AttractorSwitch::new(request(), settings, 0.0, 1.0);
@@ -677,9 +677,9 @@ mod tests {
 
     #[test]
     fn switch_fails_after_its_tries_and_releases() {
-        let settings = SwitchSettings {
+        let settings = SwitchConfig {
             tol: 1e-6,
-            ..SwitchSettings::default()
+            ..SwitchConfig::default()
         };
         let mut sw = AttractorSwitch::new(request(), settings, 0.05, 1.0);
         // no phase works
@@ -697,7 +697,7 @@ mod tests {
                 target_period: 3,
                 ..request()
             },
-            SwitchSettings::default(),
+            SwitchConfig::default(),
             0.0,
             1.0,
         );

@@ -3,7 +3,7 @@
 //! k_p = 0.3 moves the orbit to period 1, and it stays after the release.
 
 use capsule_controller::switch::{
-    AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings, SwitchState,
+    AttractorSwitch, OrbitWatch, SwitchConfig, SwitchRequest, SwitchState,
 };
 use capsule_plant::scene::Scene;
 use capsule_plant::AffineLaw;
@@ -46,7 +46,7 @@ impl Loop {
 
 #[test]
 fn a_one_period_pulse_moves_period_3_to_period_1_in_closed_loop() {
-    let settings = SwitchSettings::default();
+    let settings = SwitchConfig::default();
     let mut lp = Loop::new();
     let period = lp.law.period();
     let mut watch = OrbitWatch::new(period, &settings);

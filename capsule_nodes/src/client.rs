@@ -8,7 +8,7 @@ use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
 use ros2_client::{service::Client, Node};
 
-use capsule_ros_base::ros::{qos, subscribe, types, RosSettings, Wire};
+use capsule_ros_base::ros::{qos, subscribe, types, RosOptions, Wire};
 
 /// The `effective_from` of a request to switch at sim time `at_s` \[s\] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used
@@ -30,7 +30,7 @@ pub struct ModeClient {
 impl ModeClient {
     /// Creates the client on `node` for the controller's service (`service` as given, e.g.
     /// `/capsule_controller/set_mode`).
-    pub fn new(node: &mut Node, settings: &RosSettings, service: &str) -> Result<Self> {
+    pub fn new(node: &mut Node, settings: &RosOptions, service: &str) -> Result<Self> {
         let client = node
             .create_client::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
                 settings.mapping.into(),
@@ -154,7 +154,7 @@ impl SegmentMeter {
 /// so that a client stalled on a loaded host still sees each drive period's samples.
 pub fn state_subscription(
     node: &mut Node,
-    settings: &RosSettings,
+    settings: &RosOptions,
 ) -> Result<ros2_client::Subscription<CapsuleState>> {
     let topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
     let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 2000 });
@@ -165,7 +165,7 @@ pub fn state_subscription(
 /// (`/ns/node/set_mode` -> `/ns/node/status`: the controller's `~/status`).
 pub fn status_subscription(
     node: &mut Node,
-    settings: &RosSettings,
+    settings: &RosOptions,
     service: &str,
 ) -> Result<ros2_client::Subscription<capsule_msgs::ControllerStatus>> {
     let (controller, _) = service

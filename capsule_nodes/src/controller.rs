@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
-    switch::{AttractorSwitch, OrbitWatch, SwitchRequest, SwitchSettings},
+    switch::{AttractorSwitch, OrbitWatch, SwitchConfig, SwitchRequest},
     velocity::LineFit,
 };
 use capsule_msgs::{
@@ -35,7 +35,7 @@ use crate::{
 };
 use capsule_ros_base::{
     conflicts::TopicRule,
-    ros::{qos, subscribe, types, RosSettings, Wire},
+    ros::{qos, subscribe, types, RosOptions, Wire},
     throttle::Throttle,
 };
 
@@ -57,7 +57,7 @@ pub struct ControllerCore {
     /// Velocities the plant does not measure, from its positions (orbit watch and switch only).
     velocity: LineFit,
     feedback: CommandFeedback,
-    switch_settings: SwitchSettings,
+    switch_settings: SwitchConfig,
     watch: OrbitWatch,
     /// The last attractor switch, and the mode and gain it returns to.
     switch: Option<(AttractorSwitch, Mode)>,
@@ -92,8 +92,8 @@ impl ControllerCore {
             ignored_samples: 0,
             velocity: LineFit::for_period(law.period()),
             feedback: CommandFeedback::default(),
-            switch_settings: SwitchSettings::DEFAULT,
-            watch: OrbitWatch::new(law.period(), &SwitchSettings::DEFAULT),
+            switch_settings: SwitchConfig::DEFAULT,
+            watch: OrbitWatch::new(law.period(), &SwitchConfig::DEFAULT),
             switch: None,
             switch_event: false,
         }
@@ -150,7 +150,7 @@ impl ControllerCore {
     }
 
     /// The controller with the orbit watch's recurrence tolerance `tol` (non-dimensional, on
-    /// the section; [`SwitchSettings::tol`]): a device's noisy positions need more than the
+    /// the section; [`SwitchConfig::tol`]): a device's noisy positions need more than the
     /// simulator's 0.02 (docs/hardware.md).
     pub fn with_orbit_tolerance(mut self, tol: f64) -> Self {
         self.switch_settings.tol = tol;
@@ -494,7 +494,7 @@ impl GainArgs {
 }
 
 /// Runs the controller node until SIGINT/SIGTERM.
-pub async fn run(settings: RosSettings, opts: ControllerOptions) -> Result<()> {
+pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;

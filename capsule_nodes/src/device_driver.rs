@@ -111,7 +111,7 @@ impl Fault {
 
 /// The driver's settings.
 #[derive(Debug, Clone)]
-pub struct DriverSettings {
+pub struct DriverOptions {
     /// The line.
     pub path: PathBuf,
     /// Its baud rate.
@@ -130,7 +130,7 @@ pub struct DriverSettings {
 
 /// A capsule on a serial line.
 pub struct DeviceDriver {
-    settings: DriverSettings,
+    settings: DriverOptions,
     scale: PhysicalScale,
     link: Option<Link>,
     next_open: Instant,
@@ -155,7 +155,7 @@ pub struct DeviceDriver {
 
 impl DeviceDriver {
     /// A driver for the line of `settings` at `scale`; the line is opened on the first step.
-    pub fn new(settings: DriverSettings, scale: PhysicalScale) -> DeviceDriver {
+    pub fn new(settings: DriverOptions, scale: PhysicalScale) -> DeviceDriver {
         let nan = f64::NAN;
         let label = format!(
             "serial {} at {} baud{}",

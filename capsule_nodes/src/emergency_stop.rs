@@ -11,7 +11,7 @@ use std::sync::Arc;
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::{Bool, SetBoolRequest, SetBoolResponse};
 use capsule_ros_base::error::{Context as _, Result};
-use capsule_ros_base::ros::{qos, types, RosSettings, Wire};
+use capsule_ros_base::ros::{qos, types, RosOptions, Wire};
 use futures::StreamExt;
 use ros2_client::Node;
 use tracing::{info, warn};
@@ -31,7 +31,7 @@ pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
 }
 
 /// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads.
-pub fn serve(node: &mut Node, settings: &RosSettings, engaged: Arc<AtomicBool>) -> Result<()> {
+pub fn serve(node: &mut Node, settings: &RosOptions, engaged: Arc<AtomicBool>) -> Result<()> {
     let server = settings.server::<SetBoolRequest, SetBoolResponse>(
         node,
         topics::EMERGENCY_STOP_SERVICE,

@@ -28,7 +28,7 @@ use serde_json::json;
 use tracing::{info, warn};
 
 use crate::views::BODY_FRAME;
-use capsule_ros_base::ros::{qos, subscribe, types, RosSettings};
+use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
 pub const FRAME_TOPIC: &str = "/capsule/frame";
@@ -250,14 +250,10 @@ fn log(ch: &RawChannel, value: serde_json::Value) {
 }
 
 /// Runs the bridge until SIGINT/SIGTERM; `ready` gets the bound port once the server listens.
-pub async fn run(
-    settings: RosSettings,
-    opts: BridgeOptions,
-    ready: impl FnOnce(u16),
-) -> Result<()> {
+pub async fn run(settings: RosOptions, opts: BridgeOptions, ready: impl FnOnce(u16)) -> Result<()> {
     let context = settings.context()?;
     let (mut node, _graph) = settings.loop_node(&context)?;
-    let controller = RosSettings {
+    let controller = RosOptions {
         node_name: opts.controller_node.clone(),
         ..settings.clone()
     };

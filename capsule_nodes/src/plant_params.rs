@@ -27,7 +27,7 @@ use names::*;
 
 /// What the plant runs with.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PlantSettings {
+pub struct PlantParams {
     /// Scene file.
     pub scene: String,
     /// `realtime` or `lockstep`.
@@ -43,7 +43,7 @@ pub struct PlantSettings {
 }
 
 /// The table of a plant started with `s`.
-pub fn table(s: &PlantSettings) -> ParamTable {
+pub fn table(s: &PlantParams) -> ParamTable {
     let ro = ParamSpec::read_only;
     let table = ParamTable::new()
         .declare(SCENE, ro("scene file (model, friction, initial state, scale)"), V::String(s.scene.clone()))
@@ -89,7 +89,7 @@ pub fn declare_joint_commands(t: ParamTable, on: bool) -> ParamTable {
 
 /// Rate, command timeout and clock thinning from the table after start-up overrides; the
 /// scene, pacing and scale come from `--scene` / `--pacing` only (overriding them is refused).
-pub fn overridable(t: &ParamTable, started: &PlantSettings) -> Result<(f64, f64, u64), String> {
+pub fn overridable(t: &ParamTable, started: &PlantParams) -> Result<(f64, f64, u64), String> {
     let fixed = [
         (SCENE, t.string(SCENE) == started.scene, "--scene"),
         (PACING, t.string(PACING) == started.pacing, "--pacing"),
@@ -130,7 +130,7 @@ mod tests {
 
     #[test]
     fn everything_is_read_only_once_running_but_overridable_at_start() {
-        let s = PlantSettings {
+        let s = PlantParams {
             scene: "scenes/control_point.toml".into(),
             pacing: "realtime".into(),
             rate_hz: 1000.0,

@@ -31,7 +31,7 @@ use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
 use tracing::{info, warn};
 
-use capsule_ros_base::ros::{qos, subscribe, types, RosSettings};
+use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -242,7 +242,7 @@ impl GraphRecording {
     pub fn create(
         path: &Path,
         scene: Option<SceneRecord>,
-        settings: &RosSettings,
+        settings: &RosOptions,
         controller_node: &str,
         flush_period: Duration,
         bag: BagOptions,
@@ -368,7 +368,7 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
 }
 
 /// Runs the recorder until SIGINT / SIGTERM (or `idle_stop`), then finishes the file.
-pub async fn run(settings: RosSettings, opts: RecorderOptions) -> Result<RecorderReport> {
+pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<RecorderReport> {
     // the file first: an unwritable place is an error before anything else starts
     let mut sink = GraphRecording::create(
         &opts.output,

@@ -37,7 +37,7 @@ use capsule_ros_base::{
     graph::Graph,
     latency::LatencyHistogram,
     params::{ParamSpec, ParamTable},
-    ros::{qos, types, RosSettings},
+    ros::{qos, types, RosOptions},
 };
 
 /// Joint names, in `JointState` order.
@@ -338,7 +338,7 @@ pub struct Diagnostics {
 
 impl Diagnostics {
     /// The publisher on `/diagnostics` (resolved with the node's settings); first due in 1 s.
-    pub fn create(node: &mut Node, settings: &RosSettings) -> Result<Self> {
+    pub fn create(node: &mut Node, settings: &RosOptions) -> Result<Self> {
         let topic = settings.topic(
             node,
             view_topics::DIAGNOSTICS,
@@ -421,7 +421,7 @@ impl Views {
     /// Creates the publishers of the views switched on; publishes the URDF once.
     pub fn create(
         node: &mut Node,
-        settings: &RosSettings,
+        settings: &RosOptions,
         graph: &Graph,
         on: ViewSwitches,
         pacing: &str,

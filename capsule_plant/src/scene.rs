@@ -36,7 +36,7 @@
 //! m1_kg = 0.05
 //! k1_n_per_m = 200.0
 //! pf_n = 0.1
-//! [node]           # the plant node's: read and checked by capsule_args::node_settings, which
+//! [node]           # the plant node's: read and checked by capsule_args::node_table, which
 //!                  # every binary's scene reader runs; passed over here
 //! rate_hz = 1000.0         # [1e-3, 1e6]
 //! command_timeout_s = 0.1  # [1e-6, 1e6]
@@ -564,7 +564,7 @@ struct RawScene {
     solver: SolverSpec,
     #[serde(default)]
     physical: PhysicalSpec,
-    /// The nodes' table: accepted here, read by `capsule_args::node_settings`.
+    /// The nodes' table: accepted here, read by `capsule_args::node_table`.
     #[serde(default, skip_serializing)]
     #[allow(dead_code)]
     node: toml::Table,

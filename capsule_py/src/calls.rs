@@ -9,7 +9,7 @@ use crate::{interrupt, Interrupted, SimulationError};
 use capsule_analysis::attractor::SettleConfig;
 use capsule_analysis::basin::{basins as basin_map, Cell, Grid, Plane};
 use capsule_analysis::basin_summary::summary;
-use capsule_analysis::continuation::{continue_branch_observed, Settings};
+use capsule_analysis::continuation::{continue_branch_observed, ContinuationConfig};
 use capsule_analysis::lyapunov::lyapunov_sweep;
 use capsule_analysis::stability::of_run;
 use capsule_analysis::{run_scheduled_until, sweep_following, GainSchedule, Param, Pulse};
@@ -322,7 +322,7 @@ pub fn continue_branch(
     if max_points < 2 {
         return Err(PyValueError::new_err("max_points: must be at least 2"));
     }
-    let mut settings = Settings::new(p, to);
+    let mut settings = ContinuationConfig::new(p, to);
     settings.step = arc_step;
     settings.max_step = max_arc_step;
     settings.max_points = max_points;

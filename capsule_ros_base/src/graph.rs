@@ -31,7 +31,7 @@ use ros2_client::Node;
 use rustdds::{DomainParticipant, DomainParticipantStatusEvent, RTPSEntity, StatusEvented, GUID};
 use tokio::sync::watch;
 
-use crate::ros::{qos, types, RosSettings};
+use crate::ros::{qos, types, RosOptions};
 
 #[derive(Debug, Default)]
 struct Matches {
@@ -231,7 +231,7 @@ pub struct RosClock {
 
 impl RosClock {
     /// The wall clock, or (under `settings.use_sim_time`) a `/clock` subscription on `node`.
-    pub fn new(settings: &RosSettings, node: &mut Node) -> Result<RosClock> {
+    pub fn new(settings: &RosOptions, node: &mut Node) -> Result<RosClock> {
         if !settings.use_sim_time {
             return Ok(RosClock { sim_nanos: None });
         }

@@ -24,7 +24,7 @@ use tracing::{info, warn};
 
 use crate::{
     params::{event, Param, ParamTable, Rules},
-    ros::{qos, RosSettings},
+    ros::{qos, RosOptions},
 };
 
 /// `/parameter_events` as rclcpp publishes it (`rmw_qos_profile_parameter_events`): reliable,
@@ -73,7 +73,7 @@ impl ParamHandle {
 pub fn serve(
     context: &Context,
     node: &mut Node,
-    settings: &RosSettings,
+    settings: &RosOptions,
     table: ParamTable,
     rules: Rules,
     now: impl Fn() -> Time + Send + Sync + 'static,

@@ -113,7 +113,7 @@ impl RosEnv {
 
 /// Resolved ROS settings of one node.
 #[derive(Debug, Clone)]
-pub struct RosSettings {
+pub struct RosOptions {
     /// DDS domain.
     pub domain_id: u16,
     /// Discovery range.
@@ -132,7 +132,7 @@ pub struct RosSettings {
     pub cpu_affinity: Option<CpuList>,
 }
 
-impl RosSettings {
+impl RosOptions {
     /// Merges flags over the environment; errors name the flag or variable at fault.
     pub fn resolve(args: &RosArgs, env: &RosEnv, default_node: &str) -> Result<Self> {
         let domain_id = match (args.domain_id, &env.domain_id) {
@@ -178,7 +178,7 @@ impl RosSettings {
             bail!("--node-name {node_name:?} is not a valid ROS node name");
         }
         let namespace = normalize_namespace(&args.namespace)?;
-        let mut settings = RosSettings {
+        let mut settings = RosOptions {
             domain_id,
             range,
             mapping,
@@ -244,7 +244,7 @@ impl RosSettings {
             .with_context(|| format!("topic {name}"))
     }
 
-    /// A server of the service `name` (resolved as [`RosSettings::ros_name`]) in the chosen
+    /// A server of the service `name` (resolved as [`RosOptions::ros_name`]) in the chosen
     /// mapping, with the services' QoS.
     pub fn server<Req, Resp>(
         &self,
@@ -516,9 +516,9 @@ pub fn exit_code<E: Into<BoxError>>(name: &str, result: Result<(), E>) -> std::p
 pub fn node_main<O, E: Into<BoxError>>(
     name: &str,
     check: bool,
-    built: Result<(RosSettings, O), E>,
+    built: Result<(RosOptions, O), E>,
     would: impl FnOnce(&O) -> String,
-    run: impl FnOnce(RosSettings, O) -> Result<(), E>,
+    run: impl FnOnce(RosOptions, O) -> Result<(), E>,
 ) -> std::process::ExitCode {
     let result = built.and_then(|(settings, opts)| {
         if check {
@@ -560,11 +560,11 @@ mod tests {
         ros: RosArgs,
     }
 
-    fn settings(flags: &[&str], env: RosEnv) -> Result<RosSettings> {
+    fn settings(flags: &[&str], env: RosEnv) -> Result<RosOptions> {
         let mut argv = vec!["t"];
         argv.extend_from_slice(flags);
         let t = T::try_parse_from(argv).context("the test command line")?;
-        RosSettings::resolve(&t.ros, &env, "capsule_controller")
+        RosOptions::resolve(&t.ros, &env, "capsule_controller")
     }
 
     #[test]

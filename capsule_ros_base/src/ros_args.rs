@@ -3,7 +3,7 @@
 //! `ros__parameters:`), `-r __ns:=/x`, `-r __node:=name`, `-r [node:]from:=to`.
 //!
 //! [`split`] takes the `--ros-args` blocks out of argv before clap sees the rest; the names
-//! and remaps go into [`RosArgs`] (one place resolves them: [`crate::ros::RosSettings`]); the
+//! and remaps go into [`RosArgs`] (one place resolves them: [`crate::ros::RosOptions`]); the
 //! parameter overrides are applied to the node's [`ParamTable`] at start, in command-line
 //! order (later wins), as rcl does. Values are typed as YAML types them (`1` integer, `1.0`
 //! double, `true` bool, `[1.0, 2.0]` array, else string); an integer for a declared double is

@@ -291,7 +291,7 @@ fn simulate_and_sweep_report_the_stability() {
 mod continuation {
     use super::at;
     use capsule_analysis::continuation::{
-        continue_branch, switch_at_period_doubling, Branch, ContinuationError, Settings,
+        continue_branch, switch_at_period_doubling, Branch, ContinuationConfig, ContinuationError,
         SpecialKind, SpecialPoint,
     };
     use capsule_analysis::{run, Param};
@@ -316,7 +316,7 @@ mod continuation {
     /// Continued from alpha 2 down to 0.93: the period-1 branch, its first period doubling,
     /// and the period-2 branch switched onto there.
     fn down_to_period_two(s: &Scene) -> (SpecialPoint, Branch) {
-        let settings = Settings::new(Param::Alpha, 0.93);
+        let settings = ContinuationConfig::new(Param::Alpha, 0.93);
         let b = continue_branch(s, &settings).unwrap_or_else(|e| panic!("{e}"));
         let pd = b
             .special
@@ -333,7 +333,7 @@ mod continuation {
     #[test]
     fn fig2a_main_branch_period_doubles_where_the_sweep_changes_period() {
         let s = at("fig02a_coulomb.toml", Some(2.0), 0.0);
-        let b = continue_branch(&s, &Settings::new(Param::Alpha, 0.95))
+        let b = continue_branch(&s, &ContinuationConfig::new(Param::Alpha, 0.95))
             .unwrap_or_else(|e| panic!("{e}"));
         assert!(b.stopped.is_none(), "{:?}", b.stopped);
         assert_eq!(b.period, 1);
@@ -425,8 +425,8 @@ mod continuation {
     #[test]
     fn fig15_gain_range_is_period_one_and_stable_with_the_second_impact_located() {
         let s = at("control_point.toml", None, -0.2);
-        let b =
-            continue_branch(&s, &Settings::new(Param::Kp, 0.2)).unwrap_or_else(|e| panic!("{e}"));
+        let b = continue_branch(&s, &ContinuationConfig::new(Param::Kp, 0.2))
+            .unwrap_or_else(|e| panic!("{e}"));
         assert!(b.stopped.is_none(), "{:?}", b.stopped);
         assert_eq!(b.period, 1);
         assert!(b.points.last().is_some_and(|p| p.value >= 0.2));
@@ -457,7 +457,7 @@ mod continuation {
     #[test]
     fn a_chaotic_start_is_refused_with_a_clear_message() {
         let s = at("fig02a_coulomb.toml", Some(0.5), 0.0);
-        let e = continue_branch(&s, &Settings::new(Param::Alpha, 1.0));
+        let e = continue_branch(&s, &ContinuationConfig::new(Param::Alpha, 1.0));
         assert!(
             matches!(e, Err(ContinuationError::NotPeriodic { .. })),
             "{e:?}"

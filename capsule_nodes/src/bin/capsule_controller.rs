@@ -7,13 +7,13 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
-use capsule_controller::switch::SwitchSettings;
+use capsule_controller::switch::SwitchConfig;
 use capsule_nodes::{
     controller::{self, ControllerCore, ControllerOptions, GainArgs},
     controller_params,
 };
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosSettings},
+    ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,
 };
 use clap::Parser;
@@ -61,7 +61,7 @@ struct Cli {
     /// Recurrence tolerance of the orbit watch on the Poincare section (non-dim), 1e-6 to 0.2:
     /// the simulator's exact states need 0.02; a prototype's noisy positions about three times
     /// the velocity estimate's error (docs/hardware.md, `capsule simulate --device` reports it)
-    #[arg(long, default_value_t = SwitchSettings::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
+    #[arg(long, default_value_t = SwitchConfig::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
     orbit_tolerance: f64,
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
@@ -77,7 +77,7 @@ struct Cli {
     ros: RosArgs,
 }
 
-fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, ControllerOptions)> {
+fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, ControllerOptions)> {
     // what the controller takes from a scene: the physical scale, the drive and the gain
     let view = match cli.scene.as_deref() {
         Some(path) => Some(SceneFile::read(std::path::Path::new(path))?.scene),
@@ -120,7 +120,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosSettings, Co
     let (mode, kp) = config
         .select(mode.code(), gain)
         .map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
+    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
     let core = ControllerCore::new(scale, alpha, omega, mode, kp, config, cli.state_timeout_s)
         .with_orbit_tolerance(cli.orbit_tolerance);
     // ROS parameters: the flags' values, then -p / --params-file over them

@@ -7,7 +7,7 @@ use capsule_args::ranges;
 use capsule_msgs::names::nodes;
 use capsule_nodes::foxglove_bridge::{self, BridgeOptions};
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosSettings},
+    ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args::{self, Override},
 };
 use clap::Parser;
@@ -40,7 +40,7 @@ struct Cli {
     ros: RosArgs,
 }
 
-fn build(cli: &Cli, overrides: &[Override]) -> Result<(RosSettings, BridgeOptions)> {
+fn build(cli: &Cli, overrides: &[Override]) -> Result<(RosOptions, BridgeOptions)> {
     foxglove_bridge::check_host(&cli.host)?;
     // names, namespace and remaps apply (`--ros-args -r __ns:=/robot1`); it has no parameters
     if let Some(o) = overrides.first() {
@@ -51,7 +51,7 @@ fn build(cli: &Cli, overrides: &[Override]) -> Result<(RosSettings, BridgeOption
             o.name
         );
     }
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::FOXGLOVE)?;
+    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::FOXGLOVE)?;
     Ok((
         settings,
         BridgeOptions {

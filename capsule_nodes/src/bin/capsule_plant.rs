@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
-    device_driver::{DeviceDriver, DriverSettings, Source},
+    device_driver::{DeviceDriver, DriverOptions, Source},
     plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions, PlantSim},
     plant_params, recorder,
     sim::SimulatedPlant,
@@ -15,7 +15,7 @@ use capsule_nodes::{
 };
 use capsule_plant::{Method, Simulator};
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosSettings},
+    ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,
 };
 use clap::Parser;
@@ -151,10 +151,7 @@ fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOp
     }))
 }
 
-fn build(
-    cli: &Cli,
-    overrides: &[ros_args::Override],
-) -> Result<(RosSettings, Plant, PlantOptions)> {
+fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Plant, PlantOptions)> {
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
     // both in range: the [node] table's reader and the flags' parsers check the same bounds
@@ -174,9 +171,9 @@ fn build(
     if cli.source == Source::Sim && (cli.dry_run || cli.max_travel_m.is_some()) {
         bail!("--dry-run and --max-travel-m are for --source serial:PATH (a simulated capsule has no device to spare)");
     }
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
+    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
     // ROS parameters: the flags' and scene's values, then -p / --params-file over them
-    let started_with = plant_params::PlantSettings {
+    let started_with = plant_params::PlantParams {
         scene: cli.scene.clone(),
         pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
         rate_hz: rate,
@@ -208,7 +205,7 @@ fn build(
                 .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?,
         )),
         Source::Serial { path, baud } => Box::new(DeviceDriver::new(
-            DriverSettings {
+            DriverOptions {
                 path: path.clone(),
                 baud: *baud,
                 rate_hz: rate,

@@ -6,7 +6,7 @@ use std::{path::PathBuf, time::Duration};
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::recorder::{self, RecorderOptions};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosSettings};
+use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
 use clap::Parser;
 
 /// Records state, force commands, controller status, /clock and the set_mode service events to
@@ -57,13 +57,13 @@ struct Cli {
     ros: RosArgs,
 }
 
-fn build(cli: &Cli) -> Result<(RosSettings, RecorderOptions)> {
+fn build(cli: &Cli) -> Result<(RosOptions, RecorderOptions)> {
     let scene = match cli.scene.as_deref() {
         Some(path) => Some(SceneFile::read(path)?.record()),
         None => None,
     };
     let output = recorder::output_path(&cli.record_dir, cli.output.as_deref(), scene.as_ref())?;
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), nodes::RECORDER)?;
+    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::RECORDER)?;
     Ok((
         settings,
         RecorderOptions {

@@ -22,7 +22,7 @@ use capsule_record::{
     messages::Message,
     types::{ServiceEventInfo, SetModeEvent},
 };
-use capsule_ros_base::ros::{self, qos, RosArgs, RosEnv, RosSettings};
+use capsule_ros_base::ros::{self, qos, RosArgs, RosEnv, RosOptions};
 use clap::{CommandFactory, FromArgMatches, Parser};
 
 /// Publish a recording back onto ROS 2 at its pace (with /clock), or re-drive the controller
@@ -179,7 +179,7 @@ impl Pub {
 }
 
 async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
-    let settings = RosSettings::resolve(&args.ros, &RosEnv::from_process(), "capsule_replay")?;
+    let settings = RosOptions::resolve(&args.ros, &RosEnv::from_process(), "capsule_replay")?;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
     let mut pubs: BTreeMap<String, Pub> = BTreeMap::new();

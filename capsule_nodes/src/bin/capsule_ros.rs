@@ -7,7 +7,7 @@ use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_nodes::client::{state_subscription, ModeClient, SegmentMeter};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosSettings};
+use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 
@@ -125,7 +125,7 @@ fn parse_mode(s: &str) -> Result<u8> {
 }
 
 async fn run(cli: Cli) -> Result<()> {
-    let settings = RosSettings::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
+    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
     match cli.cmd {
         Cmd::SetMode {
             mode,
@@ -294,7 +294,7 @@ async fn run(cli: Cli) -> Result<()> {
 
 /// The `switch-attractor` subcommand (see its help).
 async fn switch_attractor(
-    settings: &RosSettings,
+    settings: &RosOptions,
     service: &str,
     sc: &capsule_plant::scene::Scene,
     req: SetModeRequest,
@@ -302,7 +302,7 @@ async fn switch_attractor(
     after_periods: f64,
     timeout_s: f64,
 ) -> Result<()> {
-    use capsule_controller::switch::{OrbitWatch, SwitchSettings};
+    use capsule_controller::switch::{OrbitWatch, SwitchConfig};
     let scale = sc.physical;
     let period = sc.drive.period();
     let period_s = period * scale.time_s();
@@ -316,7 +316,7 @@ async fn switch_attractor(
     let statuses = status_sub.async_stream();
     tokio::pin!(statuses);
     // the orbit as the plant's state shows it (the controller's status reports its own)
-    let mut watch = OrbitWatch::new(period, &SwitchSettings::DEFAULT);
+    let mut watch = OrbitWatch::new(period, &SwitchConfig::DEFAULT);
     let timeout = Duration::from_secs_f64(timeout_s);
     let started = Instant::now();
     let (v, l) = (scale.velocity_m_per_s(), scale.length_m());

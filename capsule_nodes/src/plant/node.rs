@@ -17,7 +17,7 @@ use crate::recorder::{drain_into, graph_topics, Channel, GraphRecording};
 use capsule_ros_base::{
     conflicts::{self, TopicRule},
     graph::Graph,
-    ros::{qos, subscribe, types, RosSettings},
+    ros::{qos, subscribe, types, RosOptions},
     throttle::Throttle,
 };
 
@@ -101,7 +101,7 @@ pub(super) fn log_undecodable(throttle: &mut Throttle, e: &dyn std::fmt::Debug) 
 
 /// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
 pub async fn run<S: PlantSim + Send + 'static>(
-    settings: RosSettings,
+    settings: RosOptions,
     core: PlantCore<S>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {

@@ -14,16 +14,16 @@ pub const TIMEOUT_S: (f64, f64) = (1e-6, 1e6);
 
 /// How the plant node runs the scene.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NodeSettings {
+pub struct NodeTable {
     /// State publication (and control) rate \[Hz\].
     pub rate_hz: f64,
     /// After this long without a command the plant applies zero force \[s\].
     pub command_timeout_s: f64,
 }
 
-impl Default for NodeSettings {
+impl Default for NodeTable {
     fn default() -> Self {
-        NodeSettings {
+        NodeTable {
             rate_hz: 1000.0,
             command_timeout_s: 0.1,
         }
@@ -44,13 +44,13 @@ struct NodeSpec {
     command_timeout_s: Option<f64>,
 }
 
-impl NodeSettings {
+impl NodeTable {
     /// The `[node]` table of a scene text over the defaults, checked; `file` names the source in
     /// errors.
-    pub fn from_toml_str(text: &str, file: &str) -> Result<NodeSettings, SceneError> {
+    pub fn from_toml_str(text: &str, file: &str) -> Result<NodeTable, SceneError> {
         let raw: RawFile = read_toml(text).map_err(|e| e.in_file(file))?;
-        let d = NodeSettings::default();
-        let node = NodeSettings {
+        let d = NodeTable::default();
+        let node = NodeTable {
             rate_hz: raw.node.rate_hz.unwrap_or(d.rate_hz),
             command_timeout_s: raw.node.command_timeout_s.unwrap_or(d.command_timeout_s),
         };
@@ -70,11 +70,8 @@ mod tests {
 
     #[test]
     fn the_node_table_over_the_defaults_and_its_refusals() {
-        let read = |t: &str| NodeSettings::from_toml_str(t, "f.toml");
-        assert_eq!(
-            read("[capsule]\ngamma = 2.0\n"),
-            Ok(NodeSettings::default())
-        );
+        let read = |t: &str| NodeTable::from_toml_str(t, "f.toml");
+        assert_eq!(read("[capsule]\ngamma = 2.0\n"), Ok(NodeTable::default()));
         let n = read("[node]\nrate_hz = 500.0\n").unwrap_or_default();
         assert_eq!((n.rate_hz, n.command_timeout_s), (500.0, 0.1));
         for (text, key, words) in [
