@@ -180,17 +180,15 @@ pub fn events(model: &Model, regime: &Regime, kink: bool, out: &mut Vec<EventFn>
         });
     }
     let fb = model.friction.threshold();
-    let k = model.coupling(regime.contact);
     match regime.phase {
         Phase::Stick => {
+            let k = model.coupling(regime.contact);
+            let (fz, xi2, f0) = (k.stiffness(), k.damping(), k.offset());
             for d in [1.0, -1.0] {
                 // d F - fb, or d ks p - fb with pre-sliding
                 let (c, c0) = match model.friction.presliding() {
                     Some(ks) => ([0.0, 0.0, 0.0, d * ks], -fb),
-                    None => (
-                        [d * k.stiffness(), d * k.damping, -d * k.damping, 0.0],
-                        d * k.offset() - fb,
-                    ),
+                    None => ([d * fz, d * xi2, -d * xi2, 0.0], d * f0 - fb),
                 };
                 out.push(EventFn {
                     c,
@@ -303,7 +301,7 @@ impl Equations {
         let m = &self.model;
         let k = m.coupling(regime.contact);
         // d F / d [z, y1, y2]
-        let (fz, xi2) = (k.stiffness(), k.damping);
+        let (fz, xi2) = (k.stiffness(), k.damping());
         let mut j = [[0.0; 4]; 4];
         j[0] = [0.0, 1.0, -1.0, 0.0];
         j[1] = [self.drive.kp * regime.sigma - fz, -xi2, xi2, 0.0];

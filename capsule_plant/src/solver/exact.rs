@@ -63,11 +63,11 @@ impl Linear {
             },
         };
         // F's own coefficients, moved to the mass's side with the feedback's stiffness
-        let az = drive.kp * regime.sigma - 1.0 - k.contact_stiffness;
+        let az = drive.kp * regime.sigma - 1.0 - k.contact_stiffness();
         Some(Linear {
             az,
             c1: drive.bias - k.offset(),
-            xi2: k.damping,
+            xi2: k.damping(),
             bz: k.stiffness(),
             moves,
             mu,
