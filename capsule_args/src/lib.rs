@@ -4,11 +4,13 @@
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
 //! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
-//! - [`storage`]: how a recording is stored (compression, splitting), as rosbag2 users set it
+//! - `storage` (feature `recording`, on by default): how a recording is stored (compression,
+//!   splitting), as rosbag2 users set it
 
 #![warn(missing_docs)]
 
 pub mod node_table;
 pub mod ranges;
 pub mod scene_file;
+#[cfg(feature = "recording")]
 pub mod storage;
