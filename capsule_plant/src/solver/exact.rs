@@ -62,7 +62,8 @@ impl Linear {
                 None => (false, 0.0, 0.0, 0.0),
             },
         };
-        // F's own coefficients, moved to the mass's side with the feedback's stiffness
+        // F's own coefficients, moved to the mass's side with the feedback's stiffness; `- 1.0 -
+        // H3 beta` rather than `- stiffness()`: the same rounding as before the refactor
         let az = drive.kp * regime.sigma - 1.0 - k.contact_stiffness();
         Some(Linear {
             az,
