@@ -1,7 +1,10 @@
 //! Basins of attraction: a grid of initial states on a plane through the state space, each run
-//! until it settles (see [`crate::attractor`]), in parallel, labelled by the attractor it ends on.
+//! until it settles (see [`crate::attractor`]) or, by [`Method::KnownCells`], until it enters
+//! cells of the Poincaré section whose basin is known ([`crate::basin_cells`]), in parallel,
+//! labelled by the attractor it ends on.
 
 use crate::attractor::{settle, Catalogue, Outcome, SettleConfig, Stop};
+use crate::basin_cells::{basins_by_cells, CellCheck, CellConfig};
 use crate::schedule::GainSchedule;
 use capsule_plant::scene::Scene;
 use capsule_plant::{State, Work};
@@ -240,12 +243,72 @@ pub struct BasinWork {
     pub settled: u64,
     /// Runs stopped on a known attractor.
     pub recognised: u64,
+    /// Runs stopped on entering cells of a known basin ([`Method::KnownCells`]).
+    pub known_cell: u64,
     /// Runs that reached the horizon.
     pub horizon: u64,
     /// Runs that failed.
     pub failed: u64,
     /// Integrator work, all runs.
     pub solver: Work,
+}
+
+impl BasinWork {
+    /// Count one run's result.
+    fn add(&mut self, cell: &Cell, outcome: Option<&Outcome>) {
+        match cell {
+            Cell::Pending => {}
+            Cell::Failed(_) => {
+                self.runs += 1;
+                self.failed += 1;
+            }
+            Cell::Attractor {
+                stop, periods_run, ..
+            } => {
+                self.runs += 1;
+                self.periods += u64::from(*periods_run);
+                match stop {
+                    Stop::Settled => self.settled += 1,
+                    Stop::Recognised(_) => self.recognised += 1,
+                    Stop::KnownCell(_) => self.known_cell += 1,
+                    Stop::Horizon => self.horizon += 1,
+                }
+            }
+        }
+        if let Some(o) = outcome {
+            self.solver.steps += o.work.steps;
+            self.solver.rejected += o.work.rejected;
+            self.solver.rhs_evals += o.work.rhs_evals;
+            self.solver.events += o.work.events;
+        }
+    }
+
+    /// Drive periods integrated per run.
+    pub fn periods_per_run(&self) -> f64 {
+        self.periods as f64 / self.runs.max(1) as f64
+    }
+}
+
+/// How a map labels its initial states.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "name", rename_all = "kebab-case")]
+pub enum Method {
+    /// Each initial state runs until its own points repeat or follow a known attractor
+    /// ([`crate::attractor::settle`]).
+    PerState,
+    /// Runs stop on entering cells of the Poincaré section already labelled by earlier runs
+    /// ([`crate::basin_cells`]).
+    KnownCells(CellConfig),
+}
+
+impl Method {
+    /// The name on the command line and in outputs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::PerState => "per-state",
+            Method::KnownCells(_) => "known-cells",
+        }
+    }
 }
 
 /// The labelled grid.
@@ -259,9 +322,37 @@ pub struct BasinMap {
     pub catalogue: Catalogue,
     /// Totals.
     pub work: BasinWork,
+    /// How it was labelled.
+    pub method: Method,
+    /// For [`Method::KnownCells`]: the sample of cell-labelled states rerun per state.
+    pub check: Option<CellCheck>,
 }
 
 impl BasinMap {
+    /// A map of `grid` from each cell's result, with its method's check.
+    pub(crate) fn assemble(
+        grid: &Grid,
+        results: Vec<(Cell, Option<Outcome>)>,
+        catalogue: Catalogue,
+        method: Method,
+        check: Option<CellCheck>,
+    ) -> BasinMap {
+        let mut work = BasinWork::default();
+        let mut cells = Vec::with_capacity(results.len());
+        for (cell, outcome) in results {
+            work.add(&cell, outcome.as_ref());
+            cells.push(cell);
+        }
+        BasinMap {
+            grid: *grid,
+            cells,
+            catalogue,
+            work,
+            method,
+            check,
+        }
+    }
+
     /// Share of the grid (computed cells and pending alike) that ended on attractor `index`.
     pub fn fraction(&self, index: usize) -> f64 {
         let n = self
@@ -278,9 +369,36 @@ impl BasinMap {
     }
 }
 
+/// The scene started from the grid's initial state number `c` (row-major).
+pub(crate) fn scene_at(scene: &Scene, grid: &Grid, c: usize) -> Scene {
+    let (a, b) = grid.point(c % grid.nx, c / grid.nx);
+    let mut s = scene.clone();
+    s.initial = grid.plane.state(scene.initial, a, b);
+    s
+}
+
 /// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
-/// attractor `scene` under `schedule` ends on, in parallel. `progress` is called once per cell;
-/// once `cancel` is set, cells not yet started stay [`Cell::Pending`].
+/// attractor `scene` under `schedule` ends on, by `method` (a [`CellConfig`] checked with
+/// [`CellConfig::validate`] first). `progress` is called once per cell; once `cancel` is set,
+/// cells not yet started stay [`Cell::Pending`].
+pub fn basins_by(
+    method: &Method,
+    scene: &Scene,
+    schedule: &GainSchedule,
+    config: &SettleConfig,
+    grid: &Grid,
+    progress: &(dyn Fn() + Sync),
+    cancel: &AtomicBool,
+) -> BasinMap {
+    match method {
+        Method::PerState => basins(scene, schedule, config, grid, progress, cancel),
+        Method::KnownCells(cells) => {
+            basins_by_cells(scene, schedule, config, cells, grid, progress, cancel)
+        }
+    }
+}
+
+/// [`basins_by`] each initial state on its own ([`Method::PerState`]), in parallel.
 pub fn basins(
     scene: &Scene,
     schedule: &GainSchedule,
@@ -297,15 +415,13 @@ pub fn basins(
             if cancel.load(Ordering::Relaxed) {
                 return (Cell::Pending, None);
             }
-            let (a, b) = grid.point(c % grid.nx, c / grid.nx);
-            let mut s = scene.clone();
-            s.initial = grid.plane.state(scene.initial, a, b);
+            let s = scene_at(scene, grid, c);
             let known = snapshot();
             let cell = match settle(&s, schedule, config, &known) {
                 Err(e) => (Cell::Failed(e.to_string()), None),
                 Ok(o) => {
                     let index = match o.stop {
-                        Stop::Recognised(i) => i,
+                        Stop::Recognised(i) | Stop::KnownCell(i) => i,
                         _ => {
                             let mut guard = shared.lock().unwrap_or_else(|e| e.into_inner());
                             Arc::make_mut(&mut guard).insert(&o.attractor)
@@ -323,42 +439,8 @@ pub fn basins(
             cell
         })
         .collect();
-    let mut work = BasinWork::default();
-    let mut cells = Vec::with_capacity(results.len());
-    for (cell, outcome) in results {
-        match &cell {
-            Cell::Pending => {}
-            Cell::Failed(_) => {
-                work.runs += 1;
-                work.failed += 1;
-            }
-            Cell::Attractor {
-                stop, periods_run, ..
-            } => {
-                work.runs += 1;
-                work.periods += u64::from(*periods_run);
-                match stop {
-                    Stop::Settled => work.settled += 1,
-                    Stop::Recognised(_) => work.recognised += 1,
-                    Stop::Horizon => work.horizon += 1,
-                }
-            }
-        }
-        if let Some(o) = outcome {
-            work.solver.steps += o.work.steps;
-            work.solver.rejected += o.work.rejected;
-            work.solver.rhs_evals += o.work.rhs_evals;
-            work.solver.events += o.work.events;
-        }
-        cells.push(cell);
-    }
     let catalogue = Arc::unwrap_or_clone(snapshot());
-    BasinMap {
-        grid: *grid,
-        cells,
-        catalogue,
-        work,
-    }
+    BasinMap::assemble(grid, results, catalogue, Method::PerState, None)
 }
 
 #[cfg(test)]
