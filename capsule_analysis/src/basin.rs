@@ -4,7 +4,6 @@
 //! labelled by the attractor it ends on.
 
 use crate::attractor::{settle, Catalogue, Outcome, SettleConfig, Stop};
-use crate::basin_cells::{basins_by_cells, CellCheck, CellConfig};
 use crate::schedule::GainSchedule;
 use capsule_plant::scene::Scene;
 use capsule_plant::{State, Work};
@@ -311,6 +310,143 @@ impl Method {
     }
 }
 
+/// Cube coordinates beyond this (a run far out) are not labelled.
+const FAR: f64 = 1e15;
+
+/// Cubes finer than the period tolerance are never entered twice: refused.
+const MIN_SIZE: f64 = 1e-6;
+
+/// Settings of the known-cells method.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CellConfig {
+    /// Edge of a cube (max norm) on the section `[x1 - x2, y1 - y2, y1]`.
+    pub size: f64,
+    /// Consecutive section points in cubes of one attractor that stop a run.
+    pub hits: u32,
+    /// Cube-labelled initial states rerun per state as a check (see [`CellCheck`]).
+    pub check: usize,
+}
+
+impl CellConfig {
+    /// The defaults for a grid: cubes of half the grid's spacing, two hits, 200 checked.
+    pub fn for_grid(grid: &Grid) -> Self {
+        CellConfig {
+            size: (0.5 * spacing(grid)).min(0.05),
+            hits: 2,
+            check: 200,
+        }
+    }
+
+    /// Check the settings against the grid they label; errors name the setting and the reason.
+    pub fn validate(&self, grid: &Grid) -> Result<(), (&'static str, String)> {
+        let h = self.size;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(("cell", format!("{h}: must be a finite number above 0")));
+        }
+        let d = spacing(grid);
+        if h > d {
+            return Err((
+                "cell",
+                format!(
+                    "{h} is coarser than the grid's spacing {d:.6}: neighbouring initial states \
+                     would share a cube, so the map could not resolve a basin boundary finer \
+                     than a cube (use a cell of at most {d:.6}, or the per-state method)"
+                ),
+            ));
+        }
+        if h < MIN_SIZE {
+            return Err((
+                "cell",
+                format!(
+                    "{h} is below {MIN_SIZE}, the period tolerance: a run would never enter a \
+                     labelled cube again (use the per-state method)"
+                ),
+            ));
+        }
+        if !(1..=100).contains(&self.hits) {
+            return Err(("cell-hits", format!("{}: must be 1 to 100", self.hits)));
+        }
+        Ok(())
+    }
+
+    /// The cube a section point lies in; `None` far out or not finite.
+    pub(crate) fn cube(&self, p: &[f64; 3]) -> Option<[i64; 3]> {
+        let q = p.map(|v| (v / self.size).floor());
+        q.iter()
+            .all(|v| v.is_finite() && v.abs() < FAR)
+            .then(|| q.map(|v| v as i64))
+    }
+}
+
+/// The grid's spacing: the smaller distance between neighbouring initial states of its two
+/// axes (infinite for a single state).
+pub fn spacing(grid: &Grid) -> f64 {
+    let d = |(lo, hi): (f64, f64), n: usize| {
+        if n > 1 {
+            (hi - lo) / (n - 1) as f64
+        } else {
+            f64::INFINITY
+        }
+    };
+    d(grid.x_range, grid.nx).min(d(grid.y_range, grid.ny))
+}
+
+/// The check of a known-cells map: a sample of the states the cubes labelled, rerun per state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CellCheck {
+    /// Share of the map's runs that stopped on known cubes.
+    pub cell_share: f64,
+    /// Cube-labelled states rerun per state.
+    pub sampled: usize,
+    /// Of those, the ones the per-state method put on another attractor (the map keeps the
+    /// per-state label).
+    pub differ: usize,
+    /// Estimated share of the map mislabelled: `differ / sampled * cell_share`.
+    pub estimated_mislabelled: f64,
+    /// The lower end of its 95 % confidence interval (Wilson score): above
+    /// [`CellCheck::WARN_SHARE`], the map is too likely mislabelled to pass without a warning.
+    pub mislabelled_low: f64,
+}
+
+impl CellCheck {
+    /// Estimated mislabelled share above which the map comes with a warning.
+    pub const WARN_SHARE: f64 = 0.003;
+
+    /// A warning when even the lower end of the estimate is above [`CellCheck::WARN_SHARE`]
+    /// (one difference in a small sample is not enough), with the reason.
+    pub fn warning(&self, size: f64) -> Option<String> {
+        (self.mislabelled_low > Self::WARN_SHARE).then(|| {
+            format!(
+                "{} of {} sampled cube-labelled states end elsewhere when run on their own: about \
+                 {:.2} % of the map (at least {:.2} %) may be mislabelled, the cubes ({size}) \
+                 being too coarse for its basin boundaries (fractal or riddled?); use a smaller \
+                 cell or the per-state method",
+                self.differ,
+                self.sampled,
+                100.0 * self.estimated_mislabelled,
+                100.0 * self.mislabelled_low
+            )
+        })
+    }
+
+    /// The check of `differ` of `sampled` states, of a map whose runs stopped on cubes in the
+    /// share `cell_share`.
+    pub fn new(cell_share: f64, sampled: usize, differ: usize) -> CellCheck {
+        let (n, z) = (sampled.max(1) as f64, 1.96f64);
+        let p = differ as f64 / n;
+        // Wilson score interval's lower end for a proportion
+        let low = (p + z * z / (2.0 * n) - z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt())
+            / (1.0 + z * z / n);
+        CellCheck {
+            cell_share,
+            sampled,
+            differ,
+            estimated_mislabelled: p * cell_share,
+            mislabelled_low: low.max(0.0) * cell_share,
+        }
+    }
+}
+
 /// The labelled grid.
 #[derive(Debug, Clone, Serialize)]
 pub struct BasinMap {
@@ -377,28 +513,8 @@ pub(crate) fn scene_at(scene: &Scene, grid: &Grid, c: usize) -> Scene {
     s
 }
 
-/// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
-/// attractor `scene` under `schedule` ends on, by `method` (a [`CellConfig`] checked with
-/// [`CellConfig::validate`] first). `progress` is called once per cell; once `cancel` is set,
-/// cells not yet started stay [`Cell::Pending`].
-pub fn basins_by(
-    method: &Method,
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
-    grid: &Grid,
-    progress: &(dyn Fn() + Sync),
-    cancel: &AtomicBool,
-) -> BasinMap {
-    match method {
-        Method::PerState => basins(scene, schedule, config, grid, progress, cancel),
-        Method::KnownCells(cells) => {
-            basins_by_cells(scene, schedule, config, cells, grid, progress, cancel)
-        }
-    }
-}
-
-/// [`basins_by`] each initial state on its own ([`Method::PerState`]), in parallel.
+/// Each initial state on its own ([`Method::PerState`]), in parallel (see
+/// [`crate::basin_cells::basins_by`]).
 pub fn basins(
     scene: &Scene,
     schedule: &GainSchedule,

@@ -1,7 +1,8 @@
 //! Basins by known cells: a run stops as soon as its section points enter cells of the Poincaré
 //! section already labelled by earlier runs (the idea of Datseris and Wagemakers, "Effortless
 //! estimation of basins of attraction", Chaos 32, 023104 (2022), and of Attractors.jl's
-//! recurrence method; no code taken).
+//! recurrence method; no code taken); and [`basins_by`], the map by either method. The
+//! method's settings and check are types of [`crate::basin`].
 //!
 //! The section `[x1 - x2, y1 - y2, y1]` is cut into cubes of edge [`CellConfig::size`]. Every
 //! section point of a finished run (its initial state's first) labels its cube with the run's
@@ -20,15 +21,14 @@
 //! cubes coarser than the grid's spacing are refused ([`CellConfig::validate`]), boundary cubes
 //! label nothing, and a sample of the states labelled by cubes is rerun per state
 //! ([`CellCheck`]): the map keeps the per-state labels for them and reports how many differed,
-//! with a warning when the share of the map that may be mislabelled is above
+//! with a warning when the share of the map that is mislabelled is, with 95 % confidence, above
 //! [`CellCheck::WARN_SHARE`].
 
 use crate::attractor::{settle, settle_watched, Catalogue, Outcome, SettleConfig, Stop};
-use crate::basin::{scene_at, BasinMap, Cell, Grid, Method};
+use crate::basin::{basins, scene_at, BasinMap, Cell, CellCheck, CellConfig, Grid, Method};
 use crate::schedule::GainSchedule;
 use capsule_plant::scene::Scene;
 use rayon::prelude::*;
-use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -38,120 +38,6 @@ const FIRST_BATCH: usize = 64;
 const MAX_BATCH: usize = 16_384;
 /// Label of a cube reached by runs of two attractors.
 const BOUNDARY: usize = usize::MAX;
-/// Cube coordinates beyond this (a run far out) are not labelled.
-const FAR: f64 = 1e15;
-/// Cubes finer than the period tolerance are never entered twice: refused.
-const MIN_SIZE: f64 = 1e-6;
-
-/// Settings of the known-cells method.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct CellConfig {
-    /// Edge of a cube (max norm) on the section `[x1 - x2, y1 - y2, y1]`.
-    pub size: f64,
-    /// Consecutive section points in cubes of one attractor that stop a run.
-    pub hits: u32,
-    /// Cube-labelled initial states rerun per state as a check (see [`CellCheck`]).
-    pub check: usize,
-}
-
-impl CellConfig {
-    /// The defaults for a grid: cubes of half the grid's spacing, two hits, 200 checked.
-    pub fn for_grid(grid: &Grid) -> Self {
-        CellConfig {
-            size: (0.5 * spacing(grid)).min(0.05),
-            hits: 2,
-            check: 200,
-        }
-    }
-
-    /// Check the settings against the grid they label; errors name the setting and the reason.
-    pub fn validate(&self, grid: &Grid) -> Result<(), (&'static str, String)> {
-        let h = self.size;
-        if !(h.is_finite() && h > 0.0) {
-            return Err(("cell", format!("{h}: must be a finite number above 0")));
-        }
-        let d = spacing(grid);
-        if h > d {
-            return Err((
-                "cell",
-                format!(
-                    "{h} is coarser than the grid's spacing {d:.6}: neighbouring initial states \
-                     would share a cube, so the map could not resolve a basin boundary finer \
-                     than a cube (use a cell of at most {d:.6}, or the per-state method)"
-                ),
-            ));
-        }
-        if h < MIN_SIZE {
-            return Err((
-                "cell",
-                format!(
-                    "{h} is below {MIN_SIZE}, the period tolerance: a run would never enter a \
-                     labelled cube again (use the per-state method)"
-                ),
-            ));
-        }
-        if !(1..=100).contains(&self.hits) {
-            return Err(("cell-hits", format!("{}: must be 1 to 100", self.hits)));
-        }
-        Ok(())
-    }
-
-    /// The cube a section point lies in; `None` far out or not finite.
-    fn cube(&self, p: &[f64; 3]) -> Option<[i64; 3]> {
-        let q = p.map(|v| (v / self.size).floor());
-        q.iter()
-            .all(|v| v.is_finite() && v.abs() < FAR)
-            .then(|| q.map(|v| v as i64))
-    }
-}
-
-/// The grid's spacing: the smaller distance between neighbouring initial states of its two
-/// axes (infinite for a single state).
-pub fn spacing(grid: &Grid) -> f64 {
-    let d = |(lo, hi): (f64, f64), n: usize| {
-        if n > 1 {
-            (hi - lo) / (n - 1) as f64
-        } else {
-            f64::INFINITY
-        }
-    };
-    d(grid.x_range, grid.nx).min(d(grid.y_range, grid.ny))
-}
-
-/// The check of a known-cells map: a sample of the states the cubes labelled, rerun per state.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct CellCheck {
-    /// Share of the map's runs that stopped on known cubes.
-    pub cell_share: f64,
-    /// Cube-labelled states rerun per state.
-    pub sampled: usize,
-    /// Of those, the ones the per-state method put on another attractor (the map keeps the
-    /// per-state label).
-    pub differ: usize,
-    /// Estimated share of the map mislabelled: `differ / sampled * cell_share`.
-    pub estimated_mislabelled: f64,
-}
-
-impl CellCheck {
-    /// Estimated mislabelled share above which the map comes with a warning.
-    pub const WARN_SHARE: f64 = 0.003;
-
-    /// A warning when the estimate is above [`CellCheck::WARN_SHARE`], with the reason.
-    pub fn warning(&self, size: f64) -> Option<String> {
-        (self.estimated_mislabelled > Self::WARN_SHARE).then(|| {
-            format!(
-                "{} of {} sampled cube-labelled states end elsewhere when run on their own: about \
-                 {:.2} % of the map may be mislabelled, the cubes ({size}) being too coarse for \
-                 its basin boundaries (fractal or riddled?); use a smaller cell or the per-state \
-                 method",
-                self.differ,
-                self.sampled,
-                100.0 * self.estimated_mislabelled
-            )
-        })
-    }
-}
-
 /// A fixed pseudo-random order of `0..n` (splitmix64 of each index).
 fn order(n: usize, salt: u64) -> Vec<usize> {
     let mix = |i: usize| {
@@ -171,7 +57,28 @@ struct Visit {
     cubes: Vec<[i64; 3]>,
 }
 
-/// [`crate::basin::basins_by`] by known cells (see the module doc); `cells` checked with
+/// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
+/// attractor `scene` under `schedule` ends on, by `method` (a [`CellConfig`] checked with
+/// [`CellConfig::validate`] first). `progress` is called once per cell; once `cancel` is set,
+/// cells not yet started stay [`Cell::Pending`].
+pub fn basins_by(
+    method: &Method,
+    scene: &Scene,
+    schedule: &GainSchedule,
+    config: &SettleConfig,
+    grid: &Grid,
+    progress: &(dyn Fn() + Sync),
+    cancel: &AtomicBool,
+) -> BasinMap {
+    match method {
+        Method::PerState => basins(scene, schedule, config, grid, progress, cancel),
+        Method::KnownCells(cells) => {
+            basins_by_cells(scene, schedule, config, cells, grid, progress, cancel)
+        }
+    }
+}
+
+/// [`basins_by`] by known cells (see the module doc); `cells` checked with
 /// [`CellConfig::validate`] first.
 pub fn basins_by_cells(
     scene: &Scene,
@@ -357,15 +264,61 @@ fn check(
         };
         differ += usize::from(before != after);
     }
-    let cell_share = by_cells as f64 / runs as f64;
-    Some(CellCheck {
-        cell_share,
-        sampled: sample.len(),
+    Some(CellCheck::new(
+        by_cells as f64 / runs as f64,
+        sample.len(),
         differ,
-        estimated_mislabelled: if sample.is_empty() {
-            0.0
-        } else {
-            differ as f64 / sample.len() as f64 * cell_share
-        },
-    })
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basin::spacing;
+
+    #[test]
+    fn one_difference_in_a_small_sample_does_not_warn_many_do() {
+        let one = CellCheck::new(1.0, 200, 1);
+        assert!((one.estimated_mislabelled - 0.005).abs() < 1e-12);
+        assert!(one.mislabelled_low < CellCheck::WARN_SHARE, "{one:?}");
+        assert_eq!(one.warning(0.01), None);
+        let many = CellCheck::new(1.0, 200, 6);
+        let w = many.warning(0.01).unwrap_or_default();
+        assert!(w.contains("6 of 200") && w.contains("too coarse"), "{w}");
+        assert_eq!(CellCheck::new(0.9, 200, 0).mislabelled_low, 0.0);
+    }
+
+    #[test]
+    fn cells_are_checked_against_the_grid() {
+        let g = Grid::paper(101);
+        assert!((spacing(&g) - 0.04).abs() < 1e-12);
+        let ok = CellConfig::for_grid(&g);
+        assert_eq!(ok.validate(&g), Ok(()));
+        let err = |size| CellConfig { size, ..ok }.validate(&g).unwrap_err().1;
+        assert!(
+            err(0.05).contains("coarser than the grid's spacing"),
+            "{}",
+            err(0.05)
+        );
+        assert!(err(0.0).contains("above 0"));
+        assert!(err(f64::INFINITY).contains("above 0"));
+        assert!(err(1e-7).contains("period tolerance"));
+        let hits = CellConfig { hits: 0, ..ok }.validate(&g).unwrap_err();
+        assert_eq!(hits.0, "cell-hits");
+        // the cube of a point, none far out
+        let c = CellConfig { size: 0.5, ..ok };
+        assert_eq!(c.cube(&[0.2, -0.2, 1.0]), Some([0, -1, 2]));
+        assert_eq!(c.cube(&[f64::NAN, 0.0, 0.0]), None);
+        assert_eq!(c.cube(&[1e300, 0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn the_order_is_a_fixed_permutation() {
+        let a = order(1000, 0);
+        let mut sorted = a.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..1000).collect::<Vec<_>>());
+        assert_eq!(a, order(1000, 0));
+        assert_ne!(a[..10], (0..10).collect::<Vec<_>>()[..]);
+    }
 }

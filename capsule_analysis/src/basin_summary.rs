@@ -2,8 +2,7 @@
 //! it: the attractors in legend order with their labels and shares, the grid, the work.
 
 use crate::attractor::SettleConfig;
-use crate::basin::{BasinMap, BasinWork, Method};
-use crate::basin_cells::CellCheck;
+use crate::basin::{BasinMap, BasinWork, CellCheck, Method};
 use serde::Serialize;
 
 /// One map's summary as printed with `--json`.

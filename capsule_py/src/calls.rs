@@ -7,8 +7,8 @@
 use crate::scene::parse;
 use crate::{interrupt, Interrupted, SimulationError};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins_by, Cell, Grid, Method, Plane};
-use capsule_analysis::basin_cells::CellConfig;
+use capsule_analysis::basin::{Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
 use capsule_analysis::continuation::{continue_branch_observed, ContinuationConfig};
 use capsule_analysis::lyapunov::lyapunov_sweep;

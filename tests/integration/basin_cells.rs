@@ -4,8 +4,8 @@
 
 use crate::common::{command, files_in, json_of, line, stderr, TempDir};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins_by, BasinMap, Grid, Method};
-use capsule_analysis::basin_cells::CellConfig;
+use capsule_analysis::basin::{BasinMap, CellConfig, Grid, Method};
+use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::GainSchedule;
 use capsule_plant::scene::Scene;
 use std::sync::atomic::AtomicBool;
