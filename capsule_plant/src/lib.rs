@@ -5,6 +5,7 @@
 //! scene files ([`scene`]), the SI scale ([`physical`]), and a prototype's sensor and actuator as
 //! models ([`device`]).
 
+mod choices;
 pub mod device;
 pub mod equations;
 pub mod friction;

@@ -5,6 +5,7 @@ mod bad_input;
 mod cli;
 mod common;
 mod hard_cases;
+mod import_circles;
 mod paper;
 mod python;
 mod record;
