@@ -4,6 +4,7 @@ mod attractors;
 mod bad_input;
 mod cli;
 mod common;
+mod examples;
 mod hard_cases;
 mod paper;
 mod python;
