@@ -11,7 +11,7 @@
 #   - tests/peers/cyclone_peer.py: PyPI `cyclonedds` (ships its C library)
 #   - tests/peers/foxglove_ws_client.py: PyPI `websockets`, a WebSocket client that is not ours
 #   - tests/integration/ros/colcon.rs: colcon with colcon-cargo, colcon-ros-cargo and the crawl and
-#     selection extensions, and cargo-ament-build (PyPI ships the crates.io tool as a wheel)
+#     selection extensions, and cargo-ament-build (PyPI ships the Rust tool as a wheel)
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
 # `cargo build --workspace` (the tests start the node binaries from target/debug).
 set -euo pipefail
