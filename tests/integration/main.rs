@@ -4,6 +4,8 @@ mod attractors;
 mod bad_input;
 mod cli;
 mod common;
+mod docs_links;
+mod examples;
 mod hard_cases;
 mod import_circles;
 mod paper;
