@@ -8,6 +8,7 @@
 #     rosidl runtime/introspection headers, a C compiler): tests/peers/rosidl_check.py
 #   - eProsima Fast DDS 2.9 (Debian libfastrtps-dev) and a C++ compiler: the Fast DDS peer
 #     tests/peers/fastdds/, as an rclcpp node on rmw_fastrtps_cpp (the ROS 2 default)
+#   - tcpdump: the security test captures the namespace's loopback and searches it for plaintext
 #   - PyPI `websockets`: a WebSocket client that is not ours, for the Foxglove live-view peer
 #     tests/peers/foxglove_ws_client.py
 #   - colcon (PyPI colcon-core, colcon-cargo, colcon-ros-cargo, colcon-package-information; the
@@ -29,6 +30,7 @@ command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip)
 command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
 [ -f /usr/include/fastdds/dds/domain/DomainParticipant.hpp ] || need_apt+=(libfastrtps-dev)
 command -v c++ >/dev/null 2>&1 || need_apt+=(g++)
+command -v tcpdump >/dev/null 2>&1 || need_apt+=(tcpdump)
 if [ "${#need_apt[@]}" -gt 0 ]; then
   echo "ros-setup: apt-get install ${need_apt[*]}"
   apt-get update -qq
