@@ -31,7 +31,7 @@ use crate::{
 };
 use capsule_ros_base::{
     conflicts::TopicRule,
-    graph::RosClock,
+    clock::RosClock,
     params::ParamTable,
     ros::{qos, subscribe, types, RosOptions, Wire},
     throttle::Throttle,
