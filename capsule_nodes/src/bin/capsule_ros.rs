@@ -7,7 +7,10 @@ use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_nodes::client::{state_subscription, ModeClient, SegmentMeter};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    ros::{self, RosArgs, RosEnv, RosOptions},
+    ros_args,
+};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 
@@ -537,7 +540,10 @@ fn switch_name(state: u8) -> &'static str {
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
+    let cli = match ros_args::parse_cli_without_params::<Cli>("capsule_ros", |c| &mut c.ros) {
+        Ok(cli) => cli,
+        Err(e) => return ros::exit_code("capsule_ros", Err(e)),
+    };
     ros::exit_code(
         "capsule_ros",
         ros::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),
