@@ -13,16 +13,6 @@ use serde::Deserialize;
 use crate::plant_settings::{COMMAND_TIMEOUT_S, PLANT, RATE_HZ};
 use crate::settings::Setting;
 
-/// Lowest and highest sample rate of the plant node \[Hz\] (the settings table's).
-pub const RATE_HZ_RANGE: (f64, f64) = range(&RATE_HZ);
-
-const fn range(s: &Setting) -> (f64, f64) {
-    match s.kind {
-        crate::settings::Kind::Number { min, max } => (min, max),
-        _ => (f64::NAN, f64::NAN),
-    }
-}
-
 /// How the plant node runs the scene.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NodeTable {

@@ -3,6 +3,7 @@
 //! simulation does not change its scene, rate or pacing); `-p` / `--params-file` set the
 //! numeric ones at start.
 
+use crate::ranges;
 use crate::settings::{Kind, Setting};
 
 /// Scene file (`--scene`, declared by the binary: it is required).
@@ -17,14 +18,13 @@ pub const PACING: Setting = Setting::new(
     "realtime (one sample per 1/rate of wall time) or lockstep (each step waits for its command)",
     Kind::Text,
 );
-/// Sample rate: one sample per 1000 s to 1 MHz (a period that every clock and `Duration`
-/// holds).
+/// Sample rate ([`ranges::RATE_HZ`]).
 pub const RATE_HZ: Setting = Setting::new(
     "rate_hz",
     "Sample rate (and control rate) [Hz]",
     Kind::Number {
-        min: 1e-3,
-        max: 1e6,
+        min: ranges::RATE_HZ.0,
+        max: ranges::RATE_HZ.1,
     },
 )
 .flag()

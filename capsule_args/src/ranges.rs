@@ -15,8 +15,9 @@ pub const MAX_SECONDS: f64 = 1e6;
 pub const MAX_MILLIS: u64 = 60_000;
 /// Largest magnitude of a gain, a physical constant or a model parameter given as a flag.
 pub const MAX_MAGNITUDE: f64 = 1e12;
-/// Lowest and highest sample rate of the plant node \[Hz\] (the scene's rule for node.rate_hz).
-pub const RATE_HZ: (f64, f64) = crate::node_table::RATE_HZ_RANGE;
+/// Lowest and highest sample rate of the plant node \[Hz\]: one sample per 1000 s to 1 MHz (a
+/// period that every clock and `Duration` holds); the plant's settings table takes it.
+pub const RATE_HZ: (f64, f64) = (1e-3, 1e6);
 /// Most subscribers any node waits for.
 pub const MAX_SUBSCRIBERS: u64 = 1000;
 

@@ -82,8 +82,8 @@ fn controller_parameters_get_set_and_refuse_over_the_cyclone_peer() {
             "\"atomic_refused\": \"parameter 'no_such' is not declared\"",
             // the settings table's range, as the flag and the scene key refuse it (bad_input)
             "parameter 'alpha' = 150: out of range [0, 100]",
-            // numbers as short as they round-trip, not 309 digits
-            "\"reason\": \"gain 1e308 is beyond the configured limit |k_p| <= 2\"",
+            // numbers as short as they round-trip, not 309 digits (BACKWARD by then: -1e308)
+            "\"reason\": \"gain -1e308 is beyond the configured limit |k_p| <= 2\"",
         ],
     );
     assert_contains(
