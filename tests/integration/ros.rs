@@ -19,5 +19,6 @@ mod interop;
 mod joint_commands;
 mod lockstep;
 mod params;
+mod security;
 mod switch;
 mod views;
