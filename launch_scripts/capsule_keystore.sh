@@ -75,6 +75,10 @@ xml_topics() { # ACCESS WORDS...: <ACCESS><topics>...</topics></ACCESS>, nothing
   printf '          </topics>\n        </%s>\n' "$access"
 }
 
+domains_xml() { # every domain a ROS node can use, as the governance's rule
+  printf '        <domains>\n          <id_range>\n            <min>0</min>\n            <max>232</max>\n          </id_range>\n        </domains>\n'
+}
+
 permissions_xml() { # ENCLAVE ROLE NOT_BEFORE NOT_AFTER
   local enclave="$1" role="$2" nb="$3" na="$4" node="" pub=() sub=()
   while read -r r what rest; do
@@ -102,22 +106,12 @@ permissions_xml() { # ENCLAVE ROLE NOT_BEFORE NOT_AFTER
         <not_after>$na</not_after>
       </validity>
       <allow_rule>
-        <domains>
-          <id_range>
-            <min>0</min>
-            <max>232</max>
-          </id_range>
-        </domains>
+$(domains_xml)
 $(xml_topics publish "${pub[@]}")
 $(xml_topics subscribe "${sub[@]}")
       </allow_rule>
       <allow_rule>
-        <domains>
-          <id_range>
-            <min>0</min>
-            <max>232</max>
-          </id_range>
-        </domains>
+$(domains_xml)
 $(xml_topics publish ros_discovery_info)
 $(xml_topics subscribe ros_discovery_info)
       </allow_rule>

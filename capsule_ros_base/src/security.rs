@@ -28,15 +28,15 @@ pub const ENCLAVE_FILES: [&str; 6] = [
     "permissions.p7s",
 ];
 
-/// SROS2's environment variables (so tests can pass their own).
+/// SROS2's environment variables, read as rcl reads them (so tests can pass their own).
 #[derive(Debug, Clone, Default)]
 pub struct SecurityEnv {
-    /// `ROS_SECURITY_ENABLE` (only `true` enables).
-    pub enable: Option<String>,
-    /// `ROS_SECURITY_STRATEGY` (`Enforce`, anything else permissive).
-    pub strategy: Option<String>,
+    /// `ROS_SECURITY_ENABLE` is exactly `true`.
+    pub enable: bool,
+    /// `ROS_SECURITY_STRATEGY` is exactly `Enforce` (anything else is permissive).
+    pub enforce: bool,
     /// `ROS_SECURITY_KEYSTORE`.
-    pub keystore: Option<String>,
+    pub keystore: Option<PathBuf>,
     /// `ROS_SECURITY_ENCLAVE_OVERRIDE` (wins over `--enclave`).
     pub enclave_override: Option<String>,
 }
@@ -44,11 +44,16 @@ pub struct SecurityEnv {
 impl SecurityEnv {
     /// Reads the process environment.
     pub fn from_process() -> Self {
-        let get = |k| std::env::var(k).ok().filter(|v: &String| !v.is_empty());
+        Self::from_vars(|k| std::env::var(k).ok())
+    }
+
+    /// Reads the variables through `get` (unset or empty: not set).
+    pub fn from_vars(get: impl Fn(&str) -> Option<String>) -> Self {
+        let get = |k| get(k).filter(|v: &String| !v.is_empty());
         SecurityEnv {
-            enable: get("ROS_SECURITY_ENABLE"),
-            strategy: get("ROS_SECURITY_STRATEGY"),
-            keystore: get("ROS_SECURITY_KEYSTORE"),
+            enable: get("ROS_SECURITY_ENABLE").as_deref() == Some("true"),
+            enforce: get("ROS_SECURITY_STRATEGY").as_deref() == Some("Enforce"),
+            keystore: get("ROS_SECURITY_KEYSTORE").map(PathBuf::from),
             enclave_override: get("ROS_SECURITY_ENCLAVE_OVERRIDE"),
         }
     }
@@ -81,10 +86,10 @@ impl Security {
     /// enclave directory or file, or a file [`diagnose`] finds DDS Security would refuse, is an
     /// error naming it.
     pub fn resolve(env: &SecurityEnv, enclave_arg: Option<&str>) -> Result<Self> {
-        if env.enable.as_deref() != Some("true") {
+        if !env.enable {
             return Ok(Security::Off);
         }
-        let enforce = env.strategy.as_deref() == Some("Enforce");
+        let enforce = env.enforce;
         let (name, origin) = match (&env.enclave_override, enclave_arg) {
             (Some(o), _) => (o.as_str(), "ROS_SECURITY_ENCLAVE_OVERRIDE"),
             (None, Some(e)) => (e, "--enclave"),
@@ -96,7 +101,7 @@ impl Security {
             None => {
                 Err("ROS_SECURITY_ENABLE=true but ROS_SECURITY_KEYSTORE is not set".to_string())
             }
-            Some(k) => enclave_dir(Path::new(k), name),
+            Some(k) => enclave_dir(k, name),
         };
         // files present: would DDS Security take them? (a refusal named here, before any work)
         let found = found.and_then(|dir| match diagnose(&dir) {
@@ -275,11 +280,19 @@ mod tests {
     use super::*;
 
     fn env(enable: &str, strategy: &str, keystore: Option<&Path>) -> SecurityEnv {
-        SecurityEnv {
-            enable: Some(enable.into()),
-            strategy: Some(strategy.into()),
-            keystore: keystore.map(|k| k.display().to_string()),
-            enclave_override: None,
+        SecurityEnv::from_vars(|k| match k {
+            "ROS_SECURITY_ENABLE" => Some(enable.into()),
+            "ROS_SECURITY_STRATEGY" => Some(strategy.into()),
+            "ROS_SECURITY_KEYSTORE" => keystore.map(|k| k.display().to_string()),
+            _ => None,
+        })
+    }
+
+    /// The error `resolve` refuses with.
+    fn refused(env: &SecurityEnv, enclave: Option<&str>) -> String {
+        match Security::resolve(env, enclave) {
+            Ok(s) => panic!("not refused: {s:?}"),
+            Err(e) => e.to_string(),
         }
     }
 
@@ -344,30 +357,22 @@ mod tests {
         let k = keystore("missing", &["capsule/plant"]);
         std::fs::remove_file(k.join("enclaves/capsule/plant/permissions.p7s"))
             .unwrap_or_else(|e| panic!("{e}"));
-        let e = Security::resolve(&env("true", "Enforce", Some(&k)), Some("/capsule/plant"))
-            .unwrap_err()
-            .to_string();
+        let e = refused(&env("true", "Enforce", Some(&k)), Some("/capsule/plant"));
         assert!(
             e.contains("Enforce") && e.contains("capsule/plant/permissions.p7s"),
             "{e}"
         );
-        let e = Security::resolve(&env("true", "Enforce", Some(&k)), Some("/capsule/nobody"))
-            .unwrap_err()
-            .to_string();
+        let e = refused(&env("true", "Enforce", Some(&k)), Some("/capsule/nobody"));
         assert!(
             e.contains("no directory") && e.contains("capsule/nobody"),
             "{e}"
         );
-        let e = Security::resolve(&env("true", "Enforce", None), None)
-            .unwrap_err()
-            .to_string();
+        let e = refused(&env("true", "Enforce", None), None);
         assert!(e.contains("ROS_SECURITY_KEYSTORE is not set"), "{e}");
         #[cfg(feature = "security")]
         {
             let p = keystore("placeholders", &["capsule/plant"]);
-            let e = Security::resolve(&env("true", "Enforce", Some(&p)), Some("/capsule/plant"))
-                .unwrap_err()
-                .to_string();
+            let e = refused(&env("true", "Enforce", Some(&p)), Some("/capsule/plant"));
             assert!(
                 e.contains("identity_ca.cert.pem: not a PEM certificate"),
                 "{e}"
@@ -381,9 +386,7 @@ mod tests {
         }
         assert!(s.describe().starts_with("UNSECURED"));
         for bad in ["capsule/plant", "/capsule/", "/a//b", "/a-b"] {
-            let e = Security::resolve(&env("true", "Permissive", Some(&k)), Some(bad))
-                .unwrap_err()
-                .to_string();
+            let e = refused(&env("true", "Permissive", Some(&k)), Some(bad));
             assert!(e.contains(&format!("--enclave {bad:?}")), "{e}");
         }
         let _ = std::fs::remove_dir_all(k);

@@ -6,7 +6,8 @@
 //! not allow the force. Packets are captured on the namespace's loopback with tcpdump.
 
 use super::harness::{
-    assert_contains, json_number, json_raw, netns_with_fastdds_peer, netns_with_peer, Run,
+    assert_at_least, assert_contains, json_number, json_raw, netns_with_fastdds_peer,
+    netns_with_peer, Run,
 };
 
 /// Script functions: `keystore DIR` makes a keystore with the capsule enclaves, `secure DIR`
@@ -15,6 +16,14 @@ const SECURE: &str = r#"
 keystore() { bash "$ROOT/launch_scripts/capsule_keystore.sh" create "$1" >/dev/null || exit 1; }
 secure() { export ROS_SECURITY_KEYSTORE="$1" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce; }
 unsecure() { unset ROS_SECURITY_KEYSTORE ROS_SECURITY_ENABLE ROS_SECURITY_STRATEGY ROS_SECURITY_ENCLAVE_OVERRIDE; }
+# each_way CMD: runs CMD with $tag=plain, then secured with a fresh keystore and $tag=secured
+each_way() {
+    keystore "$TMP/ks"
+    for tag in plain secured; do
+        [ $tag = secured ] && secure "$TMP/ks"
+        "$@" || exit 1
+    done
+}
 "#;
 
 fn secured(peer: fn(u32, &str) -> Run, timeout_s: u32, script: &str) -> Run {
@@ -86,18 +95,17 @@ fn secured_lockstep_run_is_bit_identical_to_the_unsecured_one() {
         netns_with_fastdds_peer,
         240,
         r#"
-        keystore "$TMP/ks"
-        for tag in PLAIN SECURED; do
-          [ $tag = SECURED ] && secure "$TMP/ks"
+        once() {
           start_controller --mode forward --enclave /capsule/controller
           $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 1.5 --wait-subscribers 1 \
               --command-timeout-s 10 --enclave /capsule/plant --summary-json "$TMP/$tag.json" || exit 1
           stop $C || exit 1
           echo "$tag $(cat $TMP/$tag.json)"
-        done"#,
+        }
+        each_way once"#,
     );
     run.assert_ok();
-    let (plain, sec) = (last_sample(&run, "PLAIN"), last_sample(&run, "SECURED"));
+    let (plain, sec) = (last_sample(&run, "plain"), last_sample(&run, "secured"));
     assert_eq!(json_raw(plain, "seq"), Some("1500"), "{plain}");
     assert_ne!(json_raw(plain, "capsule_position"), Some("0.0"), "{plain}");
     assert_eq!(plain, sec, "the secured run differs");
@@ -156,12 +164,7 @@ fn outsiders_see_nothing_and_command_nothing() {
     );
     run.assert_ok();
     // the operator read the secured state: the plant was there to be seen
-    assert_eq!(
-        json_number(run.json_with("rate_hz"), "samples"),
-        Some(100.0),
-        "{}",
-        run.all()
-    );
+    assert_at_least(run.json_with("rate_hz"), "samples", 100.0);
     for tag in [
         "CYCLONE_UNSECURED",
         "FASTDDS_UNSECURED_STATE",
@@ -237,9 +240,7 @@ fn secured_samples_on_loopback_carry_no_plaintext() {
         netns_with_peer,
         180,
         r#"
-        keystore "$TMP/ks"
-        for tag in plain secured; do
-          [ $tag = secured ] && secure "$TMP/ks"
+        once() {
           tcpdump -i lo -U -w "$TMP/$tag.pcap" 2>/dev/null & T=$!
           sleep 1
           start_controller --mode forward --enclave /capsule/controller
@@ -250,7 +251,8 @@ fn secured_samples_on_loopback_carry_no_plaintext() {
           sleep 0.5; kill -INT $T; wait $T
           for s in odom FORWARD; do echo "FOUND $tag $s $(grep -a -c -F "$s" "$TMP/$tag.pcap")"; done
           echo "BYTES $tag $(stat -c %s "$TMP/$tag.pcap")"
-        done"#,
+        }
+        each_way once"#,
     );
     run.assert_ok();
     for s in DATA_IN_CLEAR {
