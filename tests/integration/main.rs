@@ -1,5 +1,6 @@
 //! Workspace integration tests: one binary, one module per area.
 
+mod architecture_doc;
 mod attractors;
 mod bad_input;
 mod basin_cells;
