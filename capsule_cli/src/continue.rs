@@ -45,8 +45,9 @@ pub struct Args {
     /// (one level): written as PREFIX_pd1.csv/.json, ..., drawn in the same SVG.
     #[arg(long)]
     switch: bool,
-    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg.
-    #[arg(long, value_name = "PREFIX", default_value = "branch")]
+    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg. Required: the files are
+    /// the branch.
+    #[arg(long, value_name = "PREFIX")]
     out: PathBuf,
 }
 

@@ -38,7 +38,8 @@ pub struct Args {
     steps: usize,
     /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg; a directory (an existing
     /// one, or a path ending in `/`) writes DIR/PARAM.csv, ... . Its directory must exist.
-    #[arg(long, value_name = "PREFIX", default_value = "sweep")]
+    /// Required: the files are the sweep's result.
+    #[arg(long, value_name = "PREFIX")]
     out: PathBuf,
     /// Follow one attractor: each value starts from the previous value's final state (runs
     /// one after the other) instead of every value from the scene's initial state (in parallel).

@@ -27,9 +27,9 @@ pub struct Args {
     /// Try the pulse at N consecutive starts (--pulse-at, +1, ...) and report which switch.
     #[arg(long, value_name = "N")]
     scan: Option<u32>,
-    /// Output prefix: writes PREFIX.svg, PREFIX.png and PREFIX.json.
-    #[arg(long, value_name = "PREFIX", default_value = "switch")]
-    out: PathBuf,
+    /// Output prefix: writes PREFIX.svg, PREFIX.png and PREFIX.json (no files without it).
+    #[arg(long, value_name = "PREFIX")]
+    out: Option<PathBuf>,
     /// Print the report as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -83,8 +83,14 @@ pub fn main(mut args: Args) -> Result<()> {
     let mut rows: Vec<Snapshot> = Vec::new();
     let report = switch_run(&scene, &schedule, SAMPLES, &mut |s| rows.push(*s))
         .with_context(|| format!("simulating {}", scene.name))?;
-    let doc = figure(&scene, &schedule, &report, &rows);
-    let written = write(&args.out, &doc, &report)?;
+    let written = match &args.out {
+        Some(prefix) => Some(write(
+            prefix,
+            &figure(&scene, &schedule, &report, &rows),
+            &report,
+        )?),
+        None => None,
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -98,14 +104,15 @@ pub fn main(mut args: Args) -> Result<()> {
         };
         println!("before  {}", describe(&report.before));
         println!("after   {}", describe(&report.after));
-        println!(
-            "{}; wrote {written}",
-            if report.switched {
-                "switched"
-            } else {
-                "not switched"
-            }
-        );
+        let verdict = if report.switched {
+            "switched"
+        } else {
+            "not switched"
+        };
+        match written {
+            Some(w) => println!("{verdict}; wrote {w}"),
+            None => println!("{verdict}"),
+        }
     }
     Ok(())
 }
