@@ -30,8 +30,8 @@ use crate::{
     views::Diagnostics,
 };
 use capsule_ros_base::{
-    conflicts::TopicRule,
     clock::RosClock,
+    conflicts::TopicRule,
     params::ParamTable,
     ros::{qos, subscribe, types, RosOptions, Wire},
     throttle::Throttle,

@@ -254,17 +254,25 @@ fn secured_samples_on_loopback_carry_no_plaintext() {
     );
     run.assert_ok();
     for s in DATA_IN_CLEAR {
-        let count = |tag: &str| -> Option<u64> {
-            run.after(&format!("FOUND {tag} {s} ")).parse().ok()
-        };
+        let count =
+            |tag: &str| -> Option<u64> { run.after(&format!("FOUND {tag} {s} ")).parse().ok() };
         assert!(
             count("plain").is_some_and(|n| n > 0),
             "{s} not seen unsecured: the capture saw nothing\n{}",
             run.all()
         );
-        assert_eq!(count("secured"), Some(0), "{s} in clear when secured\n{}", run.all());
+        assert_eq!(
+            count("secured"),
+            Some(0),
+            "{s} in clear when secured\n{}",
+            run.all()
+        );
     }
     let bytes: u64 = run.after("BYTES secured ").parse().unwrap_or(0);
-    assert!(bytes > 100_000, "secured capture of {bytes} bytes\n{}", run.all());
+    assert!(
+        bytes > 100_000,
+        "secured capture of {bytes} bytes\n{}",
+        run.all()
+    );
     run.assert_stdout(&["capsule_recorder: wrote"]);
 }
