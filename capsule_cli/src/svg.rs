@@ -1,5 +1,14 @@
 //! The one plot layer: a small hand-written SVG writer (panels with round ticks and a light
 //! grid, bifurcation diagrams, basin maps, log-log plots) and its rasterisation to PNG.
+//!
+//! Why not plotters: what takes the lines here is the figures' own content (a basin map as
+//! run-length rectangles with the attractors' Poincaré points and a share legend, heat maps
+//! whose colour is a share of a reference with the value written in each cell, continuation
+//! branches dashed where unstable with their special points, captions under the panels), which
+//! plotters would not write for us; its axes and frames are the small part. Its SVG backend
+//! would change every figure the docs show, and its PNGs need a font stack (font-kit and the
+//! system's fonts, or registering one by hand), where resvg renders our SVG with the embedded
+//! font the same on every machine. So the figures stay byte for byte reproducible.
 
 use capsule_analysis::SweepPoint;
 use std::fmt::Write;

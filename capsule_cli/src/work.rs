@@ -6,8 +6,10 @@ use crate::Refused;
 use capsule_args::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::{Method, Snapshot};
+use signal_hook::consts::SIGINT;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Once;
 
 /// Default of `--max-work`: estimated integration steps over the whole command (about a
 /// minute on one core of the machine the README's figures come from).
@@ -92,30 +94,31 @@ pub fn check_parent(path: &Path) -> Result<(), Refused> {
     }
 }
 
+/// Set by a Ctrl-C caught after [`catch_ctrl_c`]: long runs check it between pieces of work.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_sigint(_: libc::c_int) {
-    INTERRUPTED.store(true, Ordering::SeqCst);
-}
+/// While set, Ctrl-C has its default action (it ends the process): before [`catch_ctrl_c`],
+/// after [`release_ctrl_c`], and once the work has noticed a first Ctrl-C.
+static DEFAULT_ACTION: AtomicBool = AtomicBool::new(true);
+static HOOKED: Once = Once::new();
 
 /// From now on the first Ctrl-C sets [`interrupted`] instead of ending the process (a second
 /// one, after the work notices, ends it as usual).
 pub fn catch_ctrl_c() {
-    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
-    unsafe {
-        libc::signal(
-            libc::SIGINT,
-            on_sigint as extern "C" fn(libc::c_int) as libc::sighandler_t,
-        );
-    }
+    HOOKED.call_once(|| {
+        // signal-hook runs the actions in this order: the default action when it is armed,
+        // else the flag (both are atomic stores and loads, safe in a signal handler)
+        let hooked = signal_hook::flag::register_conditional_default(SIGINT, &DEFAULT_ACTION)
+            .and_then(|_| signal_hook::flag::register(SIGINT, &INTERRUPTED));
+        if let Err(e) = hooked {
+            tracing::warn!("Ctrl-C keeps its default action (ends the run at once): {e}");
+        }
+    });
+    DEFAULT_ACTION.store(false, Ordering::SeqCst);
 }
 
 /// Gives Ctrl-C its default action back (it ends the process) after [`catch_ctrl_c`].
 pub fn release_ctrl_c() {
-    // SAFETY: restoring the default action of one signal.
-    unsafe {
-        libc::signal(libc::SIGINT, libc::SIG_DFL);
-    }
+    DEFAULT_ACTION.store(true, Ordering::SeqCst);
 }
 
 /// Whether Ctrl-C was pressed since [`catch_ctrl_c`]; restores the default action, so that a
@@ -123,10 +126,7 @@ pub fn release_ctrl_c() {
 pub fn interrupted() -> bool {
     let hit = INTERRUPTED.load(Ordering::SeqCst);
     if hit {
-        // SAFETY: restoring the default action of one signal.
-        unsafe {
-            libc::signal(libc::SIGINT, libc::SIG_DFL);
-        }
+        DEFAULT_ACTION.store(true, Ordering::SeqCst);
     }
     hit
 }

@@ -10,7 +10,7 @@ use std::{
 
 use crate::{
     info::{info, InfoSource, RecordingInfo},
-    metadata_yaml::{metadata_yaml, BagFile, BagTopic, METADATA_YAML},
+    metadata_yaml::{metadata_yaml, relative_file_paths, BagFile, BagTopic, METADATA_YAML},
     profile::QOS_KEY,
     types::OfferedQos,
     writer::{ChunkCompression, RecordWriter, WriteSummary, WriterOptions},
@@ -274,20 +274,12 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, RecordError> {
         (dir, path.to_path_buf())
     };
     let text = std::fs::read_to_string(&yaml).map_err(|e| RecordError::io(&yaml, e))?;
-    let mut files = Vec::new();
-    let mut in_list = false;
-    for line in text.lines() {
-        if line.trim_end() == "  relative_file_paths:" {
-            in_list = true;
-            continue;
-        }
-        if in_list {
-            match line.strip_prefix("    - ") {
-                Some(name) => files.push(dir.join(name.trim().trim_matches('"'))),
-                None => break,
-            }
-        }
-    }
+    let names = relative_file_paths(&text).map_err(|e| RecordError::UnknownSchema {
+        path: yaml.clone(),
+        topic: "-".into(),
+        reason: format!("not a rosbag2 metadata.yaml: {e}"),
+    })?;
+    let files: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
     if files.is_empty() {
         return Err(RecordError::UnknownSchema {
             path: yaml,

@@ -1,86 +1,73 @@
-//! Loop latencies in constant memory: a log-linear histogram (as HdrHistogram lays it out).
+//! Loop latencies in constant memory: an HdrHistogram (`hdrhistogram`) with two significant
+//! digits, read as order statistics.
 //!
 //! The plant used to keep every latency in a `Vec<f64>` to sort it at the end: 8 bytes per
 //! answered sample, the ~9.7 KB/s its memory grew at 1 kHz with a controller answering (issue
 //! 12). This histogram has a fixed size (36 KB) for any run length; a percentile is exact
 //! to within [`LatencyHistogram::RELATIVE_ERROR`] and the maximum is exact.
 
-/// Sub-buckets per power of two (relative resolution 1/128).
-const SUB: u64 = 128;
-const SUB_BITS: u32 = 7;
-/// Values are nanoseconds below 2^41 (about 36 minutes); larger ones land in the last bucket.
-const TOP_BIT: u32 = 41;
-const BUCKETS: usize = ((TOP_BIT - SUB_BITS + 2) as u64 * SUB) as usize;
+use hdrhistogram::Histogram;
+
+/// Values are nanoseconds up to 2^42 (about 73 minutes); larger ones count as that.
+const TOP_NS: u64 = 1 << 42;
+/// Two significant digits: 128 sub-buckets per power of two (relative resolution 1/128).
+const SIGFIG: u8 = 2;
 
 /// Counts of latencies by size, in constant memory.
 #[derive(Debug, Clone)]
 pub struct LatencyHistogram {
-    counts: Vec<u64>,
-    count: u64,
+    counts: Histogram<u64>,
     max_ns: u64,
 }
 
 impl Default for LatencyHistogram {
     fn default() -> Self {
         LatencyHistogram {
-            counts: vec![0; BUCKETS],
-            count: 0,
+            counts: empty(),
             max_ns: 0,
         }
     }
 }
 
-fn index(ns: u64) -> usize {
-    if ns < SUB {
-        return ns as usize;
-    }
-    let top = (63 - ns.leading_zeros()).min(TOP_BIT);
-    let ns = ns.min((1u64 << (TOP_BIT + 1)) - 1);
-    let shift = top - SUB_BITS;
-    let sub = (ns >> shift) - SUB;
-    ((u64::from(shift) + 1) * SUB + sub) as usize
-}
-
-/// The middle of bucket `i` [ns].
-fn value(i: usize) -> f64 {
-    let i = i as u64;
-    if i < SUB {
-        return i as f64;
-    }
-    let shift = i / SUB - 1;
-    let lower = (SUB + i % SUB) << shift;
-    lower as f64 + ((1u64 << shift) as f64 - 1.0) / 2.0
+fn empty() -> Histogram<u64> {
+    // fixed bounds (1 <= low, 2 low <= high, sigfig <= 5): creating it cannot fail, and it
+    // never grows
+    Histogram::new_with_bounds(1, TOP_NS, SIGFIG)
+        .unwrap_or_else(|e| panic!("latency histogram bounds: {e}"))
 }
 
 impl LatencyHistogram {
     /// Largest relative error of a reported percentile (half a bucket).
-    pub const RELATIVE_ERROR: f64 = 0.5 / SUB as f64;
+    pub const RELATIVE_ERROR: f64 = 0.5 / 128.0;
 
     /// Adds a latency \[s\] (negative ones, from clock steps, count as zero).
     pub fn record(&mut self, seconds: f64) {
         let ns = (seconds.max(0.0) * 1e9).round() as u64;
-        self.counts[index(ns)] += 1;
-        self.count += 1;
+        self.counts.saturating_record(ns);
         self.max_ns = self.max_ns.max(ns);
     }
 
     /// Latencies recorded.
     pub fn count(&self) -> u64 {
-        self.count
+        self.counts.len()
     }
 
-    /// The `q`-quantile \[s\] (order statistic `round((n-1) q)`, to within the resolution),
-    /// `None` if empty.
+    /// The `q`-quantile \[s\] (order statistic `round((n-1) q)`, to within the resolution: the
+    /// middle of its bucket), `None` if empty.
     pub fn quantile(&self, q: f64) -> Option<f64> {
-        if self.count == 0 {
+        let n = self.count();
+        if n == 0 {
             return None;
         }
-        let rank = ((self.count - 1) as f64 * q.clamp(0.0, 1.0)).round() as u64;
+        let rank = ((n - 1) as f64 * q.clamp(0.0, 1.0)).round() as u64;
         let mut seen = 0;
-        for (i, &c) in self.counts.iter().enumerate() {
-            seen += c;
+        for v in self.counts.iter_recorded() {
+            seen += v.count_at_value();
             if seen > rank {
-                return Some(value(i).min(self.max_ns as f64) / 1e9);
+                let at = v.value_iterated_to();
+                let lowest = self.counts.lowest_equivalent(at) as f64;
+                let middle = lowest + (self.counts.equivalent_range(at) as f64 - 1.0) / 2.0;
+                return Some(middle.min(self.max_ns as f64) / 1e9);
             }
         }
         Some(self.max_ns as f64 / 1e9)
@@ -89,26 +76,24 @@ impl LatencyHistogram {
     /// What was recorded after `earlier` (an older copy of this histogram): the counts'
     /// difference; its maximum is the upper edge of its highest non-empty bucket.
     pub fn since(&self, earlier: &LatencyHistogram) -> LatencyHistogram {
-        let counts: Vec<u64> = self
-            .counts
-            .iter()
-            .zip(&earlier.counts)
-            .map(|(a, b)| a.saturating_sub(*b))
-            .collect();
-        let max_ns = counts
-            .iter()
-            .rposition(|&c| c > 0)
-            .map_or(0, |i| (value(i).ceil() as u64).min(self.max_ns));
-        LatencyHistogram {
-            count: counts.iter().sum(),
-            counts,
-            max_ns,
+        let mut counts = empty();
+        let mut max_ns = 0;
+        for v in self.counts.iter_recorded() {
+            let at = v.value_iterated_to();
+            let new = v
+                .count_at_value()
+                .saturating_sub(earlier.counts.count_at(at));
+            if new > 0 {
+                counts.saturating_record_n(at, new);
+                max_ns = self.counts.highest_equivalent(at).min(self.max_ns);
+            }
         }
+        LatencyHistogram { counts, max_ns }
     }
 
     /// The largest latency \[s\], exact; `None` if empty.
     pub fn max(&self) -> Option<f64> {
-        (self.count > 0).then_some(self.max_ns as f64 / 1e9)
+        (self.count() > 0).then_some(self.max_ns as f64 / 1e9)
     }
 }
 
@@ -117,22 +102,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn buckets_are_contiguous_and_within_the_resolution() {
-        let mut last = 0;
-        for ns in 0..5000u64 {
-            let i = index(ns);
-            assert!(i == last || i == last + 1, "{ns}: {i} after {last}");
-            last = i;
-            let v = value(i);
+    fn one_value_reads_back_within_the_resolution() {
+        for ns in (0..5000u64).chain((12..42).map(|k| (1u64 << k) + 12_345)) {
+            let mut h = LatencyHistogram::default();
+            h.record(ns as f64 * 1e-9);
+            // a single value is also the maximum, which caps the bucket's middle
+            let v = h.quantile(0.5).unwrap_or(f64::NAN) * 1e9;
             assert!(
                 (v - ns as f64).abs() <= ns as f64 * LatencyHistogram::RELATIVE_ERROR + 0.5,
                 "{ns} -> {v}"
             );
         }
-        for ns in (0..64).map(|k| 1u64 << k).chain([u64::MAX]) {
-            assert!(index(ns) < BUCKETS, "{ns}");
-        }
-        assert_eq!(index(u64::MAX), BUCKETS - 1);
     }
 
     #[test]
@@ -157,13 +137,34 @@ mod tests {
     #[test]
     fn memory_does_not_grow_with_the_count() {
         let mut h = LatencyHistogram::default();
-        let before = h.counts.capacity();
+        let before = h.counts.buckets();
         for k in 0..200_000 {
             h.record(f64::from(k % 977) * 1.3e-7);
         }
         h.record(1e6); // beyond the top: last bucket, max still exact
-        assert_eq!(h.counts.capacity(), before);
+        assert!(!h.counts.is_auto_resize());
+        assert_eq!(h.counts.buckets(), before);
         assert_eq!(h.max(), Some(1e6));
         assert_eq!(h.count(), 200_001);
+    }
+
+    #[test]
+    fn since_keeps_what_came_after() {
+        let mut h = LatencyHistogram::default();
+        for k in 1..=100 {
+            h.record(f64::from(k) * 1e-6);
+        }
+        let earlier = h.clone();
+        for _ in 0..50 {
+            h.record(2e-3);
+        }
+        let d = h.since(&earlier);
+        assert_eq!(d.count(), 50);
+        let q = d.quantile(0.5).unwrap_or(f64::NAN);
+        assert!(
+            (q - 2e-3).abs() <= 2e-3 * LatencyHistogram::RELATIVE_ERROR,
+            "{q}"
+        );
+        assert_eq!(d.max(), Some(2e-3));
     }
 }

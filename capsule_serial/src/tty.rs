@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use nix::fcntl::{open, OFlag};
 use nix::sys::stat::Mode;
-use nix::sys::termios::{self, BaudRate, SetArg};
+#[cfg(any(target_os = "linux", target_os = "android"))]
+use nix::sys::termios::BaudRate;
+use nix::sys::termios::{self, SetArg};
 
 /// The baud rates a line can be opened at.
 pub const BAUD_RATES: [u32; 12] = [
@@ -15,7 +17,17 @@ pub const BAUD_RATES: [u32; 12] = [
     2_000_000, 4_000_000,
 ];
 
-fn baud(rate: u32) -> Option<BaudRate> {
+/// A rate as termios takes it. Linux has a `B...` constant for each rate above; the BSDs and
+/// macOS have no constant for most of the fast ones but take the number itself (their speeds
+/// are the numbers), so the same list works there (a rate the driver cannot do is then refused
+/// when the line is set up).
+#[cfg(any(target_os = "linux", target_os = "android"))]
+type Speed = BaudRate;
+#[cfg(not(any(target_os = "linux", target_os = "android")))]
+type Speed = u32;
+
+#[cfg(any(target_os = "linux", target_os = "android"))]
+fn baud(rate: u32) -> Option<Speed> {
     Some(match rate {
         9_600 => BaudRate::B9600,
         19_200 => BaudRate::B19200,
@@ -33,8 +45,13 @@ fn baud(rate: u32) -> Option<BaudRate> {
     })
 }
 
+#[cfg(not(any(target_os = "linux", target_os = "android")))]
+fn baud(rate: u32) -> Option<Speed> {
+    BAUD_RATES.contains(&rate).then_some(rate)
+}
+
 /// Puts the terminal `fd` in raw mode at `rate` baud (a pseudo-terminal ignores the rate).
-fn make_raw(fd: impl AsFd, rate: Option<BaudRate>) -> nix::Result<()> {
+fn make_raw(fd: impl AsFd, rate: Option<Speed>) -> nix::Result<()> {
     let mut t = termios::tcgetattr(&fd)?;
     termios::cfmakeraw(&mut t);
     if let Some(r) = rate {

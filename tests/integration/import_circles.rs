@@ -33,6 +33,14 @@ const KNOWN: &[&[&str]] = &[
         "capsule_nodes/src/plant/plant_core.rs",
         "capsule_nodes/src/plant/stats.rs",
     ],
+    // the settings table (merged with it): ranges.rs uses node_table's RATE_HZ_RANGE while
+    // node_table -> settings -> ranges (the settings helper's)
+    &[
+        "capsule_args/src/node_table.rs",
+        "capsule_args/src/plant_settings.rs",
+        "capsule_args/src/ranges.rs",
+        "capsule_args/src/settings.rs",
+    ],
 ];
 
 /// A module: its file, child modules, names it defines, `use` imports and the paths its code

@@ -113,6 +113,65 @@ fn horner2(g: &[f64], t: f64) -> (f64, f64) {
     (acc, dacc)
 }
 
+/// The first event in `(0, h]` of a step whose series is `series` (degree `n` =
+/// `series.len() - 1`): where and which (`h` and none when no event function crosses zero);
+/// `gser` is room for an event function's series.
+fn first_event(
+    events: &[EventFn],
+    series: &[[f64; 5]],
+    gser: &mut [f64; K + 1],
+    h: f64,
+) -> (f64, Option<EventKind>) {
+    let n = series.len() - 1;
+    let mut t_hit = h;
+    let mut hit: Option<EventKind> = None;
+    for ev in events {
+        for (g, v) in gser.iter_mut().zip(series) {
+            *g = ev.c[0] * v[0] + ev.c[1] * v[1] + ev.c[2] * v[2] + ev.c[3] * v[3];
+        }
+        gser[0] += ev.c0;
+        // |g(t) - g(0)| <= sum |G_k| t^k: if that cannot reach zero, no crossing.
+        // Terms below rounding over this step are left out of the evaluations.
+        let mut reach = 0.0;
+        let mut tk = 1.0;
+        let mut degree = 0;
+        let negligible = TRUNCATION * (1.0 + gser[0].abs());
+        for (k, gk) in gser.iter().enumerate().take(n + 1).skip(1) {
+            tk *= t_hit;
+            let term = gk.abs() * tk;
+            reach += term;
+            if term > negligible {
+                degree = k;
+            }
+        }
+        if gser[0] + reach <= crate::roots::NOISE {
+            continue;
+        }
+        let g = &gser[..=degree];
+        if let Some(t) = first_crossing(|t| horner(g, t), |t| horner2(g, t), t_hit) {
+            if hit.is_none() || t < t_hit {
+                t_hit = t;
+                hit = Some(ev.kind);
+            }
+        }
+    }
+    (t_hit, hit)
+}
+
+/// The state at `t` into a step from its Taylor series (Horner).
+fn sum_at(series: &[[f64; 5]], t: f64) -> [f64; 5] {
+    let n = series.len() - 1;
+    let mut v = [0.0f64; 5];
+    for (i, vi) in v.iter_mut().enumerate() {
+        let mut acc = series[n][i];
+        for k in (0..n).rev() {
+            acc = acc * t + series[k][i];
+        }
+        *vi = acc;
+    }
+    v
+}
+
 impl Simulator {
     pub(super) fn advance_exact(
         &mut self,
@@ -186,47 +245,9 @@ impl Simulator {
             let series = &series[..=n];
             // first event in (0, h]
             self.event_functions(drive.kp != 0.0, &mut events);
-            let mut t_hit = h;
-            let mut hit: Option<EventKind> = None;
-            for ev in &events {
-                for (g, v) in gser.iter_mut().zip(series) {
-                    *g = ev.c[0] * v[0] + ev.c[1] * v[1] + ev.c[2] * v[2] + ev.c[3] * v[3];
-                }
-                gser[0] += ev.c0;
-                // |g(t) - g(0)| <= sum |G_k| t^k: if that cannot reach zero, no crossing.
-                // Terms below rounding over this step are left out of the evaluations.
-                let mut reach = 0.0;
-                let mut tk = 1.0;
-                let mut degree = 0;
-                let negligible = TRUNCATION * (1.0 + gser[0].abs());
-                for (k, gk) in gser.iter().enumerate().take(n + 1).skip(1) {
-                    tk *= t_hit;
-                    let term = gk.abs() * tk;
-                    reach += term;
-                    if term > negligible {
-                        degree = k;
-                    }
-                }
-                if gser[0] + reach <= crate::roots::NOISE {
-                    continue;
-                }
-                let g = &gser[..=degree];
-                if let Some(t) = first_crossing(|t| horner(g, t), |t| horner2(g, t), t_hit) {
-                    if hit.is_none() || t < t_hit {
-                        t_hit = t;
-                        hit = Some(ev.kind);
-                    }
-                }
-            }
+            let (t_hit, hit) = first_event(&events, series, &mut gser, h);
             // state at the end of the (possibly shortened) step
-            let mut v = [0.0f64; 5];
-            for (i, vi) in v.iter_mut().enumerate() {
-                let mut acc = series[n][i];
-                for k in (0..n).rev() {
-                    acc = acc * t_hit + series[k][i];
-                }
-                *vi = acc;
-            }
+            let v = sum_at(series, t_hit);
             let dw = if self.track_work {
                 self.step_work(series, &forcing[..=n], drive, t_hit)
             } else {

@@ -131,6 +131,28 @@ fn dense(c: &[V; 5], i: usize, th: f64) -> (f64, f64) {
     (r1 + th * d, d + th * dc)
 }
 
+/// The first event in a step, on its dense output: where (a fraction of the step) and which.
+fn first_event(events: &[EventFn], step: &DopriStep) -> Option<(f64, EventFn)> {
+    let mut hit: Option<(f64, EventFn)> = None;
+    for ev in events {
+        let gd = |th: f64| {
+            let mut v = [0.0; 4];
+            let mut d = [0.0; 4];
+            for i in 0..4 {
+                (v[i], d[i]) = dense(&step.cont, i, th);
+            }
+            (ev.eval(&v), ev.eval(&d) - ev.c0)
+        };
+        let limit = hit.map_or(1.0, |(t, _)| t);
+        if let Some(th) = first_crossing(|th| gd(th).0, gd, limit) {
+            if hit.is_none_or(|(t, _)| th < t) {
+                hit = Some((th, *ev));
+            }
+        }
+    }
+    hit
+}
+
 impl Simulator {
     fn rk_rhs<L: ActuatorLaw, F: FrictionLaw>(&self, ctx: &Rhs<'_, L, F>, tau: f64, v: &V) -> V {
         let [z, y1, y2, p, dx2, _] = *v;
@@ -292,50 +314,10 @@ impl Simulator {
                 None => tau_end,
             };
             // one accepted step
-            let (mut h, step) = loop {
-                let h = self.rk_step.min(h_cap).min(stop - self.tau);
-                if h <= f64::EPSILON * self.tau.abs().max(1.0) * 4.0 && self.tau + h < stop {
-                    return Err(SimError::StepUnderflow { tau: self.tau });
-                }
-                let s = self.dopri_step(&ctx, &y0, &k1, h);
-                let err = self.error_norm(&y0, &s);
-                let fac = if err == 0.0 {
-                    5.0
-                } else if err.is_nan() {
-                    // a NaN error estimate must shrink the step, not keep it (that spun forever)
-                    0.2
-                } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
-                };
-                if err <= 1.0 {
-                    if h == self.rk_step.min(h_cap) || fac < 1.0 {
-                        self.rk_step = h * fac;
-                    }
-                    break (h, s);
-                }
-                self.work.rejected += 1;
-                self.rk_step = h * fac.min(1.0);
-            };
-            let mut step = step;
+            let (mut h, mut step) = self.accepted_step(&ctx, &y0, &k1, h_cap, stop)?;
             // first event in the step, on the dense output
             self.event_functions(kink, &mut events);
-            let mut hit: Option<(f64, EventFn)> = None;
-            for ev in &events {
-                let gd = |th: f64| {
-                    let mut v = [0.0; 4];
-                    let mut d = [0.0; 4];
-                    for i in 0..4 {
-                        (v[i], d[i]) = dense(&step.cont, i, th);
-                    }
-                    (ev.eval(&v), ev.eval(&d) - ev.c0)
-                };
-                let limit = hit.map_or(1.0, |(t, _)| t);
-                if let Some(th) = first_crossing(|th| gd(th).0, gd, limit) {
-                    if hit.is_none_or(|(t, _)| th < t) {
-                        hit = Some((th, *ev));
-                    }
-                }
-            }
+            let hit = first_event(&events, &step);
             if let Some((th, ev)) = hit {
                 if th == 0.0 {
                     let e = self.cross(ev.kind)?;
@@ -345,30 +327,7 @@ impl Simulator {
                     self.rk_step = self.rk_step.max(h * 0.1);
                     continue;
                 }
-                // land on the event: re-take the step with the length that puts g at zero
-                let mut hs = th * h;
-                let dgdh = |s: &DopriStep, th: f64| {
-                    let mut d = [0.0; 4];
-                    for (i, di) in d.iter_mut().enumerate() {
-                        *di = dense(&s.cont, i, th).1;
-                    }
-                    (ev.eval(&d) - ev.c0) / h
-                };
-                let slope0 = dgdh(&step, th);
-                step = self.dopri_step(&ctx, &y0, &k1, hs);
-                for _ in 0..8 {
-                    let gv = ev.eval(&step.y);
-                    if gv.abs() <= BOUNDARY * 1e-2 || slope0 == 0.0 {
-                        break;
-                    }
-                    let hn = (hs - gv / slope0).clamp(0.0, h);
-                    if hn == hs {
-                        break;
-                    }
-                    hs = hn;
-                    step = self.dopri_step(&ctx, &y0, &k1, hs);
-                }
-                h = hs;
+                (h, step) = self.land_on_event(&ctx, &y0, &k1, (h, &step), th, &ev);
                 self.finish_rk_step(h, &step)?;
                 let e = self.cross(ev.kind)?;
                 if on_event(&e).is_break() {
@@ -381,6 +340,79 @@ impl Simulator {
             }
         }
         Ok(Stop::Horizon)
+    }
+
+    /// One accepted Dormand-Prince step from `y0` (derivative `k1`), at most `h_cap` long and
+    /// not past `stop`: its length and the step; the next step's length stays in `rk_step`.
+    fn accepted_step<L: ActuatorLaw, F: FrictionLaw>(
+        &mut self,
+        ctx: &Rhs<'_, L, F>,
+        y0: &V,
+        k1: &V,
+        h_cap: f64,
+        stop: f64,
+    ) -> Result<(f64, DopriStep), SimError> {
+        loop {
+            let h = self.rk_step.min(h_cap).min(stop - self.tau);
+            if h <= f64::EPSILON * self.tau.abs().max(1.0) * 4.0 && self.tau + h < stop {
+                return Err(SimError::StepUnderflow { tau: self.tau });
+            }
+            let s = self.dopri_step(ctx, y0, k1, h);
+            let err = self.error_norm(y0, &s);
+            let fac = if err == 0.0 {
+                5.0
+            } else if err.is_nan() {
+                // a NaN error estimate must shrink the step, not keep it (that spun forever)
+                0.2
+            } else {
+                (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+            };
+            if err <= 1.0 {
+                if h == self.rk_step.min(h_cap) || fac < 1.0 {
+                    self.rk_step = h * fac;
+                }
+                return Ok((h, s));
+            }
+            self.work.rejected += 1;
+            self.rk_step = h * fac.min(1.0);
+        }
+    }
+
+    /// Re-takes the step `taken` (its length and step) with the length that puts `ev`'s
+    /// function at zero, the crossing found at `th` of it: the length and the step.
+    fn land_on_event<L: ActuatorLaw, F: FrictionLaw>(
+        &mut self,
+        ctx: &Rhs<'_, L, F>,
+        y0: &V,
+        k1: &V,
+        taken: (f64, &DopriStep),
+        th: f64,
+        ev: &EventFn,
+    ) -> (f64, DopriStep) {
+        let (h, step) = taken;
+        let mut hs = th * h;
+        let dgdh = |s: &DopriStep, th: f64| {
+            let mut d = [0.0; 4];
+            for (i, di) in d.iter_mut().enumerate() {
+                *di = dense(&s.cont, i, th).1;
+            }
+            (ev.eval(&d) - ev.c0) / h
+        };
+        let slope0 = dgdh(step, th);
+        let mut step = self.dopri_step(ctx, y0, k1, hs);
+        for _ in 0..8 {
+            let gv = ev.eval(&step.y);
+            if gv.abs() <= BOUNDARY * 1e-2 || slope0 == 0.0 {
+                break;
+            }
+            let hn = (hs - gv / slope0).clamp(0.0, h);
+            if hn == hs {
+                break;
+            }
+            hs = hn;
+            step = self.dopri_step(ctx, y0, k1, hs);
+        }
+        (hs, step)
     }
 
     fn finish_rk_step(&mut self, h: f64, s: &DopriStep) -> Result<(), SimError> {
