@@ -1,9 +1,9 @@
 //! The controller node on DDS, as its life reads: [`run`] builds the endpoints, then runs the
 //! loop until SIGINT/SIGTERM. The decisions are [`ControllerCore`]'s
 //! ([`crate::controller_core`]); what the loop does with each input apart from DDS is
-//! [`Handlers`]' (the core, the parameter sync, which plant it serves, the logs); the inputs
-//! ([`Inputs`]: state samples, mode requests, accepted parameter sets) and the outputs
-//! ([`Outputs`]: commands, status, service events, diagnostics) are the DDS side, kept apart
+//! `Handlers`' (the core, the parameter sync, which plant it serves, the logs); the inputs
+//! (`Inputs`: state samples, mode requests, accepted parameter sets) and the outputs
+//! (`Outputs`: commands, status, service events, diagnostics) are the DDS side, kept apart
 //! so that state and commands could come from another transport.
 //!
 //! Status messages are stamped with the node's ROS time (sim time under `use_sim_time`); the

@@ -6,7 +6,7 @@
 //!
 //! - [`Graph`]: which remote readers and writers matched our endpoints (discovery events of the
 //!   participant), to wait for subscribers or publishers before starting;
-//! - ROS time, from our own `/clock` subscription only under `use_sim_time`: [`RosClock`]
+//! - ROS time, from our own `/clock` subscription only under `use_sim_time`: [`RosClock`](crate::clock::RosClock)
 //!   (in [`crate::clock`]).
 //!
 //! The Spinner's parameter services (hard-wired to the Enhanced mapping) go with it; the loop
