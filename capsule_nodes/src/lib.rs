@@ -8,13 +8,15 @@
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
 //! - [`controller`]: the controller node; [`controller_diagnostics`]: its `/diagnostics`;
 //!   [`controller_params`]: its ROS parameters
-//! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`];
-//!   [`emergency_stop`]: its emergency-stop service and latched state
+//! - [`plant`]: the plant node (lifecycle, pacing, hold, watchdog) around any
+//!   [`hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and latched
+//!   state
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
-//! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method);
-//!   [`device_driver`]: for a device on a serial line (`--source serial:PATH`)
+//! - [`hardware`]: the plant's hardware interface (SI, ros2_control's shape); [`sim`]: the
+//!   simulator of `capsule_plant` behind it (any method); [`device_driver`]: a device on a
+//!   serial line (`--source serial:PATH`)
 
 #![warn(missing_docs)]
 
@@ -27,6 +29,7 @@ pub mod controller_params;
 pub mod device_driver;
 pub mod emergency_stop;
 pub mod foxglove_bridge;
+pub mod hardware;
 pub mod joint_commands;
 pub mod plant;
 pub mod plant_identity;

@@ -8,7 +8,8 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
     device_driver::{DeviceDriver, DriverOptions, Source},
-    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions, PlantSim},
+    hardware::CapsuleHardware,
+    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
     plant_params, recorder,
     sim::SimulatedPlant,
     views,
@@ -103,14 +104,20 @@ struct Cli {
     /// `-p joint_commands:=true`). Real-time pacing only
     #[arg(long)]
     joint_commands: bool,
+    /// Configure and activate at once (true, the default: the node runs as it starts), or
+    /// start unconfigured and wait for the lifecycle (`ros2 lifecycle set /capsule_plant
+    /// configure`, then `activate`), as rclcpp_lifecycle's managed nodes do
+    #[arg(long, default_value_t = true, num_args = 0..=1, default_missing_value = "true",
+          value_name = "BOOL", action = clap::ArgAction::Set)]
+    autostart: bool,
     #[command(flatten)]
     views: views::ViewArgs,
     #[command(flatten)]
     ros: RosArgs,
 }
 
-/// The plant node's core around the source chosen with `--source`.
-type Plant = PlantCore<Box<dyn PlantSim + Send>>;
+/// The plant node's core around the hardware chosen with `--source`.
+type Plant = PlantCore<Box<dyn CapsuleHardware>>;
 
 impl Cli {
     /// The source as `--check` prints it.
@@ -199,24 +206,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Pla
     let max_force_n = cli
         .max_force_n
         .unwrap_or(capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n());
-    let source: Box<dyn PlantSim + Send> = match &cli.source {
-        Source::Sim => Box::new(SimulatedPlant(
-            Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
-                .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?,
-        )),
-        Source::Serial { path, baud } => Box::new(DeviceDriver::new(
-            DriverOptions {
-                path: path.clone(),
-                baud: *baud,
-                rate_hz: rate,
-                max_force_n,
-                max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
-                gap_m: scene.model.capsule.delta * scene.physical.length_m(),
-                dry_run: cli.dry_run,
-            },
-            scene.physical,
-        )),
-    };
+    let source = hardware(cli, &file, rate, max_force_n)?;
     let core = PlantCore::new(source, scene.physical, rate, timeout).with_max_force_n(max_force_n);
     let opts = PlantOptions {
         pacing: cli.pacing,
@@ -228,8 +218,41 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Pla
         record: record_options(cli, &file)?,
         params,
         joint_commands,
+        autostart: cli.autostart,
     };
     Ok((settings, core, opts))
+}
+
+/// The hardware behind the node: the scene's simulator (checked here, built again at each
+/// configure) or the device on the line of `--source`.
+fn hardware(
+    cli: &Cli,
+    file: &SceneFile,
+    rate: f64,
+    max_force_n: f64,
+) -> Result<Box<dyn CapsuleHardware>> {
+    let scene = &file.scene;
+    Ok(match &cli.source {
+        Source::Sim => {
+            let (model, s0, solver) = (scene.model(), scene.initial_state(), scene.solver());
+            let name = cli.scene.clone();
+            let build = move || {
+                Simulator::new(model, s0, 0.0, solver)
+                    .map_err(|e| format!("{name}: cannot set up the simulation: {e}"))
+            };
+            build().map_err(anyhow::Error::msg)?;
+            Box::new(SimulatedPlant::new(Box::new(build), scene.physical, rate))
+        }
+        Source::Serial { path, baud } => Box::new(DeviceDriver::new(DriverOptions {
+            path: path.clone(),
+            baud: *baud,
+            rate_hz: rate,
+            max_force_n,
+            max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
+            gap_m: scene.model.capsule.delta * scene.physical.length_m(),
+            dry_run: cli.dry_run,
+        })),
+    })
 }
 
 fn main() -> std::process::ExitCode {
