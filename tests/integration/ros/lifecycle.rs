@@ -3,7 +3,7 @@
 //! (for a hello, on a silent device, inside a lock-step step): the answer as a client sees it,
 //! the zero-force frame as the device sees it.
 
-use super::harness::{assert_contains, json_number, netns_with_peer};
+use super::harness::{assert_contains, json_number, netns_with_fastdds_peer, netns_with_peer};
 
 /// The peer's record of one transition.
 fn step(out: &str, i: usize) -> &str {
@@ -21,6 +21,7 @@ fn a_managed_plant_with_the_emulator_actuates_only_while_active() {
         150,
         r#"
         "$B/capsule" emulate-device --scene "$SCENE" --link "$TMP/dev" > "$TMP/emu.out" 2> "$TMP/emu.err" & E=$!
+        wait_line "$TMP/dev"
         start_controller --mode forward
         RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_plant --source "serial:$TMP/dev" --autostart false 2> "$TMP/plant.log"
         sleep 1
@@ -174,7 +175,7 @@ fn the_emergency_stop_is_answered_and_zeroes_the_device_while_the_driver_waits()
         let (answer, zero) = estop_timed(&format!(
             r#"
             python3 "$ROOT/tests/peers/quiet_device.py" "$TMP/dev" "$TMP/forces.csv" {quiet} --seconds 40 & Q=$!
-            sleep 0.5
+            wait_line "$TMP/dev"
             RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_plant --source "serial:$TMP/dev" --startup-timeout-s 30 2> "$TMP/plant.log"
             sleep 1.5
             peer estop-time --repeat 5 || exit 1
@@ -195,6 +196,7 @@ fn the_emergency_stop_is_answered_and_zeroes_the_device_while_the_driver_waits()
     let (answer, zero) = estop_timed(
         r#"
         "$B/capsule" emulate-device --scene "$SCENE" --link "$TMP/dev" --pacing lockstep --force-log "$TMP/forces.csv" > "$TMP/emu.out" 2> "$TMP/emu.err" & E=$!
+        wait_line "$TMP/dev"
         start_controller --mode forward
         RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_plant --source "serial:$TMP/dev" --pacing lockstep --command-timeout-s 10 2> "$TMP/plant.log"
         sleep 2
@@ -205,4 +207,51 @@ fn the_emergency_stop_is_answered_and_zeroes_the_device_while_the_driver_waits()
     );
     assert!(answer < 100.0, "lock-step: answer {answer} ms");
     assert!(zero < answer + 1.0, "lock-step: zero frame {zero} ms");
+}
+
+#[test]
+fn fastdds_peer_drives_the_lifecycle_and_stops_a_plant_whose_device_is_silent() {
+    // the issue's case: a plant on a line where no device speaks, which before did not answer
+    // the stop for its whole start-up wait; the Fast DDS C++ peer in rmw_fastrtps' mapping
+    let run = netns_with_fastdds_peer(
+        120,
+        r#"
+        python3 "$ROOT/tests/peers/quiet_device.py" "$TMP/dev" "$TMP/forces.csv" --seconds 60 & Q=$!
+        wait_line "$TMP/dev"
+        start_plant --source "serial:$TMP/dev" --autostart false --startup-timeout-s 20 2> "$TMP/plant.log"
+        fpeer lifecycle configure activate || exit 1
+        fpeer estop || exit 1
+        fpeer estop || exit 1
+        fpeer lifecycle deactivate shutdown || exit 1
+        wait $P; echo "PLANT exited $?"
+        kill $Q; wait $Q
+        cat "$TMP/plant.log" >&2"#,
+    );
+    run.assert_ok();
+    let steps = run.lines_starting("{\"lifecycle\"");
+    assert_eq!(steps.len(), 2, "{}", run.all());
+    assert_contains(
+        steps[0],
+        &[
+            "{\"transition\": \"configure\", \"success\": true, \"state\": \"inactive\", \"id\": 2}",
+            "{\"transition\": \"activate\", \"success\": true, \"state\": \"active\", \"id\": 3}",
+        ],
+    );
+    assert_contains(
+        steps[1],
+        &[
+            "\"deactivate\", \"success\": true, \"state\": \"inactive\"",
+            "\"state\": \"finalized\"",
+        ],
+    );
+    let stops = run.lines_starting("{\"engaged\"");
+    assert_eq!(stops.len(), 2, "{}", run.all());
+    for s in stops {
+        assert_contains(s, &["\"engaged\": true", "\"released\": true"]);
+        assert!(
+            json_number(s, "answer_ms").unwrap_or(f64::NAN) < 200.0,
+            "{s}"
+        );
+    }
+    assert!(run.stdout.contains("PLANT exited 0"), "{}", run.all());
 }
