@@ -61,20 +61,33 @@ pub mod topics {
     pub const EMERGENCY_STOP: &str = "capsule/emergency_stop";
     /// The plant's emergency-stop service (`std_srvs/srv/SetBool`: true engages, false releases).
     pub const EMERGENCY_STOP_SERVICE: &str = "~/emergency_stop";
-    /// Lifecycle services and topic of a managed node (as rclcpp_lifecycle names them).
+    /// A managed node's lifecycle (as rclcpp_lifecycle serves it): `(name, type)` of each
+    /// service and of the event topic.
     pub mod lifecycle {
+        /// `(name, type)`: a service or topic and its ROS 2 type.
+        pub type Endpoint = (&'static str, &'static str);
         /// Asks for a transition.
-        pub const CHANGE_STATE: &str = "~/change_state";
+        pub const CHANGE_STATE: Endpoint = ("~/change_state", "lifecycle_msgs/srv/ChangeState");
         /// The current state.
-        pub const GET_STATE: &str = "~/get_state";
+        pub const GET_STATE: Endpoint = ("~/get_state", "lifecycle_msgs/srv/GetState");
         /// Every state.
-        pub const GET_AVAILABLE_STATES: &str = "~/get_available_states";
+        pub const GET_AVAILABLE_STATES: Endpoint = (
+            "~/get_available_states",
+            "lifecycle_msgs/srv/GetAvailableStates",
+        );
         /// The transitions from the current state.
-        pub const GET_AVAILABLE_TRANSITIONS: &str = "~/get_available_transitions";
-        /// Every transition.
-        pub const GET_TRANSITION_GRAPH: &str = "~/get_transition_graph";
+        pub const GET_AVAILABLE_TRANSITIONS: Endpoint = (
+            "~/get_available_transitions",
+            "lifecycle_msgs/srv/GetAvailableTransitions",
+        );
+        /// Every transition (the type of `get_available_transitions`).
+        pub const GET_TRANSITION_GRAPH: Endpoint = (
+            "~/get_transition_graph",
+            "lifecycle_msgs/srv/GetAvailableTransitions",
+        );
         /// Every step taken.
-        pub const TRANSITION_EVENT: &str = "~/transition_event";
+        pub const TRANSITION_EVENT: Endpoint =
+            ("~/transition_event", "lifecycle_msgs/msg/TransitionEvent");
     }
 
     /// The standard-type topics of the plant's views (what RViz, Foxglove, robot_state_publisher
@@ -130,17 +143,6 @@ pub mod type_names {
     pub const BOOL: &str = "std_msgs/msg/Bool";
     /// The emergency-stop service.
     pub const SET_BOOL: &str = "std_srvs/srv/SetBool";
-
-    /// Lifecycle: `~/change_state`.
-    pub const CHANGE_STATE: &str = "lifecycle_msgs/srv/ChangeState";
-    /// Lifecycle: `~/get_state`.
-    pub const GET_STATE: &str = "lifecycle_msgs/srv/GetState";
-    /// Lifecycle: `~/get_available_states`.
-    pub const GET_AVAILABLE_STATES: &str = "lifecycle_msgs/srv/GetAvailableStates";
-    /// Lifecycle: `~/get_available_transitions` and `~/get_transition_graph`.
-    pub const GET_AVAILABLE_TRANSITIONS: &str = "lifecycle_msgs/srv/GetAvailableTransitions";
-    /// Lifecycle: `~/transition_event`.
-    pub const TRANSITION_EVENT: &str = "lifecycle_msgs/msg/TransitionEvent";
 
     /// `(package, Type)` of a `package/msg/Type` or `package/srv/Type` name.
     pub fn split(full: &str) -> (&str, &str) {

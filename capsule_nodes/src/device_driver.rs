@@ -526,15 +526,15 @@ impl<L: Line> DeviceDriver<L> {
         let over = rel.abs() > self.max_travel_m();
         self.set_fault(over.then_some(Fault::OverTravel));
         let sample = Sample {
-            mass_position_m: rel + x2,
+            mass_position: rel + x2,
             mass_velocity: f64::from(m.mass_velocity),
-            capsule_position_m: x2,
+            capsule_position: x2,
             capsule_velocity: f64::from(m.capsule_velocity),
             in_contact,
-            stuck: false,
-            friction_force_n: f64::NAN,
-            contact_force_n: f64::NAN,
-            actuator_force_n: f64::from(m.applied_force_n),
+            friction_force: f64::NAN,
+            contact_force: f64::NAN,
+            actuator_force: f64::from(m.applied_force_n),
+            ..Sample::default()
         };
         // beyond the travel the sample is still the truth: published, answered with zero
         Some(Ok(Reading::Sample(sample)))
@@ -961,8 +961,8 @@ mod tests {
         let Reading::Sample(s) = next(&mut d) else {
             panic!("no sample")
         };
-        assert!((s.capsule_position_m - 0.25).abs() < 1e-9);
-        assert!((s.mass_position_m - 0.255).abs() < 1e-7);
+        assert!((s.capsule_position - 0.25).abs() < 1e-9);
+        assert!((s.mass_position - 0.255).abs() < 1e-7);
         assert!(s.mass_velocity.is_nan(), "not measured");
         assert!(!s.in_contact, "x1 - x2 below the gap");
         assert_eq!(value(&d, "device_force_limit_n"), "0.5");
@@ -1020,13 +1020,19 @@ mod tests {
         assert_eq!(d.read(Instant::now() + SOON).ok(), Some(Reading::Timeout));
     }
 
-    #[test]
-    fn a_silent_device_is_named_on_the_test_clock_and_recovers() {
-        let (mut d, devices, clock) = driver(false);
+    /// A driver whose device has said hello and sent a first measurement, taken.
+    fn measuring(dry_run: bool) -> (DeviceDriver<UnixStream>, Device, TestClock) {
+        let (mut d, devices, clock) = driver(dry_run);
         let mut dev = device(&devices);
         dev.hello(10.0, 1.0);
         dev.measure(1000, 0.001);
         assert!(matches!(next(&mut d), Reading::Sample(_)));
+        (d, dev, clock)
+    }
+
+    #[test]
+    fn a_silent_device_is_named_on_the_test_clock_and_recovers() {
+        let (mut d, mut dev, clock) = measuring(false);
         assert_eq!(
             d.read(Instant::now() + Duration::from_millis(5)).ok(),
             Some(Reading::Timeout)
@@ -1068,20 +1074,12 @@ mod tests {
 
     #[test]
     fn a_dry_run_and_an_engaged_stop_send_zero() {
-        let (mut d, devices, _) = driver(true);
-        let mut dev = device(&devices);
-        dev.hello(10.0, 1.0);
-        dev.measure(1000, 0.001);
-        assert!(matches!(next(&mut d), Reading::Sample(_)));
+        let (mut d, mut dev, _) = measuring(true);
         assert!(d.write(0.4).is_ok());
         assert_eq!(dev.forces(SOON)[0].force_n, 0.0, "dry run");
-        let (mut d, devices, _) = driver(false);
-        let mut dev = device(&devices);
+        let (mut d, mut dev, _) = measuring(false);
         let stop = Arc::new(AtomicBool::new(false));
         d.zero_while(stop.clone());
-        dev.hello(10.0, 1.0);
-        dev.measure(1000, 0.001);
-        assert!(matches!(next(&mut d), Reading::Sample(_)));
         stop.store(true, Ordering::SeqCst);
         assert!(d.write(0.4).is_ok());
         assert_eq!(dev.forces(SOON)[0].force_n, 0.0, "stopped");

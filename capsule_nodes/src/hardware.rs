@@ -12,6 +12,8 @@
 //! which.
 
 use std::sync::atomic::AtomicBool;
+
+use capsule_msgs::CapsuleState;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -34,44 +36,22 @@ pub enum HardwareError {
     State(String),
 }
 
-/// One sample of the capsule, SI; NaN where a device does not measure.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
-    /// Inner mass position x1 \[m\].
-    pub mass_position_m: f64,
-    /// Inner mass velocity \[m/s\].
-    pub mass_velocity: f64,
-    /// Capsule position x2 \[m\].
-    pub capsule_position_m: f64,
-    /// Capsule velocity \[m/s\].
-    pub capsule_velocity: f64,
-    /// Mass and capsule in contact.
-    pub in_contact: bool,
-    /// Capsule stuck by friction.
-    pub stuck: bool,
-    /// Friction force on the capsule \[N\].
-    pub friction_force_n: f64,
-    /// Contact force \[N\].
-    pub contact_force_n: f64,
-    /// Actuator force applied \[N\].
-    pub actuator_force_n: f64,
-}
+/// A sample as the hardware reads it: the plant's `CapsuleState` message in SI (NaN where a
+/// device does not measure); the node fills in the header, seq and its own flags.
+pub type Sample = CapsuleState;
 
-impl Sample {
-    /// A sample of nothing measured yet: NaN everywhere.
-    pub fn unknown() -> Sample {
-        let nan = f64::NAN;
-        Sample {
-            mass_position_m: nan,
-            mass_velocity: nan,
-            capsule_position_m: nan,
-            capsule_velocity: nan,
-            in_contact: false,
-            stuck: false,
-            friction_force_n: nan,
-            contact_force_n: nan,
-            actuator_force_n: nan,
-        }
+/// A sample of nothing measured yet: NaN everywhere.
+pub fn unknown_sample() -> Sample {
+    let nan = f64::NAN;
+    CapsuleState {
+        mass_position: nan,
+        mass_velocity: nan,
+        capsule_position: nan,
+        capsule_velocity: nan,
+        friction_force: nan,
+        contact_force: nan,
+        actuator_force: nan,
+        ..CapsuleState::default()
     }
 }
 

@@ -4,10 +4,12 @@
 
 use std::time::Instant;
 
+use capsule_msgs::Header;
 use capsule_plant::scene::PhysicalScale;
-use capsule_plant::{ConstantForce, Simulator, Snapshot};
+use capsule_plant::{ConstantForce, Simulator};
+use capsule_record::sample::state_message;
 
-use crate::hardware::{CapsuleHardware, HardwareError, Reading, Sample};
+use crate::hardware::{CapsuleHardware, HardwareError, Reading};
 
 /// Builds the scene's simulator (at configure, again after a cleanup).
 pub type Build = Box<dyn Fn() -> Result<Simulator, String> + Send>;
@@ -45,22 +47,6 @@ impl SimulatedPlant {
     fn tau_of(&self, k: u64) -> f64 {
         let nanos = (k as f64 * 1e9 / self.rate_hz).round() as i64;
         nanos as f64 * 1e-9 / self.scale.time_s()
-    }
-
-    /// `s` in SI.
-    pub fn si(s: &Snapshot, scale: &PhysicalScale) -> Sample {
-        let (l, v, f) = (scale.length_m(), scale.velocity_m_per_s(), scale.force_n());
-        Sample {
-            mass_position_m: s.state.x1 * l,
-            mass_velocity: s.state.y1 * v,
-            capsule_position_m: s.state.x2 * l,
-            capsule_velocity: s.state.y2 * v,
-            in_contact: s.contact,
-            stuck: s.stuck,
-            friction_force_n: s.friction_force * f,
-            contact_force_n: s.contact_force * f,
-            actuator_force_n: s.actuator_force * f,
-        }
     }
 }
 
@@ -106,7 +92,8 @@ impl CapsuleHardware for SimulatedPlant {
             })?;
         }
         self.read += 1;
-        Ok(Reading::Sample(Self::si(&sim.snapshot(), &self.scale)))
+        let si = state_message(&sim.snapshot(), &self.scale, Header::default(), 0);
+        Ok(Reading::Sample(si))
     }
 
     fn write(&mut self, force_n: f64) -> Result<(), HardwareError> {

@@ -9,26 +9,26 @@ use capsule_msgs::std_types::{LifecycleState, LifecycleTransition, TransitionDes
 /// A lifecycle state, numbered as `lifecycle_msgs/msg/State`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum State {
-    /// 1: built, nothing opened.
-    Unconfigured = 1,
-    /// 2: the hardware configured; samples published, zero force.
-    Inactive = 2,
-    /// 3: commands actuate.
-    Active = 3,
-    /// 4: shut down.
-    Finalized = 4,
-    /// 10.
-    Configuring = 10,
-    /// 11.
-    CleaningUp = 11,
-    /// 12.
-    ShuttingDown = 12,
-    /// 13.
-    Activating = 13,
-    /// 14.
-    Deactivating = 14,
-    /// 15: a callback failed; cleaning up.
-    ErrorProcessing = 15,
+    /// Built, nothing opened (id 1).
+    Unconfigured,
+    /// The hardware configured; samples published, zero force (2).
+    Inactive,
+    /// Commands actuate (3).
+    Active,
+    /// Shut down (4).
+    Finalized,
+    /// Configuring (10).
+    Configuring,
+    /// Cleaning up (11).
+    CleaningUp,
+    /// Shutting down (12).
+    ShuttingDown,
+    /// Activating (13).
+    Activating,
+    /// Deactivating (14).
+    Deactivating,
+    /// A callback failed; cleaning up (15).
+    ErrorProcessing,
 }
 
 impl State {
@@ -46,26 +46,39 @@ impl State {
         State::ErrorProcessing,
     ];
 
+    /// lifecycle_msgs' id and rcl's label, in [`State::ALL`]'s order.
+    const NAMES: [(u8, &'static str); 10] = [
+        (1, "unconfigured"),
+        (2, "inactive"),
+        (3, "active"),
+        (4, "finalized"),
+        (10, "configuring"),
+        (11, "cleaningup"),
+        (12, "shuttingdown"),
+        (13, "activating"),
+        (14, "deactivating"),
+        (15, "errorprocessing"),
+    ];
+
+    fn names(self) -> (u8, &'static str) {
+        let i = State::ALL.iter().position(|s| *s == self).unwrap_or(0);
+        State::NAMES[i]
+    }
+
+    /// lifecycle_msgs' id.
+    pub fn id(self) -> u8 {
+        self.names().0
+    }
+
     /// rcl's label.
     pub fn label(self) -> &'static str {
-        match self {
-            State::Unconfigured => "unconfigured",
-            State::Inactive => "inactive",
-            State::Active => "active",
-            State::Finalized => "finalized",
-            State::Configuring => "configuring",
-            State::CleaningUp => "cleaningup",
-            State::ShuttingDown => "shuttingdown",
-            State::Activating => "activating",
-            State::Deactivating => "deactivating",
-            State::ErrorProcessing => "errorprocessing",
-        }
+        self.names().1
     }
 
     /// As a message.
     pub fn msg(self) -> LifecycleState {
         LifecycleState {
-            id: self as u8,
+            id: self.id(),
             label: self.label().into(),
         }
     }
@@ -239,5 +252,9 @@ mod tests {
         );
         assert_eq!(available(Inactive).len(), 3);
         assert_eq!(State::ALL.len(), 10);
+        assert_eq!(
+            (ErrorProcessing.id(), ErrorProcessing.label()),
+            (15, "errorprocessing")
+        );
     }
 }

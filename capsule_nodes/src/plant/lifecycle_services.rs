@@ -6,6 +6,7 @@
 
 use std::sync::{Arc, Mutex};
 
+use capsule_msgs::names::topics::lifecycle::Endpoint;
 use capsule_msgs::names::{topics::lifecycle as names, type_names};
 use capsule_msgs::std_types::{
     ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
@@ -145,9 +146,18 @@ fn serve_with<Req, Resp, F, Fut>(
     });
 }
 
-fn service(full: &str) -> ServiceTypeName {
-    let (package, name) = type_names::split(full);
-    ServiceTypeName::new(package, name)
+/// A server of the lifecycle service `(name, type)`.
+fn server<Req, Resp>(
+    node: &mut Node,
+    settings: &RosOptions,
+    (name, full): Endpoint,
+) -> Result<ros2_client::Server<Wire<Req>, Wire<Resp>>>
+where
+    Req: Serialize + DeserializeOwned + Clone + 'static,
+    Resp: Serialize + DeserializeOwned + 'static,
+{
+    let (package, ty) = type_names::split(full);
+    settings.server(node, name, &ServiceTypeName::new(package, ty))
 }
 
 /// Serves the lifecycle on `node`; the loop takes its steps from the receiver.
@@ -155,13 +165,9 @@ pub fn serve(
     node: &mut Node,
     settings: &RosOptions,
 ) -> Result<(Lifecycle, mpsc::UnboundedReceiver<Request>)> {
-    let (package, name) = type_names::split(type_names::TRANSITION_EVENT);
-    let topic = settings.topic(
-        node,
-        names::TRANSITION_EVENT,
-        MessageTypeName::new(package, name),
-        &qos::data(),
-    )?;
+    let (name, full) = names::TRANSITION_EVENT;
+    let (package, ty) = type_names::split(full);
+    let topic = settings.topic(node, name, MessageTypeName::new(package, ty), &qos::data())?;
     let events = node
         .create_publisher::<TransitionEvent>(&topic, None)
         .context("transition_event publisher")?;
@@ -172,11 +178,8 @@ pub fn serve(
         events: Arc::new(events),
         busy: Arc::default(),
     };
-    let change = settings.server::<ChangeStateRequest, ChangeStateResponse>(
-        node,
-        names::CHANGE_STATE,
-        &service(type_names::CHANGE_STATE),
-    )?;
+    let change =
+        server::<ChangeStateRequest, ChangeStateResponse>(node, settings, names::CHANGE_STATE)?;
     let l = lc.clone();
     serve_with(change, "change_state", move |req: ChangeStateRequest| {
         let l = l.clone();
@@ -186,49 +189,46 @@ pub fn serve(
             }
         }
     });
-    let get = settings.server::<EmptyRequest, GetStateResponse>(
-        node,
-        names::GET_STATE,
-        &service(type_names::GET_STATE),
-    )?;
+    let get = server::<EmptyRequest, GetStateResponse>(node, settings, names::GET_STATE)?;
     let l = lc.clone();
     serve_with(get, "get_state", move |_| {
         let current_state = l.state().msg();
         async move { GetStateResponse { current_state } }
     });
-    let states = settings.server::<EmptyRequest, GetAvailableStatesResponse>(
+    let states = server::<EmptyRequest, GetAvailableStatesResponse>(
         node,
+        settings,
         names::GET_AVAILABLE_STATES,
-        &service(type_names::GET_AVAILABLE_STATES),
     )?;
     serve_with(states, "get_available_states", |_| async {
         GetAvailableStatesResponse {
             available_states: State::ALL.iter().map(|s| s.msg()).collect(),
         }
     });
-    let transitions = settings.server::<EmptyRequest, GetAvailableTransitionsResponse>(
-        node,
-        names::GET_AVAILABLE_TRANSITIONS,
-        &service(type_names::GET_AVAILABLE_TRANSITIONS),
-    )?;
-    let l = lc.clone();
-    serve_with(transitions, "get_available_transitions", move |_| {
-        let available_transitions = lifecycle::available(l.state());
-        async move {
-            GetAvailableTransitionsResponse {
-                available_transitions,
+    // the transitions from here, and the whole graph: one type, two services
+    for (endpoint, what, whole) in [
+        (
+            names::GET_AVAILABLE_TRANSITIONS,
+            "get_available_transitions",
+            false,
+        ),
+        (names::GET_TRANSITION_GRAPH, "get_transition_graph", true),
+    ] {
+        let srv =
+            server::<EmptyRequest, GetAvailableTransitionsResponse>(node, settings, endpoint)?;
+        let l = lc.clone();
+        serve_with(srv, what, move |_| {
+            let available_transitions = if whole {
+                lifecycle::GRAPH.iter().map(lifecycle::describe).collect()
+            } else {
+                lifecycle::available(l.state())
+            };
+            async move {
+                GetAvailableTransitionsResponse {
+                    available_transitions,
+                }
             }
-        }
-    });
-    let graph = settings.server::<EmptyRequest, GetAvailableTransitionsResponse>(
-        node,
-        names::GET_TRANSITION_GRAPH,
-        &service(type_names::GET_AVAILABLE_TRANSITIONS),
-    )?;
-    serve_with(graph, "get_transition_graph", |_| async {
-        GetAvailableTransitionsResponse {
-            available_transitions: lifecycle::GRAPH.iter().map(lifecycle::describe).collect(),
-        }
-    });
+        });
+    }
     Ok((lc, requests))
 }

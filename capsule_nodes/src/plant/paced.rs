@@ -28,7 +28,9 @@ use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
 
 /// Where the loop is.
-struct Paced {
+struct Paced<'a> {
+    io: &'a Endpoints,
+    opts: &'a PlantOptions,
     lockstep: bool,
     wall: Wall,
     /// A measurement has been published since configure (or the start-up wait is over).
@@ -43,7 +45,7 @@ struct Paced {
     logs: CommandLogs,
 }
 
-impl Paced {
+impl Paced<'_> {
     /// How long the device is given for its next measurement: two periods and 5 ms while it is
     /// well, one period while it is not (the node keeps its rate).
     fn next_due<H: CapsuleHardware>(core: &PlantCore<H>) -> Instant {
@@ -67,8 +69,6 @@ impl Paced {
     fn drain<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
-        io: &Endpoints,
-        opts: &PlantOptions,
         mut rec: Option<&mut InPlantRecording>,
     ) -> Result<bool> {
         while self.may_advance(core) {
@@ -83,7 +83,7 @@ impl Paced {
                 Reading::Fault(_) if !self.started => continue,
                 r => core.next_sample(r),
             }
-            if self.publish(core, io, opts, rec.as_deref_mut())? {
+            if self.publish(core, rec.as_deref_mut())? {
                 return Ok(true);
             }
         }
@@ -93,21 +93,17 @@ impl Paced {
     fn publish<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
-        io: &Endpoints,
-        opts: &PlantOptions,
         rec: Option<&mut InPlantRecording>,
     ) -> Result<bool> {
         self.due = Self::next_due(core);
         self.waited_from = Instant::now();
-        publish_now(core, io, opts, self.wall, rec)
+        publish_now(core, self.io, self.opts, self.wall, rec)
     }
 
     /// No measurement by `due`: the last one again (after the start-up wait).
     fn overdue<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
-        io: &Endpoints,
-        opts: &PlantOptions,
         rec: Option<&mut InPlantRecording>,
     ) -> Result<bool> {
         if !self.started {
@@ -117,28 +113,26 @@ impl Paced {
             }
             warn!(
                 "no measurement from the device within {:?}: starting without (zero force until one comes)",
-                opts.startup_timeout
+                self.opts.startup_timeout
             );
             self.started = true;
         } else {
             core.next_sample(Reading::Timeout);
         }
-        self.publish(core, io, opts, rec)
+        self.publish(core, rec)
     }
 
     /// Lock-step: no answer yet; re-publish, or answer with zero after the timeout.
     fn unanswered<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
-        io: &Endpoints,
-        opts: &PlantOptions,
         rec: Option<&mut InPlantRecording>,
     ) -> Result<()> {
         let waited = self.waited_from.elapsed().as_secs_f64();
         let limit = if self.ever_commanded {
             core.command_timeout
         } else {
-            opts.startup_timeout.as_secs_f64()
+            self.opts.startup_timeout.as_secs_f64()
         };
         if waited > limit {
             if core.force_stale() || !self.ever_commanded {
@@ -155,7 +149,7 @@ impl Paced {
             r.published(&state, None)?;
             r.poll()?;
         }
-        if let Err(e) = io.state_pub.publish(state) {
+        if let Err(e) = self.io.state_pub.publish(state) {
             warn!("state not re-sent: {e:?}");
         }
         Ok(())
@@ -174,6 +168,8 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
 ) -> Result<Exit> {
     let lockstep = opts.pacing == Pacing::Lockstep;
     let mut p = Paced {
+        io,
+        opts,
         lockstep,
         wall: Wall::start(),
         started: false,
@@ -193,7 +189,7 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
         if let Some(exit) = control.poll(core) {
             return Ok(exit);
         }
-        if p.drain(core, io, opts, rec.as_deref_mut())? {
+        if p.drain(core, rec.as_deref_mut())? {
             return Ok(Exit::Over);
         }
         let advance = p.may_advance(core);
@@ -228,14 +224,14 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
             },
             _ = ready.notified() => {}
             _ = tokio::time::sleep_until(p.due.into()), if advance => {
-                if p.overdue(core, io, opts, rec.as_deref_mut())? {
+                if p.overdue(core, rec.as_deref_mut())? {
                     return Ok(Exit::Over);
                 }
             }
             _ = tick.tick() => {
                 if lockstep {
                     if p.started && !core.written() {
-                        p.unanswered(core, io, opts, rec.as_deref_mut())?;
+                        p.unanswered(core, rec.as_deref_mut())?;
                     }
                 } else {
                     // JointState commands and the watchdog, once a period

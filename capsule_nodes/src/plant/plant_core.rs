@@ -13,7 +13,9 @@ use tracing::info;
 
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
-use crate::hardware::{CapsuleHardware, HardwareError, Reading, Sample, SourceHealth};
+use crate::hardware::{
+    unknown_sample, CapsuleHardware, HardwareError, Reading, Sample, SourceHealth,
+};
 
 /// Why a command was not taken.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,7 +70,7 @@ impl<H: CapsuleHardware> PlantCore<H> {
         hw.zero_while(emergency_stop.clone());
         PlantCore {
             hw,
-            current: Sample::unknown(),
+            current: unknown_sample(),
             active: false,
             written: false,
             rate_hz,
@@ -155,7 +157,7 @@ impl<H: CapsuleHardware> PlantCore<H> {
     /// once, a device's comes when it measures.
     pub fn configure(&mut self) -> Result<(), HardwareError> {
         self.hw.configure()?;
-        self.current = Sample::unknown();
+        self.current = unknown_sample();
         if self.stats.published > 0 {
             // configured again after a cleanup: a new sample, never a second seq k
             self.next_sample(Reading::Timeout);
@@ -221,21 +223,12 @@ impl<H: CapsuleHardware> PlantCore<H> {
             stamp: self.stamp(),
             frame_id: self.frame_id.clone(),
         };
-        let s = &self.current;
         CapsuleState {
             header,
             seq: self.step,
-            mass_position: s.mass_position_m,
-            mass_velocity: s.mass_velocity,
-            capsule_position: s.capsule_position_m,
-            capsule_velocity: s.capsule_velocity,
-            in_contact: s.in_contact,
-            stuck: s.stuck,
-            friction_force: s.friction_force_n,
-            contact_force: s.contact_force_n,
-            actuator_force: s.actuator_force_n,
             command_stale: self.stale,
             rejected_commands: self.rejected,
+            ..self.current.clone()
         }
     }
 
@@ -416,15 +409,10 @@ mod tests {
             }
             self.reads += 1;
             Ok(Reading::Sample(Sample {
-                mass_position_m: self.x,
+                mass_position: self.x,
                 mass_velocity: self.v,
-                capsule_position_m: 0.0,
-                capsule_velocity: 0.0,
-                in_contact: false,
-                stuck: false,
-                friction_force_n: 0.0,
-                contact_force_n: 0.0,
-                actuator_force_n: self.force_n,
+                actuator_force: self.force_n,
+                ..Sample::default()
             }))
         }
         fn write(&mut self, force_n: f64) -> Result<()> {

@@ -206,10 +206,9 @@ struct State {
   std::string label;
   ROS_STRUCT(State, "lifecycle_msgs::msg::dds_::State_", id, label)
 };
-struct Transition {
-  uint8_t id = 0;
-  std::string label;
-  ROS_STRUCT(Transition, "lifecycle_msgs::msg::dds_::Transition_", id, label)
+/// The same fields as State (id, label) under its own DDS name.
+struct Transition : State {
+  static const char* dds_name() { return "lifecycle_msgs::msg::dds_::Transition_"; }
 };
 }  // namespace lifecycle_msgs::msg
 
