@@ -48,7 +48,7 @@ pub fn main(args: Args) -> Result<()> {
             let split = file.is_dir()
                 || file
                     .file_name()
-                    .is_some_and(|n| n == capsule_record::bag::METADATA_YAML);
+                    .is_some_and(|n| n == capsule_record::metadata_yaml::METADATA_YAML);
             let info = if split {
                 capsule_record::bag::bag_info(&file)?
             } else {

@@ -498,7 +498,7 @@ pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
     let mut core = opts.core;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let clock = capsule_ros_base::graph::RosClock::new(&settings, &mut node)?;
+    let clock = capsule_ros_base::clock::RosClock::new(&settings, &mut node)?;
     let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
     let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
     let status_topic = settings.topic(&node, topics::STATUS, types::status(), &qos::data())?;

@@ -18,9 +18,9 @@ use mcap::{
 use crate::{
     cdr,
     open::{check_channel, corrupt, open_checked, parse_whole, read_at, read_header},
+    profile::{CAPSULE_METADATA, QOS_KEY, SCENE_ATTACHMENT},
     scan::{chunk_records, scan},
     types::SetModeEvent,
-    writer::{CAPSULE_METADATA, QOS_KEY, SCENE_ATTACHMENT},
     RecordError,
 };
 

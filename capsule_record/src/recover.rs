@@ -20,8 +20,9 @@ use mcap::{
 
 use crate::{
     fix_schemas::respell_dependencies,
+    profile::{CAPSULE_METADATA, ROSBAG2_METADATA},
     scan::{chunk_records, keep_definition, SchemaRec},
-    writer::{ChunkCompression, RecordWriter, WriterOptions, CAPSULE_METADATA, ROSBAG2_METADATA},
+    writer::{ChunkCompression, RecordWriter, WriterOptions},
     ChannelId, RecordError,
 };
 

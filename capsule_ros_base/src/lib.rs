@@ -3,7 +3,8 @@
 //!
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
 //! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps)
-//! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
+//! - [`graph`], [`clock`]: matched endpoints and ROS time for the loop nodes (instead of
+//!   ros2-client's spinner)
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
@@ -14,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod affinity;
+pub mod clock;
 pub mod conflicts;
 pub mod error;
 pub mod graph;

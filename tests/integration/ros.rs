@@ -10,6 +10,7 @@ mod harness;
 
 mod colcon;
 mod device;
+mod example_controller;
 mod fastdds;
 mod fault_matrix;
 mod faults;
