@@ -10,6 +10,8 @@
 #     default): c++, the Fast DDS and Fast CDR headers and libraries
 #   - tests/peers/cyclone_peer.py: PyPI `cyclonedds` (ships its C library)
 #   - tests/peers/foxglove_ws_client.py: PyPI `websockets`, a WebSocket client that is not ours
+#   - tests/integration/ros/security.rs: tcpdump (captures the namespace's loopback, searched for
+#     plaintext); the keystore's openssl command comes with .ci/build-setup.sh
 #   - tests/integration/ros/colcon.rs: colcon with colcon-cargo, colcon-ros-cargo and the crawl and
 #     selection extensions, and cargo-ament-build (PyPI ships the Rust tool as a wheel)
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
@@ -68,6 +70,8 @@ check_all() {
   have_file /usr/include/fastcdr/Cdr.h || missing+=("header fastcdr/Cdr.h|libfastcdr-dev|apt")
   have_lib libfastrtps.so || missing+=("library libfastrtps.so|libfastrtps-dev|apt")
   have_lib libfastcdr.so || missing+=("library libfastcdr.so|libfastcdr-dev|apt")
+  # the security test's capture of the loopback
+  have_cmd tcpdump || missing+=("command tcpdump|tcpdump|apt")
   # Python peers, run by the python3 on PATH
   if have_cmd python3; then
     have_py python3 cyclonedds || missing+=("module cyclonedds|cyclonedds==11.0.1|pip")

@@ -182,11 +182,6 @@ pub fn main(args: Args) -> Result<()> {
         );
     };
     let stability = stability::of_run(&scene, &schedule, &report);
-    let RunStability {
-        floquet,
-        lyapunov,
-        stability_note,
-    } = &stability;
     if args.json {
         let out = Output {
             scene: &scene,
@@ -198,51 +193,61 @@ pub fn main(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
-        if let Some(f) = floquet {
-            let mus: Vec<String> = f
-                .multipliers
-                .iter()
-                .map(|m| {
-                    if m[1] == 0.0 {
-                        format!("{:.6}", m[0])
-                    } else {
-                        format!("{:.6}{:+.6}i", m[0], m[1])
-                    }
-                })
-                .collect();
-            println!(
-                "floquet        {} (largest modulus {:.6}: {})",
-                mus.join(", "),
-                f.largest_modulus,
-                if f.largest_modulus < 1.0 {
-                    "stable"
-                } else {
-                    "unstable"
-                }
-            );
-        }
-        if let Some(l) = lyapunov {
-            let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
-            println!(
-                "lyapunov       {} per unit tau (largest over half the run {:.6})",
-                ls.join(", "),
-                l.largest_half_run
-            );
-        }
-        if let Some(n) = stability_note {
-            println!("stability      {n}");
-        }
-        if let Some(p) = schedule.pulse {
-            println!(
-                "gain schedule  kp {} until period {}, {} for {} period(s), then {}",
-                schedule.before, p.at, p.kp, p.periods, schedule.after
-            );
-        }
+        print_stability(&stability, &schedule);
         if let Some(path) = &args.csv {
             println!("time history   {} ({} rows)", path.display(), rows.len());
         }
     }
     Ok(())
+}
+
+/// The stability analysis and the gain schedule, as the text summary prints them.
+fn print_stability(stability: &RunStability, schedule: &GainSchedule) {
+    let RunStability {
+        floquet,
+        lyapunov,
+        stability_note,
+    } = stability;
+    if let Some(f) = floquet {
+        let mus: Vec<String> = f
+            .multipliers
+            .iter()
+            .map(|m| {
+                if m[1] == 0.0 {
+                    format!("{:.6}", m[0])
+                } else {
+                    format!("{:.6}{:+.6}i", m[0], m[1])
+                }
+            })
+            .collect();
+        println!(
+            "floquet        {} (largest modulus {:.6}: {})",
+            mus.join(", "),
+            f.largest_modulus,
+            if f.largest_modulus < 1.0 {
+                "stable"
+            } else {
+                "unstable"
+            }
+        );
+    }
+    if let Some(l) = lyapunov {
+        let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
+        println!(
+            "lyapunov       {} per unit tau (largest over half the run {:.6})",
+            ls.join(", "),
+            l.largest_half_run
+        );
+    }
+    if let Some(n) = stability_note {
+        println!("stability      {n}");
+    }
+    if let Some(p) = schedule.pulse {
+        println!(
+            "gain schedule  kp {} until period {}, {} for {} period(s), then {}",
+            schedule.before, p.at, p.kp, p.periods, schedule.after
+        );
+    }
 }
 
 /// Progress of one run: a bar on a terminal once the run has lasted a second, a line every

@@ -46,12 +46,12 @@ async fn run(cli: Cli) -> Result<()> {
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "minimal_controller")?;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
+    // the state as the nodes read it (best effort, keep last 16: matches any writer)
     let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
-    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
     let states = subscribe::<CapsuleState>(&mut node, &state_topic, &qos::data_reader())?;
-    let forces = node
-        .create_publisher::<ActuatorForce>(&force_topic, None)
-        .context("force publisher")?;
+    // the force as the controller node writes it (reliable, keep last 16)
+    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
+    let forces = node.create_publisher::<ActuatorForce>(&force_topic, None)?;
     println!(
         "{}: waiting for {}",
         settings.describe(),

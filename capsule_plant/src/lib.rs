@@ -2,8 +2,8 @@
 //!
 //! A pure library (no ROS, no I/O): the model ([`model`]), its friction laws ([`friction`]), actuator
 //! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
-//! scene files ([`scene`]), the SI scale ([`physical`]), and a prototype's sensor and actuator as
-//! models ([`device`]).
+//! scene files ([`scene`]), the SI scale ([`physical`]), a prototype's sensor and actuator as
+//! models ([`device`]), and numbers as messages write them ([`number_text`]).
 
 mod choices;
 pub mod device;
@@ -11,6 +11,7 @@ pub mod equations;
 pub mod friction;
 pub mod law;
 pub mod model;
+pub mod number_text;
 pub mod physical;
 mod roots;
 pub mod scene;

@@ -24,12 +24,6 @@ const KNOWN: &[&[&str]] = &[
         "capsule_analysis/src/attractor.rs",
         "capsule_analysis/src/identity.rs",
     ],
-    // `ControllerCore` (the settings helper's)
-    &[
-        "capsule_nodes/src/controller.rs",
-        "capsule_nodes/src/controller_diagnostics.rs",
-        "capsule_nodes/src/controller_params.rs",
-    ],
     // `Endpoints` and the log helpers; `SourceHealth` and `LoopStats` (the hw helper's)
     &[
         "capsule_nodes/src/plant/node.rs",

@@ -2,6 +2,7 @@
 
 mod attractors;
 mod bad_input;
+mod basin_cells;
 mod cli;
 mod common;
 mod docs_links;

@@ -20,5 +20,6 @@ mod joint_commands;
 mod lifecycle;
 mod lockstep;
 mod params;
+mod security;
 mod switch;
 mod views;
