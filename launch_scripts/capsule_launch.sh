@@ -91,7 +91,7 @@ fi
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
 if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-affinity "$cpus"); rec_args+=(--cpu-affinity "$cpus"); fi
 "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
-pl=(--scene "$scene" --pacing "$pacing")
+pl=(--scene "$scene" --pacing "$pacing" --autostart)
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
 # the file name the check prints is the one the run writes (fixed here, not re-timed at start)

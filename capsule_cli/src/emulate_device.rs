@@ -65,6 +65,84 @@ pub struct Args {
     /// Fault: close the line at this device time [s] and exit (a cable pulled)
     #[arg(long, value_name = "S", value_parser = ranges::positive(1e9))]
     unplug_after_s: Option<f64>,
+    /// Write every force frame received to this CSV file (wall clock [ns since the epoch],
+    /// force [N], the frame it answers, microseconds since that measurement went out): what
+    /// the device saw, and when (docs/hardware.md measures the emergency stop with it)
+    #[arg(long, value_name = "FILE")]
+    force_log: Option<PathBuf>,
+}
+
+/// Command-to-device latency as the device sees it: from sending a measurement to receiving
+/// the force frame that answers it, in microseconds (1 us buckets up to 0.1 s; beyond, only
+/// the count and the maximum).
+struct DeviceLatency {
+    counts: Vec<u64>,
+    over: u64,
+    max_us: u64,
+    /// The measurement frames sent lately: (frame number, when).
+    sent: std::collections::VecDeque<(u16, Instant)>,
+}
+
+impl DeviceLatency {
+    const BUCKETS: usize = 100_000;
+
+    fn new() -> DeviceLatency {
+        DeviceLatency {
+            counts: vec![0; Self::BUCKETS],
+            over: 0,
+            max_us: 0,
+            sent: Default::default(),
+        }
+    }
+
+    /// Measurement frame `seq` went out now.
+    fn sent(&mut self, seq: u16) {
+        if self.sent.len() == 256 {
+            self.sent.pop_front();
+        }
+        self.sent.push_back((seq, Instant::now()));
+    }
+
+    /// A force frame answering `seq` came now: its latency in microseconds (the first answer
+    /// to a frame only).
+    fn answered(&mut self, seq: u16) -> Option<u64> {
+        let i = self.sent.iter().position(|(s, _)| *s == seq)?;
+        let (_, at) = self.sent.remove(i)?;
+        let us = at.elapsed().as_micros() as u64;
+        match self.counts.get_mut(us as usize) {
+            Some(c) => *c += 1,
+            None => self.over += 1,
+        }
+        self.max_us = self.max_us.max(us);
+        Some(us)
+    }
+
+    /// The `q` quantile \[ms\] (`None`: no answer; beyond 0.1 s: the maximum).
+    fn quantile_ms(&self, q: f64) -> Option<f64> {
+        let total: u64 = self.counts.iter().sum::<u64>() + self.over;
+        if total == 0 {
+            return None;
+        }
+        let rank = ((q * total as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (us, c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen >= rank {
+                return Some(us as f64 * 1e-3);
+            }
+        }
+        Some(self.max_us as f64 * 1e-3)
+    }
+
+    fn summary(&self) -> String {
+        match (self.quantile_ms(0.5), self.quantile_ms(0.99)) {
+            (Some(p50), Some(p99)) => format!(
+                "command-to-device latency p50 {p50:.3} ms p99 {p99:.3} ms max {:.3} ms",
+                self.max_us as f64 * 1e-3
+            ),
+            _ => "no measurement answered".into(),
+        }
+    }
 }
 
 /// Re-sends in lock-step while no answer comes.
@@ -109,12 +187,53 @@ fn due_in(start: Instant, period: Duration, k: u64) -> Duration {
 }
 
 /// What the emulator counted.
-#[derive(Debug, Default)]
 struct Counts {
     samples: u64,
     forces: u64,
     timeouts: u64,
     bad_in: u64,
+    latency: DeviceLatency,
+    log: Option<std::io::BufWriter<std::fs::File>>,
+}
+
+impl Counts {
+    fn new(log: Option<&Path>) -> Result<Counts> {
+        let log = log
+            .map(|p| {
+                std::fs::File::create_new(p)
+                    .with_context(|| format!("--force-log {}: cannot create it", p.display()))
+                    .map(std::io::BufWriter::new)
+            })
+            .transpose()?;
+        Ok(Counts {
+            samples: 0,
+            forces: 0,
+            timeouts: 0,
+            bad_in: 0,
+            latency: DeviceLatency::new(),
+            log,
+        })
+    }
+
+    /// A force frame came.
+    fn force(&mut self, f: &capsule_device::Force) -> Result<()> {
+        self.forces += 1;
+        let us = self.latency.answered(f.answers);
+        if let Some(w) = self.log.as_mut() {
+            let wall = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos());
+            writeln!(
+                w,
+                "{wall},{},{},{}",
+                f.force_n,
+                f.answers,
+                us.map_or(String::new(), |u| u.to_string())
+            )
+            .context("--force-log: cannot write")?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs the emulated device until `--until-s`, an unplug, or Ctrl-C.
@@ -154,24 +273,32 @@ pub fn main(args: Args) -> Result<()> {
         command_timeout_s: device.command_timeout_s as f32,
     });
     let mut link = Link::new(pty.master.try_clone().context("pseudo-terminal")?);
+    let counts = Counts::new(args.force_log.as_deref())?;
     crate::work::catch_ctrl_c();
     let result = serve(
         &args,
         &mut proto,
         &mut link,
         &hello,
-        rate,
-        device.command_timeout_s,
+        (rate, device.command_timeout_s),
+        counts,
     );
     crate::work::release_ctrl_c();
     if let Some(l) = &args.link {
         let _ = std::fs::remove_file(l);
     }
     drop(pty);
-    let counts = result?;
+    let mut counts = result?;
+    if let Some(w) = counts.log.as_mut() {
+        w.flush().context("--force-log: cannot write")?;
+    }
     eprintln!(
-        "emulate-device: {} samples, {} force frames, {} command timeouts, {} bad frames in",
-        counts.samples, counts.forces, counts.timeouts, counts.bad_in
+        "emulate-device: {} samples, {} force frames, {} command timeouts, {} bad frames in; {}",
+        counts.samples,
+        counts.forces,
+        counts.timeouts,
+        counts.bad_in,
+        counts.latency.summary()
     );
     Ok(())
 }
@@ -182,15 +309,14 @@ fn serve(
     proto: &mut Prototype,
     link: &mut Link,
     hello: &Frame,
-    rate: f64,
-    timeout_s: f64,
+    (rate, timeout_s): (f64, f64),
+    mut counts: Counts,
 ) -> Result<Counts> {
     let period = Duration::from_secs_f64(1.0 / rate);
     let dt = 1.0 / rate;
     // a hello four times a second: a driver that (re)opens the line learns the limits quickly
     let hello_every = ((rate / 4.0).round() as u64).max(1);
     let start = Instant::now();
-    let mut counts = Counts::default();
     let mut cmd = Commanded::default();
     link.send(hello).map_err(gone)?;
     for k in 0u64.. {
@@ -236,7 +362,9 @@ fn serve(
                 .map_err(|e| anyhow::anyhow!("simulation failed at {t:.3} s: {e}"))?;
             continue;
         } else {
-            send_sample(link)?
+            let seq = send_sample(link)?;
+            counts.latency.sent(seq);
+            seq
         };
         counts.samples += 1;
         let due = start + period.mul_f64((k + 1) as f64);
@@ -306,7 +434,7 @@ fn take_forces(
                 frame: Frame::Force(f),
                 ..
             }) => {
-                counts.forces += 1;
+                counts.force(&f)?;
                 cmd.force_n = f64::from(f.force_n);
                 cmd.last = Some(Instant::now());
                 let answers_this = f.answers.wrapping_sub(sample.first_seq) < 0x8000;
@@ -327,8 +455,10 @@ fn take_forces(
                     }
                     // re-send the sample (with a hello: a driver may have just opened)
                     link.send(hello).map_err(gone)?;
-                    link.send(&Frame::Measurement(sample.measurement))
+                    let seq = link
+                        .send(&Frame::Measurement(sample.measurement))
                         .map_err(gone)?;
+                    counts.latency.sent(seq);
                     if !commanded {
                         waited_from = Instant::now();
                     }

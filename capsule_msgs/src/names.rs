@@ -61,6 +61,34 @@ pub mod topics {
     pub const EMERGENCY_STOP: &str = "capsule/emergency_stop";
     /// The plant's emergency-stop service (`std_srvs/srv/SetBool`: true engages, false releases).
     pub const EMERGENCY_STOP_SERVICE: &str = "~/emergency_stop";
+    /// A managed node's lifecycle (as rclcpp_lifecycle serves it): `(name, type)` of each
+    /// service and of the event topic.
+    pub mod lifecycle {
+        /// `(name, type)`: a service or topic and its ROS 2 type.
+        pub type Endpoint = (&'static str, &'static str);
+        /// Asks for a transition.
+        pub const CHANGE_STATE: Endpoint = ("~/change_state", "lifecycle_msgs/srv/ChangeState");
+        /// The current state.
+        pub const GET_STATE: Endpoint = ("~/get_state", "lifecycle_msgs/srv/GetState");
+        /// Every state.
+        pub const GET_AVAILABLE_STATES: Endpoint = (
+            "~/get_available_states",
+            "lifecycle_msgs/srv/GetAvailableStates",
+        );
+        /// The transitions from the current state.
+        pub const GET_AVAILABLE_TRANSITIONS: Endpoint = (
+            "~/get_available_transitions",
+            "lifecycle_msgs/srv/GetAvailableTransitions",
+        );
+        /// Every transition (the type of `get_available_transitions`).
+        pub const GET_TRANSITION_GRAPH: Endpoint = (
+            "~/get_transition_graph",
+            "lifecycle_msgs/srv/GetAvailableTransitions",
+        );
+        /// Every step taken.
+        pub const TRANSITION_EVENT: Endpoint =
+            ("~/transition_event", "lifecycle_msgs/msg/TransitionEvent");
+    }
 
     /// The standard-type topics of the plant's views (what RViz, Foxglove, robot_state_publisher
     /// and diagnostics aggregators read; relative ones move with the namespace, as in ROS).

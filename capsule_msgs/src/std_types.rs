@@ -163,3 +163,89 @@ pub struct DiagnosticArray {
     /// Statuses.
     pub status: Vec<DiagnosticStatus>,
 }
+
+/// `lifecycle_msgs/msg/State`: a lifecycle state (ids 1-4 primary, 10-15 transition states).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LifecycleState {
+    /// The state's id.
+    pub id: u8,
+    /// Its label (`unconfigured`, `inactive`, ...).
+    pub label: String,
+}
+
+/// `lifecycle_msgs/msg/Transition`: a lifecycle transition (1 configure, 2 cleanup, 3 activate,
+/// 4 deactivate, 5-7 shutdown; 10-61 the results of the callbacks).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LifecycleTransition {
+    /// The transition's id.
+    pub id: u8,
+    /// Its label (`configure`, ...; a request's label takes precedence over its id).
+    pub label: String,
+}
+
+/// `lifecycle_msgs/msg/TransitionDescription`: a transition between two states.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TransitionDescription {
+    /// The transition.
+    pub transition: LifecycleTransition,
+    /// Where it starts.
+    pub start_state: LifecycleState,
+    /// Where it goes.
+    pub goal_state: LifecycleState,
+}
+
+/// `lifecycle_msgs/msg/TransitionEvent`: published on `~/transition_event` for every step.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TransitionEvent {
+    /// When \[ns since the epoch\].
+    pub timestamp: u64,
+    /// The transition taken.
+    pub transition: LifecycleTransition,
+    /// From.
+    pub start_state: LifecycleState,
+    /// To.
+    pub goal_state: LifecycleState,
+}
+
+/// `lifecycle_msgs/srv/ChangeState` request.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ChangeStateRequest {
+    /// The transition asked for.
+    pub transition: LifecycleTransition,
+}
+
+/// `lifecycle_msgs/srv/ChangeState` response.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ChangeStateResponse {
+    /// Whether the transition was taken and succeeded.
+    pub success: bool,
+}
+
+/// An empty request (`lifecycle_msgs/srv/GetState`, `GetAvailableStates`,
+/// `GetAvailableTransitions`): one placeholder byte on the wire, as rosidl generates it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct EmptyRequest {
+    /// rosidl's placeholder member of an empty structure.
+    pub structure_needs_at_least_one_member: u8,
+}
+
+/// `lifecycle_msgs/srv/GetState` response.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct GetStateResponse {
+    /// The current state.
+    pub current_state: LifecycleState,
+}
+
+/// `lifecycle_msgs/srv/GetAvailableStates` response.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct GetAvailableStatesResponse {
+    /// Every state of the machine.
+    pub available_states: Vec<LifecycleState>,
+}
+
+/// `lifecycle_msgs/srv/GetAvailableTransitions` response (also `~/get_transition_graph`'s).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct GetAvailableTransitionsResponse {
+    /// The transitions from the current state (the whole graph for `~/get_transition_graph`).
+    pub available_transitions: Vec<TransitionDescription>,
+}

@@ -3,7 +3,9 @@
 //! reader that joins later still sees it engaged). While engaged the plant applies zero force
 //! from its next sample on, whatever the commands say; it stays engaged until released.
 //!
-//! Served by its own task, never by the sample loop; the loop reads one atomic flag per step.
+//! Served by its own task, never by the sample loop; the loop reads one atomic flag per step,
+//! and a device is sent a zero-force frame the moment the stop engages (whatever its loop is
+//! doing: waiting for a hello, for a silent device, for a lock-step answer).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -15,6 +17,8 @@ use capsule_ros_base::ros::{qos, types, RosOptions, Wire};
 use futures::StreamExt;
 use ros2_client::Node;
 use tracing::{info, warn};
+
+use crate::hardware::Stopper;
 
 /// The answer to a request to set the stop to `engage` when it was `was`.
 pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
@@ -30,8 +34,15 @@ pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
     }
 }
 
-/// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads.
-pub fn serve(node: &mut Node, settings: &RosOptions, engaged: Arc<AtomicBool>) -> Result<()> {
+/// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads, and
+/// `stopper` (a device's) sends a zero-force frame at once, from a thread of the blocking pool,
+/// so the answer never waits for it.
+pub fn serve(
+    node: &mut Node,
+    settings: &RosOptions,
+    engaged: Arc<AtomicBool>,
+    stopper: Option<Stopper>,
+) -> Result<()> {
     let server = settings.server::<SetBoolRequest, SetBoolResponse>(
         node,
         topics::EMERGENCY_STOP_SERVICE,
@@ -56,6 +67,9 @@ pub fn serve(node: &mut Node, settings: &RosOptions, engaged: Arc<AtomicBool>) -
                 }
             };
             let was = engaged.swap(req.data, Ordering::SeqCst);
+            if let Some(zero) = stopper.clone().filter(|_| req.data) {
+                tokio::task::spawn_blocking(move || zero());
+            }
             let resp = answer(req.data, was);
             if req.data {
                 warn!("{}", resp.message);

@@ -10,13 +10,15 @@
 //!   DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
 //!   parameters; [`controller_settings`]: its settings table
 //! - [`node_settings`]: a node's settings table as its flags and ROS parameters
-//! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`];
-//!   [`emergency_stop`]: its emergency-stop service and latched state
+//! - [`plant`]: the plant node (lifecycle, pacing, hold, watchdog) around any
+//!   [`hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and latched
+//!   state
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
-//! - [`sim`]: [`plant::PlantSim`] for the simulator of `capsule_plant` (any method);
-//!   [`device_driver`]: for a device on a serial line (`--source serial:PATH`)
+//! - [`hardware`]: the plant's hardware interface (SI, ros2_control's shape); [`sim`]: the
+//!   simulator of `capsule_plant` behind it (any method); [`device_driver`]: a device on a
+//!   serial line (`--source serial:PATH`)
 
 #![warn(missing_docs)]
 
@@ -31,6 +33,7 @@ pub mod controller_settings;
 pub mod device_driver;
 pub mod emergency_stop;
 pub mod foxglove_bridge;
+pub mod hardware;
 pub mod joint_commands;
 pub mod node_settings;
 pub mod plant;

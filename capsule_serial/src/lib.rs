@@ -7,5 +7,5 @@
 pub mod link;
 pub mod tty;
 
-pub use link::{Link, LinkError};
+pub use link::{Line, Link, LinkError};
 pub use tty::{open_line, open_pty, Pty, BAUD_RATES};

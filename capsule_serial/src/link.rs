@@ -1,9 +1,11 @@
 //! A framed link over a non-blocking byte stream: frames out with their own sequence numbers,
-//! decoded frames (and what was skipped) in, each read bounded by a deadline.
+//! decoded frames (and what was skipped) in, each read bounded by a deadline. The stream is any
+//! [`Line`]: a serial line or pty ([`File`]), or one end of a socket pair (in-process tests).
 
 use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::os::fd::AsFd;
+use std::os::unix::net::UnixStream;
 use std::time::{Duration, Instant};
 
 use capsule_device::{Decoded, Decoder, Frame};
@@ -21,24 +23,49 @@ pub enum LinkError {
 /// reading must not stop the loop that writes to it.
 const WRITE_WAIT: Duration = Duration::from_millis(20);
 
+/// A non-blocking byte stream a [`Link`] runs over: readable, writable, pollable, and
+/// clonable (one clone reads on the device's thread while another writes).
+pub trait Line: Read + Write + AsFd + Send + Sized + 'static {
+    /// A second handle on the same stream.
+    fn try_clone_line(&self) -> std::io::Result<Self>;
+}
+
+impl Line for File {
+    fn try_clone_line(&self) -> std::io::Result<File> {
+        self.try_clone()
+    }
+}
+
+impl Line for UnixStream {
+    fn try_clone_line(&self) -> std::io::Result<UnixStream> {
+        self.try_clone()
+    }
+}
+
 /// One end of a framed line.
-pub struct Link {
-    file: File,
+pub struct Link<S: Line = File> {
+    file: S,
     decoder: Decoder,
     seq: u16,
     /// Frames dropped because the line had no room for them.
     pub unsent: u64,
 }
 
-impl Link {
+impl<S: Line> Link<S> {
     /// A link over `file`, which must be non-blocking.
-    pub fn new(file: File) -> Link {
+    pub fn new(file: S) -> Link<S> {
         Link {
             file,
             decoder: Decoder::new(),
             seq: 0,
             unsent: 0,
         }
+    }
+
+    /// A second handle on the stream, with a decoder and sequence numbers of its own: one end
+    /// reads (on a thread of its own), the other writes.
+    pub fn try_clone(&self) -> std::io::Result<Link<S>> {
+        Ok(Link::new(self.file.try_clone_line()?))
     }
 
     fn wait(&self, flags: PollFlags, until: Instant) -> Result<bool, LinkError> {
@@ -125,6 +152,41 @@ mod tests {
     use super::*;
     use crate::tty::{open_line, open_pty};
     use capsule_device::Force;
+
+    #[test]
+    fn frames_cross_a_socket_pair_both_ways_from_cloned_ends(
+    ) -> Result<(), Box<dyn std::error::Error>> {
+        let (a, b) = UnixStream::pair()?;
+        a.set_nonblocking(true)?;
+        b.set_nonblocking(true)?;
+        let mut reader = Link::new(a);
+        // a second handle writes with its own sequence numbers while the first reads
+        let mut writer = reader.try_clone()?;
+        let mut device = Link::new(b);
+        writer.send(&Frame::Force(Force {
+            force_n: 1.5,
+            answers: 7,
+        }))?;
+        let got = device.next(Instant::now() + Duration::from_secs(1))?;
+        assert!(
+            matches!(got, Some(Decoded::Frame { seq: 0, frame: Frame::Force(f), .. }) if f.answers == 7),
+            "{got:?}"
+        );
+        device.send(&Frame::Force(Force {
+            force_n: 2.0,
+            answers: 1,
+        }))?;
+        assert!(matches!(
+            reader.next(Instant::now() + Duration::from_secs(1))?,
+            Some(Decoded::Frame { seq: 0, .. })
+        ));
+        drop(device);
+        assert!(matches!(
+            reader.next(Instant::now() + Duration::from_secs(1)),
+            Err(LinkError::Gone(_))
+        ));
+        Ok(())
+    }
 
     #[test]
     fn frames_cross_a_pty_and_a_closed_device_end_is_seen() -> Result<(), Box<dyn std::error::Error>>

@@ -17,6 +17,7 @@ mod faults;
 mod foxglove;
 mod interop;
 mod joint_commands;
+mod lifecycle;
 mod lockstep;
 mod params;
 mod security;

@@ -34,6 +34,15 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   cyclone_peer.py diagnostics --name N... [--seconds S]
                                             read /diagnostics, print each named status's last
                                             message (level, message, values) as JSON
+  cyclone_peer.py lifecycle T... [--node N] [--settle S] [--window S]
+                                            drive a managed node through the transitions T
+                                            (labels: configure, activate, ...) with
+                                            lifecycle_msgs/srv/ChangeState, as `ros2 lifecycle
+                                            set` does; after each, get_state and the largest
+                                            |actuator_force| on the state from S s on, for a
+                                            window; the transition events; print JSON
+  cyclone_peer.py estop-time [--repeat N]   the emergency stop's answer time, seen by a client
+                                            (engage, release, N times; after a warm-up call)
   cyclone_peer.py params    [--node N] [--set NAME=V]... [--refuse NAME=V]...
                                             the rcl_interfaces parameter services and
                                             /parameter_events, as `ros2 param` uses them
@@ -88,6 +97,19 @@ STANDARD = {
     "tf2_msgs/msg/TFMessage": "geometry_msgs/TransformStamped[] transforms",
     "std_msgs/msg/Bool": "bool data",
     "std_srvs/srv/SetBool": "bool data --- bool success; string message",
+    "lifecycle_msgs/msg/State": "uint8 id; string label",
+    "lifecycle_msgs/msg/Transition": "uint8 id; string label",
+    "lifecycle_msgs/msg/TransitionDescription": "Transition transition; State start_state; "
+                                                "State goal_state",
+    "lifecycle_msgs/msg/TransitionEvent": "uint64 timestamp; Transition transition; "
+                                          "State start_state; State goal_state",
+    "lifecycle_msgs/srv/ChangeState": "Transition transition --- bool success",
+    "lifecycle_msgs/srv/GetState": "uint8 structure_needs_at_least_one_member --- "
+                                   "State current_state",
+    "lifecycle_msgs/srv/GetAvailableStates": "uint8 structure_needs_at_least_one_member --- "
+                                             "State[] available_states",
+    "lifecycle_msgs/srv/GetAvailableTransitions": "uint8 structure_needs_at_least_one_member --- "
+                                                  "TransitionDescription[] available_transitions",
     "diagnostic_msgs/msg/KeyValue": "string key; string value",
     "diagnostic_msgs/msg/DiagnosticStatus": "byte level; string name; string message; "
                                             "string hardware_id; KeyValue[] values",
@@ -819,6 +841,78 @@ def cmd_estop(args):
     }))
 
 
+def cmd_lifecycle(args):
+    """Drives --node through the transitions given, as `ros2 lifecycle set` would (the id
+    looked up by label in get_available_transitions; an unknown label is sent with id 0, which
+    the node must refuse); after each, the state and the forces on capsule/state."""
+    dp = participant()
+    node = args.node.rstrip("/")
+    states = reader(dp, "capsule/state", T.CapsuleState, qos=reliable(depth=512))
+    events = reader(dp, node.strip("/") + "/transition_event", T.TransitionEvent,
+                    qos=reliable(depth=64))
+    empty = dict(structure_needs_at_least_one_member=0)
+
+    def client(name, ty):
+        return ServiceClient(dp, f"{node}/{name}", getattr(T, ty + "_Request"),
+                             getattr(T, ty + "_Response"), args.timeout)
+
+    change = client("change_state", "ChangeState")
+    get = client("get_state", "GetState")
+    avail = client("get_available_transitions", "GetAvailableTransitions")
+    all_states = client("get_available_states", "GetAvailableStates").call(**empty)
+    graph = client("get_transition_graph", "GetAvailableTransitions").call(**empty)
+    steps = []
+    for label in args.transitions:
+        before = get.call(**empty).current_state.label
+        ids = {t.transition.label: t.transition.id
+               for t in avail.call(**empty).available_transitions}
+        t0 = time.time()
+        r = change.call(transition=T.Transition(id=ids.get(label, 0), label=label))
+        answered_s = time.time() - t0
+        after = get.call(**empty).current_state.label
+        states.take(N=4096)
+        seen = []
+        end = time.time() + args.settle + args.window
+        while time.time() < end:
+            now = time.time()
+            seen.extend((now, abs(st.actuator_force)) for st in states.take(N=256))
+            time.sleep(0.005)
+        late = [f for t, f in seen if t >= t0 + args.settle]
+        steps.append({"transition": label, "success": r.success, "before": before,
+                      "after": after, "answered_s": answered_s, "samples": len(late),
+                      "max_force": max(late, default=None)})
+    got = []
+    end = time.time() + 0.5
+    while time.time() < end:
+        got.extend(events.take(N=64))
+        time.sleep(0.01)
+    print(json.dumps({
+        "steps": steps,
+        "events": [[e.transition.id, e.start_state.label, e.goal_state.label] for e in got],
+        "available_states": len(all_states.available_states),
+        "graph": len(graph.available_transitions),
+    }))
+
+
+def cmd_estop_time(args):
+    """The emergency stop's answer time as a client sees it: a warm-up call (release), then
+    REPEAT times engage and release, each timed from the request's write to its reply; prints
+    the wall clock of each engage (ns since the epoch) for the device's force log."""
+    dp = participant()
+    svc = ServiceClient(dp, args.service, T.SetBool_Request, T.SetBool_Response, args.timeout)
+    svc.call(data=False)
+    calls = []
+    for _ in range(args.repeat):
+        time.sleep(args.gap)
+        t0 = time.time_ns()
+        r = svc.call(data=True)
+        t1 = time.time_ns()
+        calls.append({"sent_ns": t0, "answer_ms": (t1 - t0) * 1e-6, "success": r.success})
+        time.sleep(args.gap)
+        svc.call(data=False)
+    print(json.dumps({"estop": calls}))
+
+
 def cmd_diagnostics(args):
     """Reads /diagnostics for --seconds (counted from the first array) and prints the last
     status of each --name (a node's statuses are named "NODE: ..."); fails if one is missing."""
@@ -884,6 +978,14 @@ def main():
     a = sub.add_parser("estop")
     options(a, str, service="/capsule_plant/emergency_stop")
     options(a, float, timeout=15.0)
+    a = sub.add_parser("lifecycle")
+    a.add_argument("transitions", nargs="+")
+    options(a, str, node="/capsule_plant")
+    options(a, float, settle=0.3, window=0.7, timeout=15.0)
+    a = sub.add_parser("estop-time")
+    options(a, str, service="/capsule_plant/emergency_stop")
+    options(a, int, repeat=5)
+    options(a, float, gap=0.3, timeout=15.0)
     a = sub.add_parser("diagnostics")
     a.add_argument("--name", nargs="+", required=True)
     options(a, float, seconds=2.5, timeout=30.0)
@@ -892,7 +994,8 @@ def main():
     args = p.parse_args()
     {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode,
      "inject": cmd_inject, "foreign": cmd_foreign, "params": cmd_params, "views": cmd_views,
-     "diagnostics": cmd_diagnostics, "estop": cmd_estop, "joint-command": cmd_joint_command}[args.cmd](args)
+     "diagnostics": cmd_diagnostics, "estop": cmd_estop, "joint-command": cmd_joint_command,
+     "lifecycle": cmd_lifecycle, "estop-time": cmd_estop_time}[args.cmd](args)
 
 
 if __name__ == "__main__":

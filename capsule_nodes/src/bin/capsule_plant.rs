@@ -8,7 +8,8 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
     device_driver::{DeviceDriver, DriverOptions, Source},
-    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions, PlantSim},
+    hardware::CapsuleHardware,
+    plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
     plant_params::{self, PlantFlags},
     recorder,
     sim::SimulatedPlant,
@@ -90,6 +91,12 @@ struct Cli {
     // --clock-every, --joint-commands
     #[command(flatten)]
     settings: PlantFlags,
+    /// Configure and activate at once (true, the default: the node runs as it starts), or
+    /// start unconfigured and wait for the lifecycle (`ros2 lifecycle set /capsule_plant
+    /// configure`, then `activate`), as rclcpp_lifecycle's managed nodes do
+    #[arg(long, default_value_t = true, num_args = 0..=1, default_missing_value = "true",
+          value_name = "BOOL", action = clap::ArgAction::Set)]
+    autostart: bool,
     #[command(flatten)]
     views: views::ViewArgs,
     #[command(flatten)]
@@ -97,7 +104,7 @@ struct Cli {
 }
 
 /// The plant node's core around the source chosen with `--source`.
-type Plant = PlantCore<Box<dyn PlantSim + Send>>;
+type Plant = PlantCore<Box<dyn CapsuleHardware>>;
 
 impl Cli {
     /// The source as `--check` prints it.
@@ -181,6 +188,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Pla
         record: record_options(cli, &file)?,
         params,
         joint_commands: run.joint_commands,
+        autostart: cli.autostart,
     };
     Ok((settings, core, opts))
 }
@@ -202,30 +210,38 @@ fn check_fixed_steps(cli: &Cli, scene: &capsule_plant::scene::Scene, rate: f64) 
     Ok(())
 }
 
-/// The source `--source` names, around the scene's capsule.
+/// The hardware `--source` names: the scene's simulator (checked here, built again at each
+/// configure) or the device on the line.
 fn source(
     cli: &Cli,
     scene: &capsule_plant::scene::Scene,
     rate_hz: f64,
     max_force_n: f64,
-) -> Result<Box<dyn PlantSim + Send>> {
+) -> Result<Box<dyn CapsuleHardware>> {
     Ok(match &cli.source {
-        Source::Sim => Box::new(SimulatedPlant(
-            Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
-                .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?,
-        )),
-        Source::Serial { path, baud } => Box::new(DeviceDriver::new(
-            DriverOptions {
-                path: path.clone(),
-                baud: *baud,
+        Source::Sim => {
+            let (model, s0, solver) = (scene.model(), scene.initial_state(), scene.solver());
+            let name = cli.scene.clone();
+            let build = move || {
+                Simulator::new(model, s0, 0.0, solver)
+                    .map_err(|e| format!("{name}: cannot set up the simulation: {e}"))
+            };
+            build().map_err(anyhow::Error::msg)?;
+            Box::new(SimulatedPlant::new(
+                Box::new(build),
+                scene.physical,
                 rate_hz,
-                max_force_n,
-                max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
-                gap_m: scene.model.capsule.delta * scene.physical.length_m(),
-                dry_run: cli.dry_run,
-            },
-            scene.physical,
-        )),
+            ))
+        }
+        Source::Serial { path, baud } => Box::new(DeviceDriver::new(DriverOptions {
+            path: path.clone(),
+            baud: *baud,
+            rate_hz,
+            max_force_n,
+            max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
+            gap_m: scene.model.capsule.delta * scene.physical.length_m(),
+            dry_run: cli.dry_run,
+        })),
     })
 }
 

@@ -21,19 +21,28 @@
 //! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
 //! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
 //!
-//! The node in parts: `plant_core` (the logic, unit-tested against a stand-in model),
-//! `stats` (loop statistics and the summary), `options`, `recording` (in-plant MCAP),
-//! `node` (DDS endpoints and [`run`]) and `pacing` (the two loops).
+//! The node in parts: `plant_core` (the logic, unit-tested against a mock hardware), `stats`
+//! (loop statistics and the summary), `options`, `recording` (in-plant MCAP), `endpoints` (the
+//! DDS endpoints), `node` ([`run`]: build, wait for the graph, run the loop, finish),
+//! `loop_control` (what reaches the loop's thread), `pacing` (the simulator's two loops),
+//! `paced` (the loop of a device, which paces itself), [`lifecycle`] (the managed node's state
+//! machine) and `lifecycle_services` (its services).
 
+mod endpoints;
+pub mod lifecycle;
+mod lifecycle_services;
+mod loop_control;
 mod node;
 mod options;
+mod paced;
 mod pacing;
 mod plant_core;
 mod recording;
 mod stats;
 
+pub use crate::hardware::SourceHealth;
 pub use node::run;
 pub use options::{Pacing, PlantOptions};
-pub use plant_core::{CommandOutcome, PlantCore, PlantSim, SourceHealth};
+pub use plant_core::{CommandOutcome, PlantCore};
 pub use recording::{InPlantRecordOptions, InPlantRecording};
 pub use stats::{summary_json, LoopStats};

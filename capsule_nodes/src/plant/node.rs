@@ -1,223 +1,121 @@
-//! The plant node on DDS: endpoints, start-up, and the run around the pacing loops.
+//! The plant node on DDS, in the phases of its life: build (recording file, endpoints,
+//! services), wait for the graph, run the sample loop on a thread of its own (the node's thread
+//! only serves: the emergency stop, the parameters, the lifecycle), finish (statistics, the
+//! recording).
+//!
+//! The state and force transport is [`Endpoints`]; the loop takes everything else through
+//! [`LoopControl`] and the hardware through [`PlantCore`].
 
-use capsule_msgs::std_types::JointState;
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use capsule_msgs::names::topics;
-use capsule_msgs::std_types::{Clock, DiagnosticArray};
-use capsule_msgs::{ActuatorForce, CapsuleState, Time};
-use capsule_ros_base::error::{Context as _, Result};
+use capsule_msgs::{CapsuleState, Time};
+use capsule_ros_base::error::{bail, chain, Context as _, Result};
+use capsule_ros_base::{conflicts, graph::Graph, ros::RosOptions};
+use tokio::sync::{oneshot, Notify};
 use tracing::{info, warn};
 
+use super::endpoints::{Endpoints, MATCH_GRACE};
+use super::lifecycle_services::{self, Lifecycle};
+use super::loop_control::{apply_unconfigured, Exit, LoopControl};
+use super::paced::paced_loop;
 use super::pacing::{lockstep_loop, realtime_loop};
-use super::{
-    CommandOutcome, InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions, PlantSim,
-};
-use crate::recorder::{drain_into, graph_topics, Channel, GraphRecording};
-use capsule_ros_base::{
-    conflicts::{self, TopicRule},
-    graph::Graph,
-    ros::{qos, subscribe, types, RosOptions},
-    throttle::Throttle,
-};
+use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
+use crate::hardware::CapsuleHardware;
 
-/// How long the plant waits after its subscribers matched before the first sample, and after
-/// the last sample before it leaves (discovery and sending run on DDS's own thread).
-pub(super) const MATCH_GRACE: Duration = Duration::from_millis(200);
-
-/// The plant's DDS endpoints.
-pub(super) struct Endpoints {
-    pub(super) state_pub: ros2_client::Publisher<CapsuleState>,
-    pub(super) clock_pub: ros2_client::Publisher<Clock>,
-    pub(super) force_sub: ros2_client::Subscription<ActuatorForce>,
-    pub(super) graph: Graph,
-    /// Standard-type views (issue 10).
-    pub(super) views: crate::views::PlantViews,
-    /// JointState commands (`--joint-commands`), `None` when off: one branch per sample.
-    pub(super) joint_sub: Option<ros2_client::Subscription<JointState>>,
+/// What the built node holds while it runs.
+struct Built {
+    io: Endpoints,
+    graph: Graph,
+    conflicts: Arc<AtomicU64>,
+    lifecycle: Lifecycle,
+    control: LoopControl,
+    recording: Option<InPlantRecording>,
+    /// The parameter services (served while they live).
+    _params: (
+        capsule_ros_base::param_services::ParamHandle,
+        tokio::sync::mpsc::UnboundedReceiver<capsule_ros_base::params::ParamTable>,
+    ),
 }
 
-impl Endpoints {
-    /// Whether /clock has a subscriber now (rclcpp's `get_subscription_count() > 0` idiom).
-    pub(super) fn clock_wanted(&self) -> bool {
-        self.graph.subscribers(self.clock_pub.guid()) > 0
-    }
-
-    /// Publishes a sample, then its standard-type views (if any are on); the diagnostics if
-    /// they went out.
-    pub(super) fn publish_state(
-        &self,
-        state: CapsuleState,
-        stats: &LoopStats,
-    ) -> Option<DiagnosticArray> {
-        let copy = self.views.per_sample.is_some().then(|| state.clone());
-        if let Err(e) = self.state_pub.publish(state) {
-            warn!("state not sent: {e:?}");
-        }
-        self.views_of(copy, stats)
-    }
-
-    /// The standard-type views of a sample just published; the diagnostics if they went out.
-    pub(super) fn views_of(
-        &self,
-        state: Option<CapsuleState>,
-        stats: &LoopStats,
-    ) -> Option<DiagnosticArray> {
-        let (views, state) = (self.views.per_sample.as_ref()?, state?);
-        let mut v = views
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        v.on_sample(&state, stats)
-    }
-}
-
-/// Logs a refused command: the first ten, then at powers of two.
-pub(super) fn log_refused(
-    outcome: CommandOutcome,
-    cmd: &ActuatorForce,
-    throttle: &mut Throttle,
-    total: u32,
-) {
-    if throttle.tick() {
-        warn!(
-            "command refused ({outcome:?}): seq {} stamp {:.6} s force {} N; {total} refused so far",
-            cmd.state_seq,
-            cmd.header.stamp.as_secs_f64(),
-            cmd.force,
-        );
-    }
-}
-
-/// Logs an undecodable command (e.g. a foreign type on the force topic), rate-limited: a
-/// writer of the wrong type sends one per sample.
-pub(super) fn log_undecodable(throttle: &mut Throttle, e: &dyn std::fmt::Debug) {
-    if throttle.tick() {
-        warn!(
-            "undecodable command ({} so far; a writer of another type on the force topic?): {e:?}",
-            throttle.seen()
-        );
-    }
-}
-
-/// Runs the plant node until `until_s` or SIGINT/SIGTERM; logs the loop statistics at the end.
-pub async fn run<S: PlantSim + Send + 'static>(
+/// Runs the plant node until `until_s`, a lifecycle shutdown, or SIGINT/SIGTERM; logs the
+/// loop statistics at the end.
+pub async fn run<H: CapsuleHardware + 'static>(
     settings: RosOptions,
-    core: PlantCore<S>,
+    core: PlantCore<H>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
+    let built = build(&settings, &core, &opts)?;
+    wait_for_graph(&built, &settings, &opts).await?;
+    let (result, core, recording, conflicts) = run_loop(built, core, opts).await?;
+    finish(result, core, recording, &conflicts).await
+}
+
+/// Build: the recording's file first (an unwritable place is an error before anything else
+/// starts), then DDS: endpoints, conflict watch, emergency stop, parameters, lifecycle.
+fn build<H: CapsuleHardware>(
+    settings: &RosOptions,
+    core: &PlantCore<H>,
+    opts: &PlantOptions,
+) -> Result<Built> {
     if opts.joint_commands && opts.pacing == Pacing::Lockstep {
-        capsule_ros_base::error::bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+        bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
     }
-    // the file first: an unwritable place is an error before anything else starts
-    let recording = opts
+    let file = opts
         .record
         .as_ref()
-        .map(|r| {
-            GraphRecording::create(
-                &r.output,
-                r.scene.clone(),
-                &settings,
-                &r.controller_node,
-                r.flush_period,
-                r.bag,
-            )
-        })
+        .map(|r| InPlantRecording::create_file(r, settings))
         .transpose()?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
-    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
-    let clock_topic = settings.topic(&node, topics::CLOCK, types::clock(), &qos::clock())?;
-    let joint_topic = opts
-        .joint_commands
-        .then(|| {
-            settings.topic(
-                &node,
-                topics::JOINT_COMMANDS,
-                types::joint_state(),
-                &qos::data(),
-            )
-        })
-        .transpose()?;
-    let io = Endpoints {
-        state_pub: node
-            .create_publisher::<CapsuleState>(&state_topic, None)
-            .context("state publisher")?,
-        clock_pub: node
-            .create_publisher::<Clock>(&clock_topic, None)
-            .context("clock publisher")?,
-        force_sub: subscribe::<ActuatorForce>(&mut node, &force_topic, &qos::data_reader())?,
-        joint_sub: joint_topic
-            .map(|t| subscribe::<JointState>(&mut node, &t, &qos::data_reader()))
-            .transpose()?,
-        graph: graph.clone(),
-        views: crate::views::Views::create(
-            &mut node,
-            &settings,
-            &graph,
-            crate::views::ViewSwitches::from_table(&opts.params),
-            &format!("{:?}", opts.pacing).to_ascii_lowercase(),
-            core.rate_hz,
-            opts.params.double(crate::plant_params::names::M1_KG),
-        )?,
-    };
-    let conflicts = conflicts::watch(
-        graph.clone(),
-        vec![
-            TopicRule::new(
-                &state_topic,
-                settings.resolve_name(topics::STATE),
-                0,
-                "ANOTHER PLANT: both apply every command the controller sends",
-            ),
-            // controllers are checked for their type only: a SIGKILLed one stays in discovery
-            // until its lease ends, and its successor would look like a second one
-            TopicRule::new(
-                &force_topic,
-                settings.resolve_name(topics::FORCE),
-                usize::MAX,
-                "",
-            ),
-        ],
-    );
-    crate::emergency_stop::serve(&mut node, &settings, core.emergency_stop())?;
+    let (io, rules) = Endpoints::create(&mut node, settings, &graph, opts, core.rate_hz)?;
+    let conflicts = conflicts::watch(graph.clone(), rules);
+    crate::emergency_stop::serve(&mut node, settings, core.emergency_stop(), core.stopper())?;
     // ROS parameters (read-only here): served by their own task, never by the sample loop
-    let _params = capsule_ros_base::param_services::serve(
+    let params = capsule_ros_base::param_services::serve(
         &context,
         &mut node,
-        &settings,
+        settings,
         opts.params.clone(),
         capsule_ros_base::params::no_rules,
         || Time::from_nanos(capsule_record::writer::now_ns() as i64),
     )?;
-    let mut recording = match (recording, &opts.record) {
-        (Some(rec), Some(r)) => {
-            // reliable, deep: status and service events are few and must all be kept
-            let deep = qos::data().history(ros2_client::qos::History::KeepLast { depth: 1000 });
-            let specs = graph_topics(&r.controller_node);
-            let [status_topic, event_topic] = [Channel::Status, Channel::ServiceEvent].map(|c| {
-                let (name, ty, _, q) = &specs[c as usize];
-                settings.topic(&node, name, ty.clone(), q)
-            });
-            let (status_topic, event_topic) = (status_topic?, event_topic?);
-            info!("recording the graph in-process to {}", r.output.display());
-            Some(InPlantRecording {
-                rec,
-                status_sub: subscribe(&mut node, &status_topic, &deep)?,
-                event_sub: subscribe(&mut node, &event_topic, &deep)?,
-                last_poll: Instant::now(),
-            })
-        }
+    let (lifecycle, requests) = lifecycle_services::serve(&mut node, settings)?;
+    let recording = match (file, &opts.record) {
+        (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, settings)?),
         _ => None,
     };
+    announce(settings, opts, core.rate_hz);
+    Ok(Built {
+        io,
+        graph,
+        conflicts,
+        lifecycle,
+        control: LoopControl {
+            halt: Arc::default(),
+            woken: Arc::new(Notify::new()),
+            requests,
+        },
+        recording,
+        _params: params,
+    })
+}
+
+fn announce(settings: &RosOptions, opts: &PlantOptions, rate_hz: f64) {
     info!(
-        "{}: {:?} at {} Hz, state {} <- force {}, clock {} (while subscribed)",
+        "{}: {:?} at {} Hz, state {} <- force {}, clock {} (while subscribed){}",
         settings.describe(),
         opts.pacing,
-        core.rate_hz,
+        rate_hz,
         settings.resolve_name(topics::STATE),
         settings.resolve_name(topics::FORCE),
         settings.resolve_name(topics::CLOCK),
+        if opts.autostart {
+            ""
+        } else {
+            "; unconfigured until `ros2 lifecycle set` configures it"
+        }
     );
     if opts.joint_commands {
         info!(
@@ -226,64 +124,167 @@ pub async fn run<S: PlantSim + Send + 'static>(
             crate::joint_commands::JOINT
         );
     }
+}
 
-    if opts.wait_subscribers > 0 {
-        let writer = io.state_pub.guid();
-        if !graph
-            .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
-            .await
-        {
-            capsule_ros_base::error::bail!(
-                "only {} of {} subscribers matched {} within {:?}",
-                graph.subscribers(writer),
-                opts.wait_subscribers,
-                settings.resolve_name(topics::STATE),
-                opts.startup_timeout
-            );
-        }
-        // Our writer has matched them; their readers match our writer when they process our
-        // announcement, which can be a moment later, and a reader that has not yet matched
-        // drops what it gets. Give them that moment, or the first samples miss the recorder.
-        tokio::time::sleep(MATCH_GRACE).await;
-        info!("{} subscribers matched: starting", opts.wait_subscribers);
+/// Wait for the graph: `--wait-subscribers` readers of the state before the first sample.
+async fn wait_for_graph(built: &Built, settings: &RosOptions, opts: &PlantOptions) -> Result<()> {
+    if opts.wait_subscribers == 0 {
+        return Ok(());
     }
-    // a device's first measurement before the first sample, so that sample is one
-    let mut core = core;
-    core.start(opts.startup_timeout);
-    let (result, mut core, recording) = match opts.pacing {
-        Pacing::Lockstep => {
-            let mut core = core;
-            let r = lockstep_loop(&mut core, &io, &opts, recording.as_mut()).await;
-            (r, core, recording)
+    let writer = built.io.state_pub.guid();
+    if !built
+        .graph
+        .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
+        .await
+    {
+        bail!(
+            "only {} of {} subscribers matched {} within {:?}",
+            built.graph.subscribers(writer),
+            opts.wait_subscribers,
+            settings.resolve_name(topics::STATE),
+            opts.startup_timeout
+        );
+    }
+    // Our writer has matched them; their readers match our writer when they process our
+    // announcement, which can be a moment later, and a reader that has not yet matched
+    // drops what it gets. Give them that moment, or the first samples miss the recorder.
+    tokio::time::sleep(MATCH_GRACE).await;
+    info!("{} subscribers matched: starting", opts.wait_subscribers);
+    Ok(())
+}
+
+/// What the loop's thread gives back.
+type Ended<H> = (Result<()>, PlantCore<H>, Option<InPlantRecording>);
+
+/// Run the loop: on a thread of its own, started unconfigured; `--autostart` configures and
+/// activates it; a signal ends it.
+async fn run_loop<H: CapsuleHardware + 'static>(
+    built: Built,
+    core: PlantCore<H>,
+    opts: PlantOptions,
+) -> Result<(
+    Result<()>,
+    PlantCore<H>,
+    Option<InPlantRecording>,
+    Arc<AtomicU64>,
+)> {
+    let Built {
+        io,
+        conflicts,
+        lifecycle,
+        control,
+        recording,
+        _params,
+        ..
+    } = built;
+    let (halt, woken) = (control.halt.clone(), control.woken.clone());
+    let stop = move || {
+        halt.store(true, Ordering::SeqCst);
+        woken.notify_one();
+    };
+    let autostart = opts.autostart;
+    let mut ended = spawn_loop(core, io, opts, control, recording)?;
+    if autostart {
+        if let Err(e) = lifecycle.autostart().await {
+            stop();
+            let _ = (&mut ended).await;
+            return Err(e);
         }
-        Pacing::Realtime => {
-            let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-            let stop_loop = stop.clone();
-            let opts = opts.clone();
-            let mut looping = tokio::task::spawn_blocking(move || {
-                let mut core = core;
-                let r = realtime_loop(&mut core, &io, &opts, &stop_loop, recording.as_mut());
-                (r, core, recording)
-            });
-            let shutdown = capsule_ros_base::ros::shutdown_signal();
-            tokio::pin!(shutdown);
-            tokio::select! {
-                done = &mut looping => done.context("the real-time loop panicked")?,
-                sig = &mut shutdown => {
-                    match sig {
-                        Ok(s) => info!("{s}: shutting down"),
-                        Err(e) => warn!("{}", capsule_ros_base::error::chain(&e)),
-                    }
-                    stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                    looping.await.context("the real-time loop panicked")?
-                }
+    }
+    let shutdown = capsule_ros_base::ros::shutdown_signal();
+    tokio::pin!(shutdown);
+    let (result, core, recording) = tokio::select! {
+        done = &mut ended => done.context("the sample loop's thread ended without a word")?,
+        sig = &mut shutdown => {
+            match sig {
+                Ok(s) => info!("{s}: shutting down"),
+                Err(e) => warn!("{}", chain(&e)),
             }
+            stop();
+            ended.await.context("the sample loop's thread ended without a word")?
         }
     };
+    Ok((result, core, recording, conflicts))
+}
+
+/// Starts the sample loop's thread (a runtime of its own: nothing it does waits on the node's).
+fn spawn_loop<H: CapsuleHardware + 'static>(
+    mut core: PlantCore<H>,
+    io: Endpoints,
+    opts: PlantOptions,
+    mut control: LoopControl,
+    mut rec: Option<InPlantRecording>,
+) -> Result<oneshot::Receiver<Ended<H>>> {
+    let (tx, rx) = oneshot::channel();
+    std::thread::Builder::new()
+        .name("capsule_plant_loop".into())
+        .spawn(move || {
+            let result = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .context("cannot start the sample loop's runtime")
+                .and_then(|rt| {
+                    rt.block_on(drive(&mut core, &io, &opts, &mut control, rec.as_mut()))
+                });
+            let _ = core.cleanup();
+            let _ = tx.send((result, core, rec));
+        })
+        .context("cannot start the sample loop's thread")?;
+    Ok(rx)
+}
+
+/// The loop's life: unconfigured until configured, then the pacing loop of the hardware until
+/// a cleanup (unconfigured again) or the end.
+async fn drive<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Endpoints,
+    opts: &PlantOptions,
+    control: &mut LoopControl,
+    mut rec: Option<&mut InPlantRecording>,
+) -> Result<()> {
+    loop {
+        let woken = control.woken.clone();
+        let request = tokio::select! {
+            r = control.requests.recv() => r,
+            _ = woken.notified() => None,
+        };
+        let Some(request) = request else {
+            if control.halted() || control.requests.is_closed() {
+                return Ok(());
+            }
+            continue;
+        };
+        match apply_unconfigured(core, request) {
+            Some(Exit::Over) => return Ok(()),
+            Some(Exit::CleanedUp) => continue,
+            None => {}
+        }
+        let exit = match (core.ready(), opts.pacing) {
+            (Some(ready), _) => {
+                paced_loop(core, io, opts, control, rec.as_deref_mut(), ready).await?
+            }
+            (None, Pacing::Realtime) => realtime_loop(core, io, opts, control, rec.as_deref_mut())?,
+            (None, Pacing::Lockstep) => {
+                lockstep_loop(core, io, opts, control, rec.as_deref_mut()).await?
+            }
+        };
+        if exit == Exit::Over {
+            return Ok(());
+        }
+    }
+}
+
+/// Finish: the last sample's way out, the statistics, the recording.
+async fn finish<H: CapsuleHardware>(
+    result: Result<()>,
+    mut core: PlantCore<H>,
+    recording: Option<InPlantRecording>,
+    conflicts: &AtomicU64,
+) -> Result<(LoopStats, CapsuleState)> {
     // DDS sends from its own thread: let the last sample leave before the participant goes
     tokio::time::sleep(MATCH_GRACE).await;
     core.stats.finish();
-    core.stats.graph_conflicts = conflicts.load(std::sync::atomic::Ordering::Relaxed);
+    core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
     let stats = core.stats.clone();
     match stats.percentiles() {
         Some((p50, p99, max)) => info!(
@@ -301,22 +302,9 @@ pub async fn run<S: PlantSim + Send + 'static>(
         ),
         None => info!("loop: {} samples, no command answered", stats.published),
     }
-    if let Some(r) = recording {
-        let mut rec = r.rec;
-        let ended = result.and_then(|()| {
-            // status and service events still in flight: the controller's last ones
-            drain_into(&r.status_sub, &mut rec, Channel::Status)?;
-            drain_into(&r.event_sub, &mut rec, Channel::ServiceEvent)
-        });
-        return match ended {
-            Ok(_) => {
-                let report = rec.finish()?;
-                let total: u64 = report.per_topic.values().sum();
-                info!("recorded {total} messages to {}", report.path.display());
-                Ok((stats, core.state()))
-            }
-            Err(e) => Err(rec.abandon(e)),
-        };
-    }
+    let result = match recording {
+        Some(r) => r.finish(result),
+        None => result,
+    };
     result.map(|()| (stats, core.state()))
 }

@@ -34,4 +34,7 @@ pub struct PlantOptions {
     /// Also take commands as JointState on [`capsule_msgs::names::topics::JOINT_COMMANDS`] (real-time pacing; see
     /// [`crate::joint_commands`]).
     pub joint_commands: bool,
+    /// Configure and activate at once (otherwise unconfigured until the lifecycle's
+    /// `change_state` asks).
+    pub autostart: bool,
 }

@@ -1,21 +1,24 @@
-//! The two pacings: real time on one thread, and lock-step.
+//! The two pacings of node-paced hardware (the simulator): real time, and lock-step. Both run
+//! on the sample loop's own thread, never on the one that serves the node's services.
 
 use capsule_msgs::std_types::JointState;
 use std::time::{Duration, Instant};
 
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::CapsuleState;
-use capsule_ros_base::error::Result;
+use capsule_ros_base::error::{Context as _, Result};
 use futures::StreamExt;
 use tracing::{info, warn};
 
-use super::node::{log_refused, log_undecodable, Endpoints};
-use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions, PlantSim};
+use super::endpoints::{log_refused, log_undecodable, Endpoints};
+use super::loop_control::{Exit, LoopControl};
+use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions};
+use crate::hardware::CapsuleHardware;
 use capsule_ros_base::throttle::Throttle;
 
 /// The current sample and, every `clock_every`-th sample, its /clock, recorded when recording.
-pub(super) fn outgoing<S: PlantSim>(
-    core: &PlantCore<S>,
+pub(super) fn outgoing<H: CapsuleHardware>(
+    core: &PlantCore<H>,
     opts: &PlantOptions,
     rec: Option<&mut InPlantRecording>,
 ) -> Result<(CapsuleState, Option<Clock>)> {
@@ -35,8 +38,8 @@ pub(super) fn outgoing<S: PlantSim>(
 
 /// Takes every JointState command received (see [`crate::joint_commands`]): each answers the
 /// current sample and goes through [`PlantCore::on_command`] as a force command does.
-fn take_joint_commands<S: PlantSim>(
-    core: &mut PlantCore<S>,
+pub(super) fn take_joint_commands<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
     sub: &ros2_client::Subscription<JointState>,
     at: impl Fn(&ros2_client::MessageInfo) -> f64,
     refused_logged: &mut Throttle,
@@ -72,102 +75,162 @@ fn take_joint_commands<S: PlantSim>(
     }
 }
 
+/// Loop times: wall-clock seconds since the loop started, the clock DDS stamps receptions with.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Wall(i64);
+
+impl Wall {
+    /// From now.
+    pub(super) fn start() -> Wall {
+        Wall(capsule_record::writer::now_ns() as i64)
+    }
+    /// Seconds since the start.
+    pub(super) fn now(self) -> f64 {
+        (capsule_record::writer::now_ns() as i64 - self.0) as f64 * 1e-9
+    }
+    /// When DDS received a message (now, if it does not say).
+    pub(super) fn at(self, info: &ros2_client::MessageInfo) -> f64 {
+        info.received_timestamp()
+            .map_or_else(|| self.now(), |t| (t.to_nanos() - self.0) as f64 * 1e-9)
+    }
+}
+
+/// Publishes the current sample (with /clock when due and wanted; the views; recorded when
+/// recording); true when it was the last one (`--until-s`).
+pub(super) fn publish_now<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Endpoints,
+    opts: &PlantOptions,
+    wall: Wall,
+    mut rec: Option<&mut InPlantRecording>,
+) -> Result<bool> {
+    let stamp = core.stamp();
+    let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
+    if let Some(c) = clock.filter(|_| io.clock_wanted()) {
+        let _ = io.clock_pub.publish(c);
+    }
+    if let (Some(d), Some(r)) = (io.publish_state(state, &core.stats), rec) {
+        r.diagnostics(&d)?;
+    }
+    core.published(wall.now());
+    let end = opts.until_s.map(|s| (s * 1e9).round() as i64);
+    if end.is_some_and(|u| stamp.to_nanos() >= u) {
+        info!("reached the end time {:.3} s", stamp.as_secs_f64());
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+/// Rate-limited logs of the commands not taken.
+#[derive(Default)]
+pub(super) struct CommandLogs {
+    pub(super) refused: Throttle,
+    pub(super) undecodable: Throttle,
+    pub(super) joint_bad: Throttle,
+}
+
+/// Takes one force command received at `at` (recorded when recording).
+pub(super) fn take_command<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    cmd: &capsule_msgs::ActuatorForce,
+    info: &ros2_client::MessageInfo,
+    at: f64,
+    logs: &mut CommandLogs,
+    rec: Option<&mut InPlantRecording>,
+) -> Result<CommandOutcome> {
+    if let Some(r) = rec {
+        r.received(cmd, info)?;
+    }
+    let outcome = core.on_command(cmd, at, false);
+    match outcome {
+        CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
+        refused => log_refused(refused, cmd, &mut logs.refused, core.rejected()),
+    }
+    Ok(outcome)
+}
+
+/// Takes every command received (force and JointState), without waiting.
+pub(super) fn take_commands<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Endpoints,
+    wall: Wall,
+    logs: &mut CommandLogs,
+    mut rec: Option<&mut InPlantRecording>,
+) -> Result<()> {
+    loop {
+        match io.force_sub.take() {
+            Ok(Some((cmd, info))) => {
+                take_command(core, &cmd, &info, wall.at(&info), logs, rec.as_deref_mut())?;
+            }
+            Ok(None) => break,
+            // the rest waits for the next sample: never spin on a reader that keeps failing
+            Err(e) => {
+                log_undecodable(&mut logs.undecodable, &e);
+                break;
+            }
+        }
+    }
+    if let Some(sub) = &io.joint_sub {
+        let at = |info: &ros2_client::MessageInfo| wall.at(info);
+        take_joint_commands(core, sub, at, &mut logs.refused, &mut logs.joint_bad);
+    }
+    Ok(())
+}
+
 /// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
 /// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
 /// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
 /// DDS's own (an earlier timer thread -> tokio -> DDS hand-off, with a wake-up per command,
 /// cost a third of the plant's CPU at 1 kHz). Latency is measured from DDS's reception time.
-pub(super) fn realtime_loop<S: PlantSim>(
-    core: &mut PlantCore<S>,
+pub(super) fn realtime_loop<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
     io: &Endpoints,
     opts: &PlantOptions,
-    stop: &std::sync::atomic::AtomicBool,
+    control: &mut LoopControl,
     mut rec: Option<&mut InPlantRecording>,
-) -> Result<()> {
+) -> Result<Exit> {
     let period = Duration::from_secs_f64(1.0 / core.rate_hz);
-    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
     let start = Instant::now();
-    // loop times are wall-clock seconds since the start, the clock DDS stamps receptions with
-    let wall0 = capsule_record::writer::now_ns() as i64;
-    let now = || (capsule_record::writer::now_ns() as i64 - wall0) as f64 * 1e-9;
-    let mut refused_logged = Throttle::default();
-    let mut undecodable = Throttle::default();
-    let mut joint_bad = Throttle::default();
+    let first = core.seq();
+    let wall = Wall::start();
+    let mut logs = CommandLogs::default();
     loop {
-        let stamp = core.stamp();
-        let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
-        if let Some(c) = clock.filter(|_| io.clock_wanted()) {
-            let _ = io.clock_pub.publish(c);
+        if publish_now(core, io, opts, wall, rec.as_deref_mut())? {
+            return Ok(Exit::Over);
         }
-        if let (Some(d), Some(r)) = (io.publish_state(state, &core.stats), rec.as_deref_mut()) {
-            r.diagnostics(&d)?;
-        }
-        core.published(now());
-        if until_nanos.is_some_and(|u| stamp.to_nanos() >= u) {
-            info!("reached the end time {:.3} s", stamp.as_secs_f64());
-            return Ok(());
-        }
-        let due = start + period.mul_f64((core.seq() + 1) as f64);
+        let due = start + period.mul_f64((core.seq() + 1 - first) as f64);
         let wait = due.saturating_duration_since(Instant::now());
         if !wait.is_zero() {
             std::thread::sleep(wait);
         }
-        if stop.load(std::sync::atomic::Ordering::Relaxed) {
-            return Ok(());
+        if let Some(exit) = control.poll(core) {
+            return Ok(exit);
         }
-        loop {
-            match io.force_sub.take() {
-                Ok(Some((cmd, info))) => {
-                    if let Some(r) = rec.as_deref_mut() {
-                        r.received(&cmd, &info)?;
-                    }
-                    let at = info
-                        .received_timestamp()
-                        .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9);
-                    match core.on_command(&cmd, at, false) {
-                        CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
-                        refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
-                    }
-                }
-                Ok(None) => break,
-                // the rest waits for the next sample: never spin on a reader that keeps failing
-                Err(e) => {
-                    log_undecodable(&mut undecodable, &e);
-                    break;
-                }
-            }
-        }
-        if let Some(sub) = &io.joint_sub {
-            let at = |info: &ros2_client::MessageInfo| {
-                info.received_timestamp()
-                    .map_or_else(now, |t| (t.to_nanos() - wall0) as f64 * 1e-9)
-            };
-            take_joint_commands(core, sub, at, &mut refused_logged, &mut joint_bad);
-        }
-        if core.check_watchdog(now()) {
+        take_commands(core, io, wall, &mut logs, rec.as_deref_mut())?;
+        if core.check_watchdog(wall.now()) {
             warn!(
                 "no command for {:.3} s: applying zero force",
                 core.command_timeout
             );
         }
-        core.step()?;
+        core.step().context("the plant's hardware")?;
     }
 }
 
 /// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
 /// every `retransmit`), step with it; zero force after the command timeout.
-pub(super) async fn lockstep_loop<S: PlantSim>(
-    core: &mut PlantCore<S>,
+pub(super) async fn lockstep_loop<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
     io: &Endpoints,
     opts: &PlantOptions,
+    control: &mut LoopControl,
     mut rec: Option<&mut InPlantRecording>,
-) -> Result<()> {
+) -> Result<Exit> {
     let start = Instant::now();
     let steady = move || start.elapsed().as_secs_f64();
     let commands = io.force_sub.async_stream();
     tokio::pin!(commands);
-    let shutdown = capsule_ros_base::ros::shutdown_signal();
-    tokio::pin!(shutdown);
+    let woken = control.woken.clone();
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
     let mut wait_started = steady();
     let mut resend = tokio::time::interval(opts.retransmit);
@@ -196,20 +259,22 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
         }
         if until_nanos.is_some_and(|u| core.stamp().to_nanos() >= u) {
             info!("reached the end time {:.3} s", core.stamp().as_secs_f64());
-            return Ok(());
+            return Ok(Exit::Over);
+        }
+        if let Some(exit) = control.poll(core) {
+            return Ok(exit);
         }
         if core.answered() {
-            core.step()?;
+            core.step().context("the plant's hardware")?;
             need_publish = true;
             continue;
         }
         tokio::select! {
-            sig = &mut shutdown => {
-                match sig {
-                    Ok(s) => info!("{s}: shutting down"),
-                    Err(e) => warn!("{}", capsule_ros_base::error::chain(&e)),
+            _ = woken.notified() => {}
+            Some(r) = control.requests.recv() => {
+                if let Some(exit) = super::loop_control::apply(core, r) {
+                    return Ok(exit);
                 }
-                return Ok(());
             }
             msg = commands.select_next_some() => match msg {
                 Ok((cmd, info)) => {
@@ -232,7 +297,7 @@ pub(super) async fn lockstep_loop<S: PlantSim>(
                         warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
                     }
                     ever_commanded = true;
-                    core.step()?;
+                    core.step().context("the plant's hardware")?;
                     need_publish = true;
                 } else {
                     let state = core.state();

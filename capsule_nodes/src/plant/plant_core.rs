@@ -1,64 +1,21 @@
 //! The plant's logic without DDS: the zero-order hold of the last accepted command, command
 //! validation (non-finite refused, huge saturated, late or future refused), the stale-command
-//! watchdog, SI conversion, and the samples it publishes.
+//! watchdog, the lifecycle's gate (zero force unless active), and the samples it publishes,
+//! around any [`CapsuleHardware`].
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
 use capsule_msgs::{ActuatorForce, CapsuleState, Header, Time};
 use capsule_plant::scene::PhysicalScale;
-use capsule_plant::Snapshot;
-use capsule_record::sample::state_message;
-use capsule_ros_base::error::Result;
 use tracing::info;
 
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
-
-/// What the node needs from its capsule (the simulator, or a device behind a driver): hold a
-/// force until a time, and report a sample.
-pub trait PlantSim {
-    /// Holds the non-dimensional actuator force `force` until `tau_end` (a simulator
-    /// integrates; a driver sends it and takes the next measurement).
-    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()>;
-    /// The current sample (NaN where a device does not measure).
-    fn sample(&self) -> Snapshot;
-    /// Brings the capsule up before the first sample, waiting at most `timeout`: a driver
-    /// opens its line and waits for the device's first measurement (and goes on without one,
-    /// saying so); a simulator is ready at once.
-    fn start(&mut self, timeout: std::time::Duration) {
-        let _ = timeout;
-    }
-    /// How a device is doing, for `/diagnostics` and the summary; `None` for a simulator,
-    /// which cannot fail between steps.
-    fn health(&self) -> Option<&SourceHealth> {
-        None
-    }
-}
-
-/// A plant chosen at run time (`--source`).
-impl<P: PlantSim + ?Sized> PlantSim for Box<P> {
-    fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
-        (**self).advance(force, tau_end)
-    }
-    fn sample(&self) -> Snapshot {
-        (**self).sample()
-    }
-    fn health(&self) -> Option<&SourceHealth> {
-        (**self).health()
-    }
-    fn start(&mut self, timeout: std::time::Duration) {
-        (**self).start(timeout)
-    }
-}
-
-/// How a plant's device is doing.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct SourceHealth {
-    /// What the plant is (`serial /dev/ttyUSB0 at 921600 baud`).
-    pub label: String,
-    /// What is wrong now, if anything (the force is zero while it lasts).
-    pub fault: Option<String>,
-    /// Counters and limits, as `/diagnostics` key-value pairs.
-    pub values: Vec<(&'static str, String)>,
-}
+use crate::hardware::{
+    unknown_sample, CapsuleHardware, HardwareError, Reading, Sample, SourceHealth,
+};
 
 /// Why a command was not taken.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,10 +33,15 @@ pub enum CommandOutcome {
     Future,
 }
 
-/// The plant node's logic around a simulator.
-pub struct PlantCore<S: PlantSim> {
-    pub(super) sim: S,
-    pub(super) scale: PhysicalScale,
+/// The plant node's logic around its hardware.
+pub struct PlantCore<H: CapsuleHardware> {
+    pub(super) hw: H,
+    /// The newest sample (the last one again while a device sends nothing usable).
+    pub(super) current: Sample,
+    /// Active (lifecycle): written forces apply; otherwise zero goes out.
+    pub(super) active: bool,
+    /// Whether the current sample's force went out (a device is answered once per sample).
+    pub(super) written: bool,
     pub(super) rate_hz: f64,
     pub(super) command_timeout: f64,
     pub(super) frame_id: String,
@@ -93,17 +55,24 @@ pub struct PlantCore<S: PlantSim> {
     pub(super) published_at: Option<f64>,
     pub(super) gate: CommandGate,
     /// Engaged: zero force from the next step on (see [`crate::emergency_stop`]).
-    pub(super) emergency_stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    pub(super) emergency_stop: Arc<AtomicBool>,
     /// Statistics of the loop.
     pub stats: LoopStats,
 }
 
-impl<S: PlantSim> PlantCore<S> {
-    /// A plant sampling at `rate_hz`, falling back to zero force after `command_timeout` \[s\].
-    pub fn new(sim: S, scale: PhysicalScale, rate_hz: f64, command_timeout: f64) -> Self {
+impl<H: CapsuleHardware> PlantCore<H> {
+    /// A plant on `hw` sampling at `rate_hz`, falling back to zero force after
+    /// `command_timeout` \[s\]; its default force limit is [`DEFAULT_MAX_FORCE_PF`] of
+    /// `scale`'s `P_f`. Unconfigured and inactive until [`PlantCore::configure`] and
+    /// [`PlantCore::activate`].
+    pub fn new(mut hw: H, scale: PhysicalScale, rate_hz: f64, command_timeout: f64) -> Self {
+        let emergency_stop: Arc<AtomicBool> = Default::default();
+        hw.zero_while(emergency_stop.clone());
         PlantCore {
-            sim,
-            scale,
+            hw,
+            current: unknown_sample(),
+            active: false,
+            written: false,
             rate_hz,
             command_timeout,
             frame_id: "odom".to_string(),
@@ -116,7 +85,7 @@ impl<S: PlantSim> PlantCore<S> {
             answered_current: false,
             published_at: None,
             gate: CommandGate::new(DEFAULT_MAX_FORCE_PF * scale.force_n()),
-            emergency_stop: Default::default(),
+            emergency_stop,
             stats: LoopStats::default(),
         }
     }
@@ -148,10 +117,10 @@ impl<S: PlantSim> PlantCore<S> {
         Time::from_nanos(self.stamp_nanos(self.step))
     }
 
-    /// Force held now \[N\]: zero while the watchdog has fired or the emergency stop is
-    /// engaged.
+    /// Force held now \[N\]: zero while the watchdog has fired, the emergency stop is
+    /// engaged, or the node is not active.
     pub fn held_force(&self) -> f64 {
-        if self.stale || self.emergency_stopped() {
+        if self.stale || self.emergency_stopped() || !self.active {
             0.0
         } else {
             self.held_n
@@ -159,27 +128,78 @@ impl<S: PlantSim> PlantCore<S> {
     }
 
     /// The emergency stop's flag, for the service that sets it.
-    pub fn emergency_stop(&self) -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+    pub fn emergency_stop(&self) -> Arc<AtomicBool> {
         self.emergency_stop.clone()
     }
 
     /// Whether the emergency stop is engaged.
     pub fn emergency_stopped(&self) -> bool {
-        self.emergency_stop
-            .load(std::sync::atomic::Ordering::Relaxed)
+        self.emergency_stop.load(Ordering::SeqCst)
     }
 
-    /// Brings the capsule up (see [`PlantSim::start`]) and takes its first sample.
-    pub fn start(&mut self, timeout: std::time::Duration) {
-        self.sim.start(timeout);
-        if let Some(h) = self.sim.health() {
-            self.stats.device = Some(h.clone());
+    /// Zeroes the actuator at once from another thread (the emergency stop's service), if the
+    /// hardware can be reached outside the loop.
+    pub fn stopper(&self) -> Option<crate::hardware::Stopper> {
+        self.hw.stopper()
+    }
+
+    /// `Some` when the hardware paces itself (a device): see [`CapsuleHardware::ready`].
+    pub fn ready(&self) -> Option<Arc<tokio::sync::Notify>> {
+        self.hw.ready()
+    }
+
+    /// Whether the lifecycle has it active.
+    pub fn active(&self) -> bool {
+        self.active
+    }
+
+    /// Unconfigured -> inactive: configures the hardware; a simulator's first sample is read at
+    /// once, a device's comes when it measures.
+    pub fn configure(&mut self) -> Result<(), HardwareError> {
+        self.hw.configure()?;
+        self.current = unknown_sample();
+        if self.stats.published > 0 {
+            // configured again after a cleanup: a new sample, never a second seq k
+            self.next_sample(Reading::Timeout);
         }
+        self.written = false;
+        if self.hw.ready().is_none() {
+            if let Reading::Sample(s) = self.hw.read(Instant::now())? {
+                self.current = s;
+            }
+        }
+        self.note_health();
+        Ok(())
+    }
+
+    /// Inactive -> active: commands apply.
+    pub fn activate(&mut self) -> Result<(), HardwareError> {
+        self.hw.activate()?;
+        self.active = true;
+        Ok(())
+    }
+
+    /// Active -> inactive: zero force from the next sample on.
+    pub fn deactivate(&mut self) -> Result<(), HardwareError> {
+        self.active = false;
+        self.hw.deactivate()
+    }
+
+    /// Inactive -> unconfigured: the hardware let go (the line closed).
+    pub fn cleanup(&mut self) -> Result<(), HardwareError> {
+        self.active = false;
+        self.hw.cleanup()
     }
 
     /// How the device is doing (`None`: a simulator).
     pub fn health(&self) -> Option<&SourceHealth> {
-        self.sim.health()
+        self.hw.health()
+    }
+
+    fn note_health(&mut self) {
+        if let Some(h) = self.hw.health() {
+            self.stats.device = Some(h.clone());
+        }
     }
 
     /// Commands refused so far.
@@ -203,10 +223,13 @@ impl<S: PlantSim> PlantCore<S> {
             stamp: self.stamp(),
             frame_id: self.frame_id.clone(),
         };
-        let mut msg = state_message(&self.sim.sample(), &self.scale, header, self.step);
-        msg.command_stale = self.stale;
-        msg.rejected_commands = self.rejected;
-        msg
+        CapsuleState {
+            header,
+            seq: self.step,
+            command_stale: self.stale,
+            rejected_commands: self.rejected,
+            ..self.current.clone()
+        }
     }
 
     /// Notes that the current sample went out at steady time `now`.
@@ -285,19 +308,55 @@ impl<S: PlantSim> PlantCore<S> {
         !was
     }
 
-    /// Integrates one sample period with the held force and moves to the next sample.
-    pub fn step(&mut self) -> Result<()> {
-        self.stats.emergency_stop = self.emergency_stopped();
-        let force = self.held_force() / self.scale.force_n();
-        let tau_end = self.stamp_nanos(self.step + 1) as f64 * 1e-9 / self.scale.time_s();
-        self.sim.advance(force, tau_end)?;
-        if let Some(h) = self.sim.health() {
-            self.stats.device = Some(h.clone());
+    /// Node-paced hardware (a simulator): writes the held force, reads the next sample (one
+    /// sample period later) and moves to it.
+    pub fn step(&mut self) -> Result<(), HardwareError> {
+        self.answer()?;
+        let reading = self.hw.read(Instant::now())?;
+        self.next_sample(reading);
+        Ok(())
+    }
+
+    /// Writes the held force as the answer to the current sample, once per sample (a device
+    /// gets it the moment it is known).
+    pub fn answer(&mut self) -> Result<(), HardwareError> {
+        if self.written {
+            return Ok(());
         }
+        self.written = true;
+        self.stats.emergency_stop = self.emergency_stopped();
+        self.hw.write(self.held_force())
+    }
+
+    /// Moves to the next sample: `reading`'s, or the last one again (a timeout or a fault of a
+    /// device: the samples go on at the node's rate, the device's answer is zero).
+    pub fn next_sample(&mut self, reading: Reading) {
+        if let Reading::Sample(s) = reading {
+            self.current = s;
+        }
+        self.note_health();
         self.step += 1;
         self.answered_current = false;
+        self.written = false;
         self.published_at = None;
-        Ok(())
+    }
+
+    /// The first sample after configure (published as the current seq, not the next).
+    pub fn first_sample(&mut self, reading: Reading) {
+        if let Reading::Sample(s) = reading {
+            self.current = s;
+        }
+        self.note_health();
+    }
+
+    /// Whether the current sample's force went out.
+    pub fn written(&self) -> bool {
+        self.written
+    }
+
+    /// Paced hardware: the next reading, waiting until `deadline` at most.
+    pub fn read(&mut self, deadline: Instant) -> Result<Reading, HardwareError> {
+        self.hw.read(deadline)
     }
 }
 
@@ -306,21 +365,60 @@ mod tests {
     use super::*;
     use CommandOutcome as Outcome;
 
-    /// Stand-in model: the capsule is pinned, the mass is a unit mass under the held force
-    /// only (y1' = f), integrated exactly. Enough to check the node's bookkeeping.
-    struct FreeMass(Snapshot);
+    type Result<T> = std::result::Result<T, HardwareError>;
 
-    impl PlantSim for FreeMass {
-        fn advance(&mut self, force: f64, tau_end: f64) -> Result<()> {
-            let h = tau_end - self.0.tau;
-            self.0.state.x1 += self.0.state.y1 * h + 0.5 * force * h * h;
-            self.0.state.y1 += force * h;
-            self.0.tau = tau_end;
-            self.0.actuator_force = force;
+    /// The mock hardware: the capsule is pinned, the mass (0.04 kg) moves under the written
+    /// force only, integrated exactly over each 0.01 s read; every write is kept. Enough to
+    /// check the node's bookkeeping and the lifecycle's gate.
+    #[derive(Default)]
+    struct FreeMass {
+        configured: bool,
+        x: f64,
+        v: f64,
+        force_n: f64,
+        reads: u64,
+        writes: Vec<f64>,
+    }
+
+    impl CapsuleHardware for FreeMass {
+        fn label(&self) -> String {
+            "mock".into()
+        }
+        fn configure(&mut self) -> Result<()> {
+            self.configured = true;
             Ok(())
         }
-        fn sample(&self) -> Snapshot {
-            self.0
+        fn activate(&mut self) -> Result<()> {
+            Ok(())
+        }
+        fn deactivate(&mut self) -> Result<()> {
+            Ok(())
+        }
+        fn cleanup(&mut self) -> Result<()> {
+            self.configured = false;
+            Ok(())
+        }
+        fn read(&mut self, _deadline: Instant) -> Result<Reading> {
+            if !self.configured {
+                return Err(HardwareError::State("not configured".into()));
+            }
+            if self.reads > 0 {
+                let (h, a) = (0.01, self.force_n / 0.04);
+                self.x += self.v * h + 0.5 * a * h * h;
+                self.v += a * h;
+            }
+            self.reads += 1;
+            Ok(Reading::Sample(Sample {
+                mass_position: self.x,
+                mass_velocity: self.v,
+                actuator_force: self.force_n,
+                ..Sample::default()
+            }))
+        }
+        fn write(&mut self, force_n: f64) -> Result<()> {
+            self.force_n = force_n;
+            self.writes.push(force_n);
+            Ok(())
         }
     }
 
@@ -332,21 +430,11 @@ mod tests {
         }
     }
 
+    /// A configured, active plant on the mock.
     fn plant() -> PlantCore<FreeMass> {
-        PlantCore::new(
-            FreeMass(Snapshot {
-                tau: 0.0,
-                state: Default::default(),
-                stuck: false,
-                contact: false,
-                friction_force: 0.0,
-                contact_force: 0.0,
-                actuator_force: 0.0,
-            }),
-            scale(),
-            100.0,
-            0.05,
-        )
+        let mut p = PlantCore::new(FreeMass::default(), scale(), 100.0, 0.05);
+        assert!(p.configure().is_ok() && p.activate().is_ok());
+        p
     }
 
     /// `p` with its first sample published at 0.
@@ -516,6 +604,26 @@ mod tests {
     }
 
     #[test]
+    fn zero_force_goes_out_while_inactive_and_from_the_sample_after_a_deactivate() -> Result<()> {
+        let mut p = PlantCore::new(FreeMass::default(), scale(), 100.0, 0.05);
+        p.configure()?;
+        p.published(0.0);
+        // inactive: commands are taken (and counted) but zero goes out
+        assert_eq!(command(&mut p, 0, 1.0, 0.0, false), Outcome::Accepted);
+        p.step()?;
+        p.activate()?;
+        assert_eq!(command(&mut p, 1, 1.0, 0.01, false), Outcome::Accepted);
+        p.step()?;
+        p.deactivate()?;
+        p.step()?;
+        assert_eq!(p.hw.writes, [0.0, 1.0, 0.0]);
+        assert_eq!(p.state().actuator_force, 0.0);
+        p.cleanup()?;
+        assert!(p.step().is_err(), "no reads after a cleanup");
+        Ok(())
+    }
+
+    #[test]
     fn watchdog_falls_back_to_zero_force_and_says_so() -> Result<()> {
         let mut p = published(plant());
         command(&mut p, 0, 2.0, 0.0, false);
@@ -542,5 +650,38 @@ mod tests {
             (3, 1, 0)
         );
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod lifecycle_gate {
+    use super::*;
+
+    #[test]
+    fn a_configure_that_cannot_build_says_why_and_reads_wait_for_one() {
+        // the simulator's adapter, through the trait object as the node holds it
+        let mut p: PlantCore<Box<dyn CapsuleHardware>> = PlantCore::new(
+            Box::new(crate::sim::SimulatedPlant::new(
+                Box::new(|| Err("no scene here".to_string())),
+                PhysicalScale {
+                    m1_kg: 0.04,
+                    k1_n_per_m: 100.0,
+                    pf_n: 2.0,
+                },
+                100.0,
+            )),
+            PhysicalScale {
+                m1_kg: 0.04,
+                k1_n_per_m: 100.0,
+                pf_n: 2.0,
+            },
+            100.0,
+            0.05,
+        );
+        // a configure that cannot build says why, and reads are refused until one succeeds
+        let e = p.configure().err().map(|e| e.to_string());
+        assert_eq!(e.as_deref(), Some("simulation failed: no scene here"));
+        assert!(p.step().is_err());
+        assert!(!p.active());
     }
 }

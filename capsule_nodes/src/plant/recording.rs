@@ -74,3 +74,64 @@ impl InPlantRecording {
         self.rec.flush_if_due()
     }
 }
+
+impl InPlantRecording {
+    /// Creates the file first (an unwritable place is an error before anything else starts).
+    pub(super) fn create_file(
+        r: &InPlantRecordOptions,
+        settings: &capsule_ros_base::ros::RosOptions,
+    ) -> Result<GraphRecording> {
+        GraphRecording::create(
+            &r.output,
+            r.scene.clone(),
+            settings,
+            &r.controller_node,
+            r.flush_period,
+            r.bag,
+        )
+    }
+
+    /// Starts recording into `rec`: the readers of the controller's status and service events.
+    pub(super) fn start(
+        rec: GraphRecording,
+        r: &InPlantRecordOptions,
+        node: &mut ros2_client::Node,
+        settings: &capsule_ros_base::ros::RosOptions,
+    ) -> Result<InPlantRecording> {
+        use capsule_ros_base::ros::{qos, subscribe};
+        // reliable, deep: status and service events are few and must all be kept
+        let deep = qos::data().history(ros2_client::qos::History::KeepLast { depth: 1000 });
+        let specs = crate::recorder::graph_topics(&r.controller_node);
+        let [status_topic, event_topic] = [Channel::Status, Channel::ServiceEvent].map(|c| {
+            let (name, ty, _, q) = &specs[c as usize];
+            settings.topic(node, name, ty.clone(), q)
+        });
+        let (status_topic, event_topic) = (status_topic?, event_topic?);
+        tracing::info!("recording the graph in-process to {}", r.output.display());
+        Ok(InPlantRecording {
+            rec,
+            status_sub: subscribe(node, &status_topic, &deep)?,
+            event_sub: subscribe(node, &event_topic, &deep)?,
+            last_poll: Instant::now(),
+        })
+    }
+
+    /// Ends the recording after a run that ended with `result`: the controller's last status
+    /// and service events in, the file closed (or, after an error, kept as far as it got).
+    pub(super) fn finish(self, result: Result<()>) -> Result<()> {
+        let mut rec = self.rec;
+        let ended = result.and_then(|()| {
+            drain_into(&self.status_sub, &mut rec, Channel::Status)?;
+            drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent)
+        });
+        match ended {
+            Ok(_) => {
+                let report = rec.finish()?;
+                let total: u64 = report.per_topic.values().sum();
+                tracing::info!("recorded {total} messages to {}", report.path.display());
+                Ok(())
+            }
+            Err(e) => Err(rec.abandon(e)),
+        }
+    }
+}

@@ -205,13 +205,15 @@ pub fn assert_at_least(json: &str, key: &str, min: f64) {
 /// applies to the node), `stop PID...` sends SIGTERM and waits (the status is the last one's),
 /// `peer ARGS...` runs the Cyclone DDS Python peer (tests/peers/cyclone_peer.py), `fpeer ARGS...`
 /// the Fast DDS C++ peer (tests/peers/fastdds/, see [`fastdds_peer`]),
-/// `wait_nodes_of PID N` waits (at most 15 s) until N children of PID run their DDS threads.
+/// `wait_nodes_of PID N` waits (at most 15 s) until N children of PID run their DDS threads,
+/// `wait_line PATH` (at most 15 s) until a device's line (a pty's link) exists.
 const PRELUDE: &str = r#"
 start_plant() { "$B/capsule_plant" --scene "$SCENE" "$@" & P=$!; }
 start_controller() { "$B/capsule_controller" --scene "$SCENE" "$@" & C=$!; }
 stop() { kill -TERM "$@"; wait "$@"; }
 peer() { python3 "$ROOT/tests/peers/cyclone_peer.py" "$@"; }
 fpeer() { "$FASTDDS_PEER" "$@"; }
+wait_line() { for i in $(seq 150); do [ -e "$1" ] && return 0; sleep 0.1; done; return 1; }
 wait_nodes_of() {
     for i in $(seq 150); do
         n=0; for k in $(pgrep -P "$1"); do [ $(ls /proc/$k/task | wc -l) -ge 3 ] && n=$((n+1)); done

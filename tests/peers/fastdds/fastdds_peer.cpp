@@ -12,6 +12,10 @@
 //                                             call /capsule_controller/set_mode, print the answer
 //   fastdds_peer params --node N [--set NAME=DOUBLE]...
 //                                             list, get and set parameters as `ros2 param` does
+//   fastdds_peer lifecycle T... [--node N]  change_state by label (rmw_fastrtps's mapping, as
+//                                             `ros2 lifecycle set`), get_state after each; JSON
+//   fastdds_peer estop [--service S]          engage the emergency stop, time the answer [ms],
+//                                             release it; JSON
 //   fastdds_peer bad KIND [--service S]       bad input, then a good call (must be answered):
 //                                             KIND = identity (no reply reader GUID, unknown
 //                                             sequence), cyclone (the request in the
@@ -548,13 +552,62 @@ static int cmd_bad(int argc, char** argv) {
   return 0;
 }
 
+// --- lifecycle: a managed node's transitions by label, the state after each
+static int cmd_lifecycle(int argc, char** argv) {
+  std::vector<std::string> labels;
+  int i = 2;
+  for (; i < argc && std::strncmp(argv[i], "--", 2) != 0; i++) labels.push_back(argv[i]);
+  auto f = flags(argc, argv, i);
+  std::string node = f.count("node") ? f["node"] : "capsule_plant";
+  double timeout = flag(f, "timeout", 20);
+  Peer p;
+  Client<lifecycle_msgs::srv::ChangeState_Request, lifecycle_msgs::srv::ChangeState_Response>
+      change(p, node + "/change_state", timeout);
+  Client<lifecycle_msgs::srv::GetState_Request, lifecycle_msgs::srv::GetState_Response> get(
+      p, node + "/get_state", timeout);
+  std::string out = "{\"lifecycle\": [";
+  for (size_t k = 0; k < labels.size(); k++) {
+    lifecycle_msgs::srv::ChangeState_Request q;
+    q.transition.label = labels[k];
+    bool ok = change.call(q).success;
+    auto st = get.call({}).current_state;
+    out += std::string(k ? ", " : "") + "{\"transition\": " + json_str(labels[k]) +
+           ", \"success\": " + (ok ? "true" : "false") + ", \"state\": " + json_str(st.label) +
+           ", \"id\": " + std::to_string(st.id) + "}";
+  }
+  std::printf("%s]}\n", out.c_str());
+  return 0;
+}
+
+// --- estop: the plant's emergency stop (std_srvs/SetBool), the answer timed
+static int cmd_estop(int argc, char** argv) {
+  auto f = flags(argc, argv, 2);
+  std::string service = f.count("service") ? f["service"] : "capsule_plant/emergency_stop";
+  Peer p;
+  Client<std_srvs::srv::SetBool_Request, std_srvs::srv::SetBool_Response> c(
+      p, service, flag(f, "timeout", 20));
+  std_srvs::srv::SetBool_Request q;
+  q.data = true;
+  auto t0 = Clock::now();
+  auto r = c.call(q);
+  double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  q.data = false;
+  auto released = c.call(q);
+  std::printf("{\"engaged\": %s, \"message\": %s, \"answer_ms\": %s, \"released\": %s}\n",
+              r.success ? "true" : "false", json_str(r.message).c_str(), num(ms).c_str(),
+              released.success ? "true" : "false");
+  return 0;
+}
+
 int main(int argc, char** argv) {
-  if (argc < 2) fail("usage: fastdds_peer state|force|set-mode|params|bad ...");
+  if (argc < 2) fail("usage: fastdds_peer state|force|set-mode|params|bad|lifecycle|estop ...");
   std::string cmd = argv[1];
   if (cmd == "state") return cmd_state(argc, argv);
   if (cmd == "force") return cmd_force(argc, argv);
   if (cmd == "set-mode") return cmd_set_mode(argc, argv);
   if (cmd == "params") return cmd_params(argc, argv);
   if (cmd == "bad") return cmd_bad(argc, argv);
+  if (cmd == "lifecycle") return cmd_lifecycle(argc, argv);
+  if (cmd == "estop") return cmd_estop(argc, argv);
   fail("unknown command " + cmd);
 }

@@ -200,6 +200,51 @@ struct ListParameters_Response {
 };
 }  // namespace rcl_interfaces::srv
 
+namespace lifecycle_msgs::msg {
+struct State {
+  uint8_t id = 0;
+  std::string label;
+  ROS_STRUCT(State, "lifecycle_msgs::msg::dds_::State_", id, label)
+};
+/// The same fields as State (id, label) under its own DDS name.
+struct Transition : State {
+  static const char* dds_name() { return "lifecycle_msgs::msg::dds_::Transition_"; }
+};
+}  // namespace lifecycle_msgs::msg
+
+namespace lifecycle_msgs::srv {
+struct ChangeState_Request {
+  lifecycle_msgs::msg::Transition transition;
+  ROS_STRUCT(ChangeState_Request, "lifecycle_msgs::srv::dds_::ChangeState_Request_", transition)
+};
+struct ChangeState_Response {
+  bool success = false;
+  ROS_STRUCT(ChangeState_Response, "lifecycle_msgs::srv::dds_::ChangeState_Response_", success)
+};
+/// An empty request: rosidl's one placeholder byte.
+struct GetState_Request {
+  uint8_t structure_needs_at_least_one_member = 0;
+  ROS_STRUCT(GetState_Request, "lifecycle_msgs::srv::dds_::GetState_Request_",
+             structure_needs_at_least_one_member)
+};
+struct GetState_Response {
+  lifecycle_msgs::msg::State current_state;
+  ROS_STRUCT(GetState_Response, "lifecycle_msgs::srv::dds_::GetState_Response_", current_state)
+};
+}  // namespace lifecycle_msgs::srv
+
+namespace std_srvs::srv {
+struct SetBool_Request {
+  bool data = false;
+  ROS_STRUCT(SetBool_Request, "std_srvs::srv::dds_::SetBool_Request_", data)
+};
+struct SetBool_Response {
+  bool success = false;
+  std::string message;
+  ROS_STRUCT(SetBool_Response, "std_srvs::srv::dds_::SetBool_Response_", success, message)
+};
+}  // namespace std_srvs::srv
+
 /// Fast DDS type support for one of the structs above: XCDR1, little endian, as rmw_fastrtps.
 template <class T>
 class RosType : public eprosima::fastdds::dds::TopicDataType {

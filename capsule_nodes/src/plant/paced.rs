@@ -1,0 +1,253 @@
+//! The loop of hardware that paces itself (a device): a sample is published when the device's
+//! measurement arrives, and the controller's answer to it goes to the device the moment it
+//! arrives, not at the next sample. Every measurement is answered once: by the controller's
+//! force, or, when none came before the next measurement, with zero by the driver. Nothing here
+//! waits on the device: its line is read on a thread of its own, which wakes this loop.
+//!
+//! - real time: every measurement is a sample; commands answering the current one are written at
+//!   once (older ones are held, as the simulator's pacing holds them, and not written);
+//! - lock-step: the next measurement is taken only once the current sample is answered (or the
+//!   command timeout gave it zero force); the sample is re-published every `retransmit`.
+//!
+//! While the device sends nothing (no line, no hello, silent), samples go on at the node's rate
+//! with the last measurement, so `/diagnostics` and the summary say what is wrong; before the
+//! first measurement (up to the start-up timeout) none is published.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use capsule_ros_base::error::{Context as _, Result};
+use futures::StreamExt;
+use tokio::sync::Notify;
+use tracing::warn;
+
+use super::endpoints::{log_undecodable, Endpoints};
+use super::loop_control::{apply, Exit, LoopControl};
+use super::pacing::{publish_now, take_command, take_joint_commands, CommandLogs, Wall};
+use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
+use crate::hardware::{CapsuleHardware, Reading};
+
+/// Where the loop is.
+struct Paced<'a> {
+    io: &'a Endpoints,
+    opts: &'a PlantOptions,
+    lockstep: bool,
+    wall: Wall,
+    /// A measurement has been published since configure (or the start-up wait is over).
+    started: bool,
+    /// When the start-up wait ends.
+    startup_until: Instant,
+    /// When a sample goes out without a measurement.
+    due: Instant,
+    /// Lock-step: when the wait for the current answer started, and whether any came yet.
+    waited_from: Instant,
+    ever_commanded: bool,
+    logs: CommandLogs,
+}
+
+impl Paced<'_> {
+    /// How long the device is given for its next measurement: two periods and 5 ms while it is
+    /// well, one period while it is not (the node keeps its rate).
+    fn next_due<H: CapsuleHardware>(core: &PlantCore<H>) -> Instant {
+        let period = Duration::from_secs_f64(1.0 / core.rate_hz);
+        let faulted = core.health().is_some_and(|h| h.fault.is_some());
+        Instant::now()
+            + if faulted {
+                period
+            } else {
+                period * 2 + Duration::from_millis(5)
+            }
+    }
+
+    /// Whether the loop may take the next measurement: in lock-step only once the current
+    /// sample is answered.
+    fn may_advance<H: CapsuleHardware>(&self, core: &PlantCore<H>) -> bool {
+        !self.lockstep || !self.started || core.written()
+    }
+
+    /// Takes what the device sent; true when the run is over (`--until-s`).
+    fn drain<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        mut rec: Option<&mut InPlantRecording>,
+    ) -> Result<bool> {
+        while self.may_advance(core) {
+            let reading = core.read(Instant::now()).context("the plant's hardware")?;
+            match reading {
+                Reading::Timeout => return Ok(false),
+                Reading::Sample(_) if !self.started => {
+                    self.started = true;
+                    core.first_sample(reading);
+                }
+                // not a sample to start with
+                Reading::Fault(_) if !self.started => continue,
+                r => core.next_sample(r),
+            }
+            if self.publish(core, rec.as_deref_mut())? {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    fn publish<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<bool> {
+        self.due = Self::next_due(core);
+        self.waited_from = Instant::now();
+        publish_now(core, self.io, self.opts, self.wall, rec)
+    }
+
+    /// No measurement by `due`: the last one again (after the start-up wait).
+    fn overdue<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<bool> {
+        if !self.started {
+            if Instant::now() < self.startup_until {
+                self.due = Self::next_due(core);
+                return Ok(false);
+            }
+            warn!(
+                "no measurement from the device within {:?}: starting without (zero force until one comes)",
+                self.opts.startup_timeout
+            );
+            self.started = true;
+        } else {
+            core.next_sample(Reading::Timeout);
+        }
+        self.publish(core, rec)
+    }
+
+    /// Lock-step: no answer yet; re-publish, or answer with zero after the timeout.
+    fn unanswered<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<()> {
+        let waited = self.waited_from.elapsed().as_secs_f64();
+        let limit = if self.ever_commanded {
+            core.command_timeout
+        } else {
+            self.opts.startup_timeout.as_secs_f64()
+        };
+        if waited > limit {
+            if core.force_stale() || !self.ever_commanded {
+                warn!(
+                    "no command for seq {} within {limit:.3} s: applying zero force",
+                    core.seq()
+                );
+            }
+            self.ever_commanded = true;
+            return core.answer().context("the plant's hardware");
+        }
+        let state = core.state();
+        if let Some(r) = rec {
+            r.published(&state, None)?;
+            r.poll()?;
+        }
+        if let Err(e) = self.io.state_pub.publish(state) {
+            warn!("state not re-sent: {e:?}");
+        }
+        Ok(())
+    }
+}
+
+/// Runs hardware that paces itself (`ready` wakes the loop when it has something) until the
+/// end time, a signal, a cleanup or a shutdown.
+pub(super) async fn paced_loop<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Endpoints,
+    opts: &PlantOptions,
+    control: &mut LoopControl,
+    mut rec: Option<&mut InPlantRecording>,
+    ready: Arc<Notify>,
+) -> Result<Exit> {
+    let lockstep = opts.pacing == Pacing::Lockstep;
+    let mut p = Paced {
+        io,
+        opts,
+        lockstep,
+        wall: Wall::start(),
+        started: false,
+        startup_until: Instant::now() + opts.startup_timeout,
+        due: Instant::now() + opts.startup_timeout.min(Duration::from_millis(100)),
+        waited_from: Instant::now(),
+        ever_commanded: false,
+        logs: CommandLogs::default(),
+    };
+    let commands = io.force_sub.async_stream();
+    tokio::pin!(commands);
+    let woken = control.woken.clone();
+    let period = Duration::from_secs_f64(1.0 / core.rate_hz);
+    let mut tick = tokio::time::interval(if lockstep { opts.retransmit } else { period });
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        if let Some(exit) = control.poll(core) {
+            return Ok(exit);
+        }
+        if p.drain(core, rec.as_deref_mut())? {
+            return Ok(Exit::Over);
+        }
+        let advance = p.may_advance(core);
+        tokio::select! {
+            biased;
+            _ = woken.notified() => {}
+            Some(r) = control.requests.recv() => {
+                if let Some(exit) = apply(core, r) {
+                    return Ok(exit);
+                }
+            }
+            msg = commands.select_next_some() => match msg {
+                Ok((cmd, info)) => {
+                    let at = p.wall.at(&info);
+                    let outcome = if lockstep {
+                        if let Some(r) = rec.as_deref_mut() {
+                            r.received(&cmd, &info)?;
+                        }
+                        core.on_command(&cmd, at, true)
+                    } else {
+                        take_command(core, &cmd, &info, at, &mut p.logs, rec.as_deref_mut())?
+                    };
+                    if outcome == CommandOutcome::Accepted {
+                        p.ever_commanded = true;
+                        // the answer to the current sample goes out now
+                        if p.started && cmd.state_seq == core.seq() {
+                            core.answer().context("the plant's hardware")?;
+                        }
+                    }
+                }
+                Err(e) => log_undecodable(&mut p.logs.undecodable, &e),
+            },
+            _ = ready.notified() => {}
+            _ = tokio::time::sleep_until(p.due.into()), if advance => {
+                if p.overdue(core, rec.as_deref_mut())? {
+                    return Ok(Exit::Over);
+                }
+            }
+            _ = tick.tick() => {
+                if lockstep {
+                    if p.started && !core.written() {
+                        p.unanswered(core, rec.as_deref_mut())?;
+                    }
+                } else {
+                    // JointState commands and the watchdog, once a period
+                    if let Some(sub) = &io.joint_sub {
+                        let at = |info: &ros2_client::MessageInfo| p.wall.at(info);
+                        let logs = &mut p.logs;
+                        take_joint_commands(core, sub, at, &mut logs.refused, &mut logs.joint_bad);
+                        if p.started && core.answered() {
+                            core.answer().context("the plant's hardware")?;
+                        }
+                    }
+                    if core.check_watchdog(p.wall.now()) {
+                        warn!("no command for {:.3} s: applying zero force", core.command_timeout);
+                    }
+                }
+            }
+        }
+    }
+}
