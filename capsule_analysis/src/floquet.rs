@@ -24,6 +24,7 @@ use capsule_plant::AffineLaw;
 use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
 use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicU64, Ordering};
 use thiserror::Error;
 
 /// Largest RK4 step for the variational equation of a nonlinear regime.
@@ -136,6 +137,17 @@ fn flow_jacobian(eq: &Equations, regime: &Regime, tau: f64, v: &Core, dt: f64) -
     phi
 }
 
+/// Calls of [`advance_linearized`] in this process: every Floquet multiplier, Lyapunov exponent
+/// and Newton step on the Poincaré map goes through it, so zero means no such analysis ran.
+static LINEARIZED: AtomicU64 = AtomicU64::new(0);
+
+/// How many stretches of trajectory this process has linearized ([`advance_linearized`]) so
+/// far: a counter of the stability analyses' work, for checking that an unrequested one did
+/// not run.
+pub fn linearizations() -> u64 {
+    LINEARIZED.load(Ordering::Relaxed)
+}
+
 /// Advance `sim` to `tau_end` and return the Jacobian of its `[z, y1, y2, p]` at `tau_end` with
 /// respect to that at the start; the events crossed are appended to `events` and the smallest
 /// transversality is folded into `transversality`.
@@ -147,6 +159,7 @@ pub fn advance_linearized(
     events: &mut Vec<EventKind>,
     transversality: &mut f64,
 ) -> Result<Mat4, StabilityError> {
+    LINEARIZED.fetch_add(1, Ordering::Relaxed);
     let mut trace: Vec<Transition> = Vec::new();
     let (mut t, mut regime, mut core) = (sim.time(), sim.regime(), sim.core());
     sim.advance_until(law, tau_end, &mut |tr| {

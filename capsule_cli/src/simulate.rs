@@ -26,6 +26,11 @@ pub struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Also analyse the stability of the attractor the run ends on: the Floquet multipliers of a
+    /// periodic result and the Lyapunov spectrum over the measured periods (JSON fields
+    /// floquet, lyapunov and stability_note). Without it neither runs.
+    #[arg(long, conflicts_with = "device")]
+    stability: bool,
     /// Close the law through the scene's [device] sensor and actuator models (the typical
     /// device when the scene has none), sampled at --rate-hz on measured positions, as the
     /// plant node runs a real capsule: an emulate-device run offline. --csv then holds the
@@ -109,8 +114,9 @@ struct Output<'a> {
     schedule: &'a GainSchedule,
     #[serde(flatten)]
     report: &'a RunReport,
+    /// Only when asked (`--stability`): absent, it adds no field.
     #[serde(flatten)]
-    stability: &'a RunStability,
+    stability: Option<&'a RunStability>,
     wall_time_s: f64,
 }
 
@@ -152,7 +158,7 @@ pub fn main(args: Args) -> Result<()> {
         &mut |s| rows.push(*s),
         &mut |n| progress.go_on(n),
     );
-    // from here on Ctrl-C ends the process as usual (the stability analysis below)
+    // from here on Ctrl-C ends the process as usual (the stability analysis, if asked)
     work::release_ctrl_c();
     progress.finish();
     let report = report.with_context(|| format!("simulating {}", scene.name))?;
@@ -181,56 +187,26 @@ pub fn main(args: Args) -> Result<()> {
             scene.horizon.periods
         );
     };
-    let stability = stability::of_run(&scene, &schedule, &report);
-    let RunStability {
-        floquet,
-        lyapunov,
-        stability_note,
-    } = &stability;
+    let stability = args
+        .stability
+        .then(|| stability::of_run(&scene, &schedule, &report));
+    tracing::debug!(
+        linearizations = capsule_analysis::floquet::linearizations(),
+        "stability analysis"
+    );
     if args.json {
         let out = Output {
             scene: &scene,
             schedule: &schedule,
             report: &report,
-            stability: &stability,
+            stability: stability.as_ref(),
             wall_time_s: wall,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
-        if let Some(f) = floquet {
-            let mus: Vec<String> = f
-                .multipliers
-                .iter()
-                .map(|m| {
-                    if m[1] == 0.0 {
-                        format!("{:.6}", m[0])
-                    } else {
-                        format!("{:.6}{:+.6}i", m[0], m[1])
-                    }
-                })
-                .collect();
-            println!(
-                "floquet        {} (largest modulus {:.6}: {})",
-                mus.join(", "),
-                f.largest_modulus,
-                if f.largest_modulus < 1.0 {
-                    "stable"
-                } else {
-                    "unstable"
-                }
-            );
-        }
-        if let Some(l) = lyapunov {
-            let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
-            println!(
-                "lyapunov       {} per unit tau (largest over half the run {:.6})",
-                ls.join(", "),
-                l.largest_half_run
-            );
-        }
-        if let Some(n) = stability_note {
-            println!("stability      {n}");
+        if let Some(s) = &stability {
+            print_stability(s);
         }
         if let Some(p) = schedule.pulse {
             println!(
@@ -243,6 +219,49 @@ pub fn main(args: Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The summary's stability lines: multipliers, exponents, and why one is missing.
+fn print_stability(s: &RunStability) {
+    let RunStability {
+        floquet,
+        lyapunov,
+        stability_note,
+    } = s;
+    if let Some(f) = floquet {
+        let mus: Vec<String> = f
+            .multipliers
+            .iter()
+            .map(|m| {
+                if m[1] == 0.0 {
+                    format!("{:.6}", m[0])
+                } else {
+                    format!("{:.6}{:+.6}i", m[0], m[1])
+                }
+            })
+            .collect();
+        println!(
+            "floquet        {} (largest modulus {:.6}: {})",
+            mus.join(", "),
+            f.largest_modulus,
+            if f.largest_modulus < 1.0 {
+                "stable"
+            } else {
+                "unstable"
+            }
+        );
+    }
+    if let Some(l) = lyapunov {
+        let ls: Vec<String> = l.exponents.iter().map(|x| format!("{x:.6}")).collect();
+        println!(
+            "lyapunov       {} per unit tau (largest over half the run {:.6})",
+            ls.join(", "),
+            l.largest_half_run
+        );
+    }
+    if let Some(n) = stability_note {
+        println!("stability      {n}");
+    }
 }
 
 /// Progress of one run: a bar on a terminal once the run has lasted a second, a line every
