@@ -14,6 +14,8 @@
 #   lock   lock-step closed loop: steps per second of wall time
 #   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
 # BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
+# BENCH_SECURE=KEYSTORE runs every case secured (SROS2, Enforce; plant and controller with their
+# enclaves of launch_scripts/capsule_keystore.sh create KEYSTORE): docs/perf/security.md.
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
@@ -26,10 +28,13 @@ set -u
 B=$CAPSULE_BIN
 cpu() { awk "{print \$14 + \$15}" /proc/$1/stat 2>/dev/null || echo -1; }
 steal() { awk "/^cpu / {print \$9}" /proc/stat; }  # ticks the hypervisor gave to others
-$B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS 2>/dev/null &
+if [ -n "${BENCH_SECURE:-}" ]; then
+  export ROS_SECURITY_KEYSTORE="$BENCH_SECURE" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce
+fi
+$B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
 C=$!
 sleep 0.5
-$B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+$B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --enclave /capsule/plant --summary-json /tmp/bench_$$.json 2>/dev/null &
 P=$!
 # CPU over the steady state: from 2 s in (discovery done) to 0.5 s before the end
 sleep 2
@@ -76,7 +81,11 @@ for c in ${BENCH_CASES:-}; do
     *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt1k-cpu1 rt10k rt10k-cpu1 lock lock-cpu1)" >&2; exit 2 ;;
   esac
 done
-echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores"
+if [ -n "${BENCH_SECURE:-}" ]; then
+  [ -d "$BENCH_SECURE/enclaves" ] || { echo "bench_ros: BENCH_SECURE '$BENCH_SECURE': not a keystore (launch_scripts/capsule_keystore.sh create DIR)" >&2; exit 2; }
+  BENCH_SECURE="$(cd "$BENCH_SECURE" && pwd)"; export BENCH_SECURE
+fi
+echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)"
 run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"
 run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"

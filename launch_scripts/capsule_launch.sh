@@ -8,7 +8,7 @@
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
-#       [--cpu-affinity LIST] [--foxglove-port PORT]
+#       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE]
 #
 # Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
 # --record-in-plant: the plant writes the same file itself instead (no recorder process; at
@@ -18,6 +18,11 @@
 # --foxglove-port PORT: also serve the graph live to Foxglove (capsule_foxglove, 127.0.0.1 only;
 # 0 picks a free port and prints it; docs/foxglove/README.md). Like the recorder, a failed live
 # view does not stop control.
+# --secure KEYSTORE: run secured with SROS2 enclaves (ROS_SECURITY_KEYSTORE=KEYSTORE,
+# ROS_SECURITY_ENABLE=true, ROS_SECURITY_STRATEGY=Enforce unless set; a keystore from
+# launch_scripts/capsule_keystore.sh create KEYSTORE). Also when those variables are set already.
+# Each node gets its enclave /capsule/{plant,controller,recorder,foxglove}, the --with commands
+# /capsule/operator (ROS_SECURITY_ENCLAVE_OVERRIDE, unless set). docs/ros.md, Security.
 #
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
@@ -29,8 +34,8 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port=
+usage() { sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=()
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
@@ -53,6 +58,11 @@ while [ $# -gt 0 ]; do
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
     --foxglove-port) fox_port="$2"; shift 2 ;;
+    --secure)
+      [ -d "$2/enclaves" ] || die "--secure '$2': not a keystore (no enclaves/; make one with launch_scripts/capsule_keystore.sh create $2)"
+      export ROS_SECURITY_KEYSTORE="$2" ROS_SECURITY_ENABLE=true
+      export ROS_SECURITY_STRATEGY="${ROS_SECURITY_STRATEGY:-Enforce}"
+      shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) die "unknown argument $1" ;;
   esac
@@ -65,6 +75,17 @@ case "$pacing" in realtime|lockstep) ;; *) die "--pacing '$pacing': realtime or 
 for b in capsule_plant capsule_controller; do
   [ -x "$bin/$b" ] || { echo "capsule_launch: $bin/$b not built (cargo build --workspace)" >&2; exit 2; }
 done
+
+# secured: each node its enclave (the --check runs below then check its files too)
+extra_enclave=()
+if [ "${ROS_SECURITY_ENABLE:-}" = true ]; then
+  ctl_args+=(--enclave /capsule/controller); plant_args+=(--enclave /capsule/plant)
+  rec_args+=(--enclave /capsule/recorder); fox_args+=(--enclave /capsule/foxglove)
+  [ -z "${ROS_SECURITY_ENCLAVE_OVERRIDE:-}" ] && extra_enclave=(env ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/operator)
+  echo "capsule_launch: SECURED (SROS2): keystore ${ROS_SECURITY_KEYSTORE:-(unset)}, strategy ${ROS_SECURITY_STRATEGY:-(permissive)}, enclaves /capsule/{controller,plant,recorder,foxglove}, --with commands ${ROS_SECURITY_ENCLAVE_OVERRIDE:-/capsule/operator}" >&2
+else
+  echo "capsule_launch: unsecured (no DDS Security; --secure KEYSTORE to run with SROS2 enclaves)" >&2
+fi
 
 # refuse bad scenes and flags before anything starts (no half-started graph)
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
@@ -93,7 +114,7 @@ fi
 "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2
 if [ -n "$fox_port" ]; then
   [ -x "$bin/capsule_foxglove" ] || { echo "capsule_launch: $bin/capsule_foxglove not built (cargo build --workspace)" >&2; exit 2; }
-  fox=("$bin/capsule_foxglove" --port "$fox_port")
+  fox=("$bin/capsule_foxglove" --port "$fox_port" ${fox_args[@]+"${fox_args[@]}"})
   [ -n "$cpus" ] && fox+=(--cpu-affinity "$cpus")
   "${fox[@]}" --check >/dev/null || exit 2
 fi
@@ -120,7 +141,7 @@ start() { # name cmd...
 start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
 [ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
 [ -n "$fox_port" ] && start foxglove "${fox[@]}"
-for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" bash -c "$w"; done
+for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" ${extra_enclave[@]+"${extra_enclave[@]}"} bash -c "$w"; done
 start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
 
 declare -A status=() said=()

@@ -5,8 +5,11 @@
 # and then OFF (drive only) through /capsule_controller/set_mode, each switch scheduled at a sim
 # time so the run is reproducible; each segment's mean progression per drive period is printed.
 #
-#   launch_scripts/demo.sh [SCENE] [PERIODS_PER_SEGMENT]     (defaults: scenes/control_point.toml 60)
+#   launch_scripts/demo.sh [--secure KEYSTORE] [SCENE] [PERIODS_PER_SEGMENT]
+#                                          (defaults: scenes/control_point.toml 60)
 #
+# --secure KEYSTORE: every node secured with its SROS2 enclave (capsule_launch.sh --secure; make
+# the keystore with launch_scripts/capsule_keystore.sh create KEYSTORE).
 # The run is recorded to runs/demo-<UTC time>/capsule_<scene>_<time>.mcap and summarised with
 # `capsule record info` at the end.
 #
@@ -14,8 +17,13 @@
 set -u
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
 case "${1:-}" in -h|--help) usage; exit 0 ;; esac
+secure=()
+if [ "${1:-}" = --secure ]; then
+  [ $# -ge 2 ] || { echo "demo: --secure needs a KEYSTORE" >&2; usage >&2; exit 2; }
+  secure=(--secure "$2"); shift 2
+fi
 if [ $# -gt 2 ]; then echo "demo: at most two arguments" >&2; usage >&2; exit 2; fi
 scene="${1:-$root/scenes/control_point.toml}"
 periods="${2:-60}"
@@ -41,7 +49,7 @@ until_s=$("$bin/capsule_ros" period --scene "$scene" --periods $(( 3 * periods )
 record_dir="${CAPSULE_RECORD_DIR:-runs}/demo-$(date -u +%Y%m%dT%H%M%SZ)"
 echo "demo: $scene, lock-step, ${periods} drive periods per segment (first ${settle} not measured), until t = ${until_s} s"
 "$here/capsule_launch.sh" --scene "$scene" --pacing lockstep --until-s "$until_s" --mode forward \
-  --record-dir "$record_dir" \
+  --record-dir "$record_dir" ${secure[@]+"${secure[@]}"} \
   --with "'$bin/capsule_ros' demo --scene '$scene' --segments forward:$periods,backward:$periods,off:$periods --settle-periods $settle"
 rc=$?
 recording=$(ls "$record_dir"/*.mcap 2>/dev/null | head -n 1)

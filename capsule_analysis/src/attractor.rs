@@ -107,6 +107,9 @@ pub enum Stop {
     Recognised(usize),
     /// It reached the horizon.
     Horizon,
+    /// It entered state-space cells labelled with the catalogue's attractor of this index
+    /// ([`crate::basin_cells`]).
+    KnownCell(usize),
 }
 
 /// Where a run ended.
@@ -313,7 +316,32 @@ pub fn settle(
     config: &SettleConfig,
     known: &Catalogue,
 ) -> Result<Outcome, SimError> {
+    settle_watched(scene, schedule, config, known, &mut |_| None)
+}
+
+/// [`settle`], handing `watch` each section point `[x1 - x2, y1 - y2, y1]` once the gain no
+/// longer changes (the initial state's first, if the schedule is constant from the start);
+/// `Some(i)` from it stops the run on `known`'s attractor `i` ([`Stop::KnownCell`]).
+pub fn settle_watched(
+    scene: &Scene,
+    schedule: &GainSchedule,
+    config: &SettleConfig,
+    known: &Catalogue,
+    watch: &mut dyn FnMut(&[f64; 3]) -> Option<usize>,
+) -> Result<Outcome, SimError> {
     let mut run = Trajectory::new(scene)?;
+    let on_cell = |i: usize, n: u32, run: &Trajectory| Outcome {
+        attractor: known.attractors[i].clone(),
+        stop: Stop::KnownCell(i),
+        periods_run: n,
+        work: run.work(),
+    };
+    let s0 = scene.initial;
+    if schedule.is_constant_from(0) {
+        if let Some(i) = watch(&[s0.x1 - s0.x2, s0.y1 - s0.y2, s0.y1]) {
+            return Ok(on_cell(i, 0, &run));
+        }
+    }
     let max = config.max_periods.max(1);
     // the law from the end of the schedule on: the orbit a run settles on is this law's
     let mut at_end = scene.clone();
@@ -327,6 +355,9 @@ pub fn settle(
             continue;
         }
         let p = run.points[run.len() - 1];
+        if let Some(i) = watch(&p) {
+            return Ok(on_cell(i, n + 1, &run));
+        }
         let stop = match follow.step(known, &p, config) {
             Some(i) => Some((known.attractors[i].clone(), Stop::Recognised(i))),
             None if n < quiet_until => None,

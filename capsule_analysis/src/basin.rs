@@ -1,5 +1,7 @@
 //! Basins of attraction: a grid of initial states on a plane through the state space, each run
-//! until it settles (see [`crate::attractor`]), in parallel, labelled by the attractor it ends on.
+//! until it settles (see [`crate::attractor`]) or, by [`Method::KnownCells`], until it enters
+//! cells of the Poincaré section whose basin is known ([`crate::basin_cells`]), in parallel,
+//! labelled by the attractor it ends on.
 
 use crate::attractor::{settle, Catalogue, Outcome, SettleConfig, Stop};
 use crate::schedule::GainSchedule;
@@ -240,12 +242,209 @@ pub struct BasinWork {
     pub settled: u64,
     /// Runs stopped on a known attractor.
     pub recognised: u64,
+    /// Runs stopped on entering cells of a known basin ([`Method::KnownCells`]).
+    pub known_cell: u64,
     /// Runs that reached the horizon.
     pub horizon: u64,
     /// Runs that failed.
     pub failed: u64,
     /// Integrator work, all runs.
     pub solver: Work,
+}
+
+impl BasinWork {
+    /// Count one run's result.
+    fn add(&mut self, cell: &Cell, outcome: Option<&Outcome>) {
+        match cell {
+            Cell::Pending => {}
+            Cell::Failed(_) => {
+                self.runs += 1;
+                self.failed += 1;
+            }
+            Cell::Attractor {
+                stop, periods_run, ..
+            } => {
+                self.runs += 1;
+                self.periods += u64::from(*periods_run);
+                match stop {
+                    Stop::Settled => self.settled += 1,
+                    Stop::Recognised(_) => self.recognised += 1,
+                    Stop::KnownCell(_) => self.known_cell += 1,
+                    Stop::Horizon => self.horizon += 1,
+                }
+            }
+        }
+        if let Some(o) = outcome {
+            self.solver.steps += o.work.steps;
+            self.solver.rejected += o.work.rejected;
+            self.solver.rhs_evals += o.work.rhs_evals;
+            self.solver.events += o.work.events;
+        }
+    }
+
+    /// Drive periods integrated per run.
+    pub fn periods_per_run(&self) -> f64 {
+        self.periods as f64 / self.runs.max(1) as f64
+    }
+}
+
+/// How a map labels its initial states.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "name", rename_all = "kebab-case")]
+pub enum Method {
+    /// Each initial state runs until its own points repeat or follow a known attractor
+    /// ([`crate::attractor::settle`]).
+    PerState,
+    /// Runs stop on entering cells of the Poincaré section already labelled by earlier runs
+    /// ([`crate::basin_cells`]).
+    KnownCells(CellConfig),
+}
+
+impl Method {
+    /// The name on the command line and in outputs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::PerState => "per-state",
+            Method::KnownCells(_) => "known-cells",
+        }
+    }
+}
+
+/// Cube coordinates beyond this (a run far out) are not labelled.
+const FAR: f64 = 1e15;
+
+/// Cubes finer than the period tolerance are never entered twice: refused.
+const MIN_SIZE: f64 = 1e-6;
+
+/// Settings of the known-cells method.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CellConfig {
+    /// Edge of a cube (max norm) on the section `[x1 - x2, y1 - y2, y1]`.
+    pub size: f64,
+    /// Consecutive section points in cubes of one attractor that stop a run.
+    pub hits: u32,
+    /// Cube-labelled initial states rerun per state as a check (see [`CellCheck`]).
+    pub check: usize,
+}
+
+impl CellConfig {
+    /// The defaults for a grid: cubes of half the grid's spacing, two hits, 200 checked.
+    pub fn for_grid(grid: &Grid) -> Self {
+        CellConfig {
+            size: (0.5 * spacing(grid)).min(0.05),
+            hits: 2,
+            check: 200,
+        }
+    }
+
+    /// Check the settings against the grid they label; errors name the setting and the reason.
+    pub fn validate(&self, grid: &Grid) -> Result<(), (&'static str, String)> {
+        let h = self.size;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(("cell", format!("{h}: must be a finite number above 0")));
+        }
+        let d = spacing(grid);
+        if h > d {
+            return Err((
+                "cell",
+                format!(
+                    "{h} is coarser than the grid's spacing {d:.6}: neighbouring initial states \
+                     would share a cube, so the map could not resolve a basin boundary finer \
+                     than a cube (use a cell of at most {d:.6}, or the per-state method)"
+                ),
+            ));
+        }
+        if h < MIN_SIZE {
+            return Err((
+                "cell",
+                format!(
+                    "{h} is below {MIN_SIZE}, the period tolerance: a run would never enter a \
+                     labelled cube again (use the per-state method)"
+                ),
+            ));
+        }
+        if !(1..=100).contains(&self.hits) {
+            return Err(("cell-hits", format!("{}: must be 1 to 100", self.hits)));
+        }
+        Ok(())
+    }
+
+    /// The cube a section point lies in; `None` far out or not finite.
+    pub(crate) fn cube(&self, p: &[f64; 3]) -> Option<[i64; 3]> {
+        let q = p.map(|v| (v / self.size).floor());
+        q.iter()
+            .all(|v| v.is_finite() && v.abs() < FAR)
+            .then(|| q.map(|v| v as i64))
+    }
+}
+
+/// The grid's spacing: the smaller distance between neighbouring initial states of its two
+/// axes (infinite for a single state).
+pub fn spacing(grid: &Grid) -> f64 {
+    let d = |(lo, hi): (f64, f64), n: usize| {
+        if n > 1 {
+            (hi - lo) / (n - 1) as f64
+        } else {
+            f64::INFINITY
+        }
+    };
+    d(grid.x_range, grid.nx).min(d(grid.y_range, grid.ny))
+}
+
+/// The check of a known-cells map: a sample of the states the cubes labelled, rerun per state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CellCheck {
+    /// Share of the map's runs that stopped on known cubes.
+    pub cell_share: f64,
+    /// Cube-labelled states rerun per state.
+    pub sampled: usize,
+    /// Of those, the ones the per-state method put on another attractor (the map keeps the
+    /// per-state label).
+    pub differ: usize,
+    /// Estimated share of the map mislabelled: `differ / sampled * cell_share`.
+    pub estimated_mislabelled: f64,
+    /// The lower end of its 95 % confidence interval (Wilson score): above
+    /// [`CellCheck::WARN_SHARE`], the map is too likely mislabelled to pass without a warning.
+    pub mislabelled_low: f64,
+}
+
+impl CellCheck {
+    /// Estimated mislabelled share above which the map comes with a warning.
+    pub const WARN_SHARE: f64 = 0.003;
+
+    /// A warning when even the lower end of the estimate is above [`CellCheck::WARN_SHARE`]
+    /// (one difference in a small sample is not enough), with the reason.
+    pub fn warning(&self, size: f64) -> Option<String> {
+        (self.mislabelled_low > Self::WARN_SHARE).then(|| {
+            format!(
+                "{} of {} sampled cube-labelled states end elsewhere when run on their own: about \
+                 {:.2} % of the map (at least {:.2} %) may be mislabelled, the cubes ({size}) \
+                 being too coarse for its basin boundaries (fractal or riddled?); use a smaller \
+                 cell or the per-state method",
+                self.differ,
+                self.sampled,
+                100.0 * self.estimated_mislabelled,
+                100.0 * self.mislabelled_low
+            )
+        })
+    }
+
+    /// The check of `differ` of `sampled` states, of a map whose runs stopped on cubes in the
+    /// share `cell_share`.
+    pub fn new(cell_share: f64, sampled: usize, differ: usize) -> CellCheck {
+        let (n, z) = (sampled.max(1) as f64, 1.96f64);
+        let p = differ as f64 / n;
+        // Wilson score interval's lower end for a proportion
+        let low = (p + z * z / (2.0 * n) - z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt())
+            / (1.0 + z * z / n);
+        CellCheck {
+            cell_share,
+            sampled,
+            differ,
+            estimated_mislabelled: p * cell_share,
+            mislabelled_low: low.max(0.0) * cell_share,
+        }
+    }
 }
 
 /// The labelled grid.
@@ -259,9 +458,37 @@ pub struct BasinMap {
     pub catalogue: Catalogue,
     /// Totals.
     pub work: BasinWork,
+    /// How it was labelled.
+    pub method: Method,
+    /// For [`Method::KnownCells`]: the sample of cell-labelled states rerun per state.
+    pub check: Option<CellCheck>,
 }
 
 impl BasinMap {
+    /// A map of `grid` from each cell's result, with its method's check.
+    pub(crate) fn assemble(
+        grid: &Grid,
+        results: Vec<(Cell, Option<Outcome>)>,
+        catalogue: Catalogue,
+        method: Method,
+        check: Option<CellCheck>,
+    ) -> BasinMap {
+        let mut work = BasinWork::default();
+        let mut cells = Vec::with_capacity(results.len());
+        for (cell, outcome) in results {
+            work.add(&cell, outcome.as_ref());
+            cells.push(cell);
+        }
+        BasinMap {
+            grid: *grid,
+            cells,
+            catalogue,
+            work,
+            method,
+            check,
+        }
+    }
+
     /// Share of the grid (computed cells and pending alike) that ended on attractor `index`.
     pub fn fraction(&self, index: usize) -> f64 {
         let n = self
@@ -278,9 +505,16 @@ impl BasinMap {
     }
 }
 
-/// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
-/// attractor `scene` under `schedule` ends on, in parallel. `progress` is called once per cell;
-/// once `cancel` is set, cells not yet started stay [`Cell::Pending`].
+/// The scene started from the grid's initial state number `c` (row-major).
+pub(crate) fn scene_at(scene: &Scene, grid: &Grid, c: usize) -> Scene {
+    let (a, b) = grid.point(c % grid.nx, c / grid.nx);
+    let mut s = scene.clone();
+    s.initial = grid.plane.state(scene.initial, a, b);
+    s
+}
+
+/// Each initial state on its own ([`Method::PerState`]), in parallel (see
+/// [`crate::basin_cells::basins_by`]).
 pub fn basins(
     scene: &Scene,
     schedule: &GainSchedule,
@@ -297,15 +531,13 @@ pub fn basins(
             if cancel.load(Ordering::Relaxed) {
                 return (Cell::Pending, None);
             }
-            let (a, b) = grid.point(c % grid.nx, c / grid.nx);
-            let mut s = scene.clone();
-            s.initial = grid.plane.state(scene.initial, a, b);
+            let s = scene_at(scene, grid, c);
             let known = snapshot();
             let cell = match settle(&s, schedule, config, &known) {
                 Err(e) => (Cell::Failed(e.to_string()), None),
                 Ok(o) => {
                     let index = match o.stop {
-                        Stop::Recognised(i) => i,
+                        Stop::Recognised(i) | Stop::KnownCell(i) => i,
                         _ => {
                             let mut guard = shared.lock().unwrap_or_else(|e| e.into_inner());
                             Arc::make_mut(&mut guard).insert(&o.attractor)
@@ -323,42 +555,8 @@ pub fn basins(
             cell
         })
         .collect();
-    let mut work = BasinWork::default();
-    let mut cells = Vec::with_capacity(results.len());
-    for (cell, outcome) in results {
-        match &cell {
-            Cell::Pending => {}
-            Cell::Failed(_) => {
-                work.runs += 1;
-                work.failed += 1;
-            }
-            Cell::Attractor {
-                stop, periods_run, ..
-            } => {
-                work.runs += 1;
-                work.periods += u64::from(*periods_run);
-                match stop {
-                    Stop::Settled => work.settled += 1,
-                    Stop::Recognised(_) => work.recognised += 1,
-                    Stop::Horizon => work.horizon += 1,
-                }
-            }
-        }
-        if let Some(o) = outcome {
-            work.solver.steps += o.work.steps;
-            work.solver.rejected += o.work.rejected;
-            work.solver.rhs_evals += o.work.rhs_evals;
-            work.solver.events += o.work.events;
-        }
-        cells.push(cell);
-    }
     let catalogue = Arc::unwrap_or_clone(snapshot());
-    BasinMap {
-        grid: *grid,
-        cells,
-        catalogue,
-        work,
-    }
+    BasinMap::assemble(grid, results, catalogue, Method::PerState, None)
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! it: the attractors in legend order with their labels and shares, the grid, the work.
 
 use crate::attractor::SettleConfig;
-use crate::basin::{BasinMap, BasinWork};
+use crate::basin::{BasinMap, BasinWork, CellCheck, Method};
 use serde::Serialize;
 
 /// One map's summary as printed with `--json`.
@@ -14,6 +14,14 @@ pub struct Summary {
     pub grid: GridOut,
     /// The work done.
     pub work: WorkOut,
+    /// How the states were labelled, with the method's settings.
+    pub basin_method: Method,
+    /// For the known-cells method: the sample rerun per state.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check: Option<CellCheck>,
+    /// Why the map may be wrong, if it may.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
 }
 
 /// An attractor with its label and share of the grid.
@@ -60,6 +68,8 @@ pub struct WorkOut {
     pub wall_s: f64,
     /// Wall time per initial state in milliseconds.
     pub ms_per_state: f64,
+    /// Drive periods integrated per initial state.
+    pub periods_per_state: f64,
     /// Drive periods a run may take at most.
     pub max_periods: u32,
     /// Distance within which a run follows a known attractor.
@@ -99,8 +109,15 @@ pub fn summary(map: &BasinMap, wall_s: f64, cfg: &SettleConfig) -> Summary {
             totals: map.work,
             wall_s,
             ms_per_state: 1e3 * wall_s / map.work.runs.max(1) as f64,
+            periods_per_state: map.work.periods_per_run(),
             max_periods: cfg.max_periods,
             known_tol: cfg.known_tol,
+        },
+        basin_method: map.method,
+        check: map.check,
+        warning: match (map.method, map.check) {
+            (Method::KnownCells(c), Some(k)) => k.warning(c.size),
+            _ => None,
         },
     }
 }

@@ -6,6 +6,7 @@
 pub mod accuracy;
 pub mod attractor;
 pub mod basin;
+pub mod basin_cells;
 pub mod basin_summary;
 pub mod continuation;
 pub mod cycle;

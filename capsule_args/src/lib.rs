@@ -2,6 +2,8 @@
 //! ROS or DDS: the offline toolkit depends on this crate, not on the nodes.
 //!
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
+//! - [`settings`]: a node's settings declared once (flag, ROS parameter, scene key, range, help,
+//!   precedence); [`plant_settings`]: the plant node's table
 //! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
 //! - `storage` (feature `recording`, on by default): how a recording is stored (compression,
@@ -10,7 +12,9 @@
 #![warn(missing_docs)]
 
 pub mod node_table;
+pub mod plant_settings;
 pub mod ranges;
 pub mod scene_file;
+pub mod settings;
 #[cfg(feature = "recording")]
 pub mod storage;

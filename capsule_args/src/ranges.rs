@@ -7,6 +7,8 @@
 //!
 //! Use: `#[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]`.
 
+use capsule_plant::number_text::short;
+
 /// Longest duration any flag takes \[s\] (about 11.6 days): far inside what a `Duration` holds.
 pub const MAX_SECONDS: f64 = 1e6;
 /// Longest period any millisecond flag takes \[ms\] (one minute).
@@ -14,7 +16,7 @@ pub const MAX_MILLIS: u64 = 60_000;
 /// Largest magnitude of a gain, a physical constant or a model parameter given as a flag.
 pub const MAX_MAGNITUDE: f64 = 1e12;
 /// Lowest and highest sample rate of the plant node \[Hz\] (the scene's rule for node.rate_hz).
-pub const RATE_HZ: (f64, f64) = crate::node_table::RATE_HZ;
+pub const RATE_HZ: (f64, f64) = crate::node_table::RATE_HZ_RANGE;
 /// Most subscribers any node waits for.
 pub const MAX_SUBSCRIBERS: u64 = 1000;
 
@@ -31,15 +33,6 @@ fn number(text: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("must be a finite number (got {text})"))
-    }
-}
-
-/// A bound as the help text writes it: `0`, `100`, `1e12`, `1e-3`.
-fn short(v: f64) -> String {
-    if v == v.trunc() && v.abs() < 1e6 {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
     }
 }
 
@@ -66,7 +59,7 @@ pub fn positive(max: f64) -> impl FlagParser<f64> {
         if v > 0.0 && v <= max {
             Ok(v)
         } else {
-            Err(format!("must be > 0 and <= {max:e} (got {text})"))
+            Err(format!("must be > 0 and <= {} (got {text})", short(max)))
         }
     }
 }

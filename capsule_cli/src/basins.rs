@@ -1,12 +1,14 @@
 //! `capsule basins`: basins of attraction on a plane of initial states, one map or a sweep of
-//! maps over a parameter as one figure; writes the picture (SVG, PNG), the labels (CSV, JSON)
-//! and with `--json` a summary on stdout. Ctrl-C stops it and writes the cells finished.
+//! maps over a parameter as one figure; prints a summary (with `--json` as JSON on stdout) and
+//! with `--out` writes the picture (SVG, PNG) and the labels (CSV, JSON). Ctrl-C stops it and
+//! writes the cells finished.
 
 use crate::scene_args::SceneArgs;
 use crate::svg;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins, BasinMap, Cell, Grid, Plane};
+use capsule_analysis::basin::{BasinMap, Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
 use capsule_analysis::{GainSchedule, Param};
 use capsule_plant::scene::Scene;
@@ -54,9 +56,10 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     values: Option<String>,
-    /// Output prefix: writes PREFIX.svg, PREFIX.png, PREFIX.csv and PREFIX.json.
-    #[arg(long, value_name = "PREFIX", default_value = "basins")]
-    out: PathBuf,
+    /// Output prefix: writes PREFIX.svg, PREFIX.png, PREFIX.csv and PREFIX.json (no files
+    /// without it).
+    #[arg(long, value_name = "PREFIX")]
+    out: Option<PathBuf>,
     /// Print the attractors, grid and work as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -64,9 +67,58 @@ pub struct Args {
     /// three of its cycles; 0 lets every run settle on its own.
     #[arg(long, default_value_t = 1e-4)]
     known_tol: f64,
+    /// How initial states are labelled: `known-cells` stops a run once it enters cells of the
+    /// Poincaré section that earlier runs labelled (a few periods per state; a sample is rerun
+    /// per state as a check), `per-state` runs each until it settles on its own or follows a
+    /// known attractor (tens of periods per state).
+    #[arg(long, value_enum, default_value = "known-cells")]
+    basin_method: MethodArg,
+    /// Known cells: edge of a cell on the section (x1 - x2, y1 - y2, y1), at most the grid's
+    /// spacing [default: half the spacing, at most 0.05].
+    #[arg(long, value_name = "SIZE")]
+    cell: Option<f64>,
+    /// Known cells: consecutive section points in cells of one attractor that stop a run.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    cell_hits: u32,
+    /// Known cells: cell-labelled initial states rerun per state as a check.
+    #[arg(long, value_name = "N", default_value_t = 200)]
+    cell_check: usize,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
+}
+
+/// `--basin-method`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// Stop on cells of known basins.
+    KnownCells,
+    /// Each state on its own.
+    PerState,
+}
+
+/// The method from the flags, checked against the grid.
+pub fn method_of(
+    arg: MethodArg,
+    cell: Option<f64>,
+    hits: u32,
+    check: usize,
+    grid: &Grid,
+) -> Result<Method> {
+    if arg == MethodArg::PerState {
+        if cell.is_some() {
+            bail!("--cell: only the known-cells method has cells (--basin-method known-cells)");
+        }
+        return Ok(Method::PerState);
+    }
+    let c = CellConfig {
+        size: cell.unwrap_or(CellConfig::for_grid(grid).size),
+        hits,
+        check,
+    };
+    c.validate(grid)
+        .map_err(|(k, r)| anyhow::anyhow!("--{k}: {r}"))?;
+    Ok(Method::KnownCells(c))
 }
 
 /// Set by Ctrl-C; work not started afterwards is skipped.
@@ -147,6 +199,7 @@ pub fn compute(
     scenes: &[(Option<f64>, Scene)],
     grid: &Grid,
     known_tol: f64,
+    method: &Method,
     cancel: &AtomicBool,
 ) -> Vec<Computed> {
     let bar = ProgressBar::new((grid.nx * grid.ny * scenes.len()) as u64);
@@ -156,7 +209,7 @@ pub fn compute(
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let out = compute_with(scenes, grid, known_tol, cancel, &|| bar.inc(1));
+    let out = compute_with(scenes, grid, known_tol, method, cancel, &|| bar.inc(1));
     bar.finish_and_clear();
     out
 }
@@ -166,6 +219,7 @@ pub fn compute_with(
     scenes: &[(Option<f64>, Scene)],
     grid: &Grid,
     known_tol: f64,
+    method: &Method,
     cancel: &AtomicBool,
     progress: &(dyn Fn() + Sync),
 ) -> Vec<Computed> {
@@ -178,7 +232,7 @@ pub fn compute_with(
             };
             let schedule = GainSchedule::constant(scene.control.kp);
             let t0 = std::time::Instant::now();
-            let map = basins(scene, &schedule, &cfg, grid, progress, cancel);
+            let map = basins_by(method, scene, &schedule, &cfg, grid, progress, cancel);
             Computed {
                 value: *value,
                 scene: scene.clone(),
@@ -197,6 +251,13 @@ pub fn main(args: Args) -> Result<()> {
             args.known_tol
         );
     }
+    let method = method_of(
+        args.basin_method,
+        args.cell,
+        args.cell_hits,
+        args.cell_check,
+        &grid,
+    )?;
     let scene = args.scene.scene()?;
     let scenes: Vec<(Option<f64>, Scene)> = match (&args.sweep, &args.values) {
         (Some(param), Some(values)) => {
@@ -228,9 +289,12 @@ pub fn main(args: Args) -> Result<()> {
             .context("setting up the worker threads")?;
     }
     let cancel = cancel_on_ctrl_c();
-    let maps = compute(&scenes, &grid, args.known_tol, cancel);
+    let maps = compute(&scenes, &grid, args.known_tol, &method, cancel);
     let name = args.sweep.map_or("", Param::name);
-    let written = write_all(&args.out, name, &maps)?;
+    let written = match &args.out {
+        Some(prefix) => Some(write_all(prefix, name, &maps)?),
+        None => None,
+    };
     let cfgs: Vec<SettleConfig> = maps
         .iter()
         .map(|m| SettleConfig {
@@ -260,11 +324,19 @@ pub fn main(args: Args) -> Result<()> {
         for (m, cfg) in maps.iter().zip(&cfgs) {
             print_summary(m, name, cfg);
         }
-        println!("wrote {written}");
+        if let Some(w) = &written {
+            println!("wrote {w}");
+        }
+    }
+    for (m, cfg) in maps.iter().zip(&cfgs) {
+        if let Some(w) = summary(&m.map, m.wall_s, cfg).warning {
+            eprintln!("warning: {w}");
+        }
     }
     let pending: usize = maps.iter().map(|m| m.map.pending()).sum();
     if cancel.load(Ordering::Relaxed) || pending > 0 {
-        bail!("interrupted: {pending} initial states not computed; the finished ones are in {written}");
+        let kept = written.map_or("not written (no --out)".to_string(), |w| format!("in {w}"));
+        bail!("interrupted: {pending} initial states not computed; the finished ones are {kept}");
     }
     Ok(())
 }
@@ -286,17 +358,29 @@ fn print_summary(m: &Computed, name: &str, cfg: &SettleConfig) {
     }
     let w = &s.work;
     println!(
-        "  {} initial states in {:.2} s ({:.2} ms each): {} settled, {} on a known attractor, {} at the {}-period horizon, {} failed; {:.1} periods per run",
+        "  {} initial states in {:.2} s by {}: {:.3} ms and {:.1} periods per state; {} settled, {} on a known attractor, {} on known cells, {} at the {}-period horizon, {} failed",
         w.totals.runs,
         w.wall_s,
+        s.basin_method.name(),
         w.ms_per_state,
+        w.periods_per_state,
         w.totals.settled,
         w.totals.recognised,
+        w.totals.known_cell,
         w.totals.horizon,
         w.max_periods,
         w.totals.failed,
-        w.totals.periods as f64 / w.totals.runs.max(1) as f64
     );
+    if let (Method::KnownCells(c), Some(k)) = (s.basin_method, s.check) {
+        println!(
+            "  cells of {}, {} hits to stop; check: {} of {} sampled cell-labelled states differ per state (estimated {:.3} % of the map mislabelled)",
+            c.size,
+            c.hits,
+            k.differ,
+            k.sampled,
+            100.0 * k.estimated_mislabelled
+        );
+    }
 }
 
 /// The map's title: scene parameters that matter for the basins.
@@ -429,6 +513,7 @@ fn write_csv(path: &Path, param: &str, maps: &[Computed]) -> Result<()> {
                         capsule_analysis::attractor::Stop::Settled => "settled",
                         capsule_analysis::attractor::Stop::Recognised(_) => "recognised",
                         capsule_analysis::attractor::Stop::Horizon => "horizon",
+                        capsule_analysis::attractor::Stop::KnownCell(_) => "known-cell",
                     };
                     (
                         label,

@@ -12,6 +12,7 @@ use capsule_analysis::continuation::{
 };
 use capsule_analysis::{sweep, Param};
 use capsule_args::ranges;
+use capsule_plant::scene::Scene;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -44,8 +45,9 @@ pub struct Args {
     /// (one level): written as PREFIX_pd1.csv/.json, ..., drawn in the same SVG.
     #[arg(long)]
     switch: bool,
-    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg.
-    #[arg(long, value_name = "PREFIX", default_value = "branch")]
+    /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg. Required: the files are
+    /// the branch.
+    #[arg(long, value_name = "PREFIX")]
     out: PathBuf,
 }
 
@@ -67,29 +69,7 @@ pub fn main(args: Args) -> Result<()> {
     settings.max_step = args.max_arc_step;
     settings.max_points = args.max_points;
     let t0 = std::time::Instant::now();
-    // a bar on a terminal; Ctrl-C ends the branch at the next point, written as far as it got
-    let bar = indicatif::ProgressBar::new(settings.max_points as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} points (most), {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    work::catch_ctrl_c();
-    let mut on_point = |p: &BranchPoint| {
-        bar.inc(1);
-        bar.set_message(format!("{} = {:.6}", param.name(), p.value));
-        !work::interrupted()
-    };
-    let branch = continue_branch_observed(&scene, &settings, &mut on_point);
-    bar.finish_and_clear();
-    work::release_ctrl_c();
-    let branch = branch.with_context(|| {
-        format!(
-            "continuing {} from {} = {}",
-            scene.name,
-            param.name(),
-            param.value(&scene)
-        )
-    })?;
+    let branch = continue_interruptibly(&scene, &settings)?;
     let mut doubled = Vec::new();
     if args.switch && branch.stopped.is_none() {
         for sp in branch
@@ -114,9 +94,7 @@ pub fn main(args: Args) -> Result<()> {
     let csv = args.out.with_extension("csv");
     let json = args.out.with_extension("json");
     let svg_path = args.out.with_extension("svg");
-    write_csv(&csv, &branch).with_context(|| format!("writing {}", csv.display()))?;
-    std::fs::write(&json, serde_json::to_string_pretty(&branch)?)
-        .with_context(|| format!("writing {}", json.display()))?;
+    write_branch(&csv, &json, &branch)?;
     let title = format!(
         "{}: period-{} branch in {} (solid stable, dashed unstable)",
         scene.model.friction.name(),
@@ -125,31 +103,7 @@ pub fn main(args: Args) -> Result<()> {
     );
     let mut all = vec![branch.clone()];
     for (i, b) in doubled.iter().enumerate() {
-        let stem = format!(
-            "{}_pd{}",
-            args.out
-                .file_name()
-                .and_then(|n| n.to_str())
-                .unwrap_or("branch"),
-            i + 1
-        );
-        let prefix = args.out.with_file_name(stem);
-        let (c, j) = (prefix.with_extension("csv"), prefix.with_extension("json"));
-        write_csv(&c, b).with_context(|| format!("writing {}", c.display()))?;
-        std::fs::write(&j, serde_json::to_string_pretty(b)?)
-            .with_context(|| format!("writing {}", j.display()))?;
-        println!(
-            "period-{} branch from the period doubling: {} points, to {} = {}; wrote {}, {}",
-            b.period,
-            b.points.len(),
-            param.name(),
-            b.points.last().map_or(f64::NAN, |p| p.value),
-            c.display(),
-            j.display()
-        );
-        for s in &b.special {
-            println!("  {:?} at {} = {:.9}", s.kind, param.name(), s.value);
-        }
+        write_doubled(&args.out, i + 1, b, param)?;
         all.push(b.clone());
     }
     std::fs::write(
@@ -169,6 +123,74 @@ pub fn main(args: Args) -> Result<()> {
         json.display(),
         svg_path.display()
     );
+    print_special(&branch, param);
+    if let Some(why) = &branch.stopped {
+        bail!("the continuation stopped early at {why}; the branch so far is written");
+    }
+    Ok(())
+}
+
+/// Continues the branch with a bar on a terminal; Ctrl-C ends it at the next point, written
+/// as far as it got.
+fn continue_interruptibly(scene: &Scene, settings: &ContinuationConfig) -> Result<Branch> {
+    let param = settings.param;
+    let bar = indicatif::ProgressBar::new(settings.max_points as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} points (most), {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    work::catch_ctrl_c();
+    let mut on_point = |p: &BranchPoint| {
+        bar.inc(1);
+        bar.set_message(format!("{} = {:.6}", param.name(), p.value));
+        !work::interrupted()
+    };
+    let branch = continue_branch_observed(scene, settings, &mut on_point);
+    bar.finish_and_clear();
+    work::release_ctrl_c();
+    branch.with_context(|| {
+        format!(
+            "continuing {} from {} = {}",
+            scene.name,
+            param.name(),
+            param.value(scene)
+        )
+    })
+}
+
+/// Writes a branch's CSV and JSON files.
+fn write_branch(csv: &Path, json: &Path, b: &Branch) -> Result<()> {
+    write_csv(csv, b).with_context(|| format!("writing {}", csv.display()))?;
+    std::fs::write(json, serde_json::to_string_pretty(b)?)
+        .with_context(|| format!("writing {}", json.display()))
+}
+
+/// Writes the `n`th period-doubled branch as PREFIX_pdN.csv/.json and says so.
+fn write_doubled(out: &Path, n: usize, b: &Branch, param: Param) -> Result<()> {
+    let stem = format!(
+        "{}_pd{n}",
+        out.file_name().and_then(|n| n.to_str()).unwrap_or("branch"),
+    );
+    let prefix = out.with_file_name(stem);
+    let (c, j) = (prefix.with_extension("csv"), prefix.with_extension("json"));
+    write_branch(&c, &j, b)?;
+    println!(
+        "period-{} branch from the period doubling: {} points, to {} = {}; wrote {}, {}",
+        b.period,
+        b.points.len(),
+        param.name(),
+        b.points.last().map_or(f64::NAN, |p| p.value),
+        c.display(),
+        j.display()
+    );
+    for s in &b.special {
+        println!("  {:?} at {} = {:.9}", s.kind, param.name(), s.value);
+    }
+    Ok(())
+}
+
+/// Prints the branch's special points and, for an isola, its range.
+fn print_special(branch: &Branch, param: Param) {
     for s in &branch.special {
         println!("  {:?} at {} = {:.9}", s.kind, param.name(), s.value);
     }
@@ -188,10 +210,6 @@ pub fn main(args: Args) -> Result<()> {
                 .fold(f64::NEG_INFINITY, f64::max)
         );
     }
-    if let Some(why) = &branch.stopped {
-        bail!("the continuation stopped early at {why}; the branch so far is written");
-    }
-    Ok(())
 }
 
 fn write_csv(path: &Path, b: &Branch) -> Result<()> {

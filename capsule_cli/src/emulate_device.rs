@@ -191,9 +191,7 @@ fn serve(
     let hello_every = ((rate / 4.0).round() as u64).max(1);
     let start = Instant::now();
     let mut counts = Counts::default();
-    let mut command = 0.0f64;
-    let mut last_command: Option<Instant> = None;
-    let gone = |e: LinkError| anyhow::anyhow!("{e}");
+    let mut cmd = Commanded::default();
     link.send(hello).map_err(gone)?;
     for k in 0u64.. {
         let t = k as f64 * dt;
@@ -241,60 +239,104 @@ fn serve(
             send_sample(link)?
         };
         counts.samples += 1;
-        // take force frames until the sample is due (realtime) or answered (lockstep)
         let due = start + period.mul_f64((k + 1) as f64);
-        let mut waited_from = Instant::now();
-        loop {
-            let deadline = match args.pacing {
-                Pacing::Realtime => due,
-                Pacing::Lockstep => Instant::now() + RESEND,
-            };
-            match link.next(deadline).map_err(gone)? {
-                Some(Decoded::Frame {
-                    frame: Frame::Force(f),
-                    ..
-                }) => {
-                    counts.forces += 1;
-                    command = f64::from(f.force_n);
-                    last_command = Some(Instant::now());
-                    let answers_this = f.answers.wrapping_sub(first_seq) < 0x8000;
-                    if args.pacing == Pacing::Lockstep && answers_this {
-                        break;
-                    }
-                }
-                Some(Decoded::Frame { .. }) | Some(Decoded::Skipped(_)) => counts.bad_in += 1,
-                None => match args.pacing {
-                    Pacing::Realtime => break,
-                    Pacing::Lockstep => {
-                        if crate::work::interrupted() {
-                            return Ok(counts);
-                        }
-                        let commanded = last_command.is_some();
-                        if commanded && waited_from.elapsed().as_secs_f64() > timeout_s {
-                            break;
-                        }
-                        // re-send the sample (with a hello: a driver may have just opened)
-                        link.send(hello).map_err(gone)?;
-                        link.send(&Frame::Measurement(m)).map_err(gone)?;
-                        if !commanded {
-                            waited_from = Instant::now();
-                        }
-                    }
-                },
-            }
+        let sample = Sample {
+            measurement: m,
+            first_seq,
+            due,
+        };
+        let go_on = take_forces(args, link, hello, &sample, timeout_s, &mut counts, &mut cmd)?;
+        if !go_on {
+            return Ok(counts);
         }
-        if last_command.is_some_and(|at| at.elapsed().as_secs_f64() > timeout_s) {
-            if command != 0.0 {
+        if cmd
+            .last
+            .is_some_and(|at| at.elapsed().as_secs_f64() > timeout_s)
+        {
+            if cmd.force_n != 0.0 {
                 warn!("no force frame for {timeout_s} s at {t:.3} s: zero force");
                 counts.timeouts += 1;
             }
-            command = 0.0;
+            cmd.force_n = 0.0;
         }
         proto
-            .hold(command, dt)
+            .hold(cmd.force_n, dt)
             .map_err(|e| anyhow::anyhow!("simulation failed at {t:.3} s: {e}"))?;
     }
     Ok(counts)
+}
+
+/// The force the device applies: the last command and when it came.
+#[derive(Default)]
+struct Commanded {
+    force_n: f64,
+    last: Option<Instant>,
+}
+
+/// A sample sent: the measurement, its first sequence number, when the next one is due.
+struct Sample {
+    measurement: Measurement,
+    first_seq: u16,
+    due: Instant,
+}
+
+fn gone(e: LinkError) -> anyhow::Error {
+    anyhow::anyhow!("{e}")
+}
+
+/// Takes force frames until the sample is due (realtime) or answered (lockstep, re-sending
+/// it while unanswered); false when interrupted meanwhile.
+fn take_forces(
+    args: &Args,
+    link: &mut Link,
+    hello: &Frame,
+    sample: &Sample,
+    timeout_s: f64,
+    counts: &mut Counts,
+    cmd: &mut Commanded,
+) -> Result<bool> {
+    let mut waited_from = Instant::now();
+    loop {
+        let deadline = match args.pacing {
+            Pacing::Realtime => sample.due,
+            Pacing::Lockstep => Instant::now() + RESEND,
+        };
+        match link.next(deadline).map_err(gone)? {
+            Some(Decoded::Frame {
+                frame: Frame::Force(f),
+                ..
+            }) => {
+                counts.forces += 1;
+                cmd.force_n = f64::from(f.force_n);
+                cmd.last = Some(Instant::now());
+                let answers_this = f.answers.wrapping_sub(sample.first_seq) < 0x8000;
+                if args.pacing == Pacing::Lockstep && answers_this {
+                    break;
+                }
+            }
+            Some(Decoded::Frame { .. }) | Some(Decoded::Skipped(_)) => counts.bad_in += 1,
+            None => match args.pacing {
+                Pacing::Realtime => break,
+                Pacing::Lockstep => {
+                    if crate::work::interrupted() {
+                        return Ok(false);
+                    }
+                    let commanded = cmd.last.is_some();
+                    if commanded && waited_from.elapsed().as_secs_f64() > timeout_s {
+                        break;
+                    }
+                    // re-send the sample (with a hello: a driver may have just opened)
+                    link.send(hello).map_err(gone)?;
+                    link.send(&Frame::Measurement(sample.measurement))
+                        .map_err(gone)?;
+                    if !commanded {
+                        waited_from = Instant::now();
+                    }
+                }
+            },
+        }
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use crate::bench::{section3, section5};
 use crate::svg::{self, Curve, Panel, Style};
 use crate::switch;
 use anyhow::{Context, Result};
-use capsule_analysis::basin::Grid;
+use capsule_analysis::basin::{Grid, Method};
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{run_sampled, sweep, GainSchedule, Param, Pulse, SweepPoint};
 use capsule_plant::model::V_S;
@@ -329,7 +329,8 @@ fn basin_fig(
     let g = ctx.grid;
     let grid = Grid::paper(g);
     let cancel = AtomicBool::new(false);
-    let maps: Vec<Computed> = basins::compute_with(&scenes, &grid, 1e-4, &cancel, &|| {});
+    let maps: Vec<Computed> =
+        basins::compute_with(&scenes, &grid, 1e-4, &Method::PerState, &cancel, &|| {});
     let panels: Vec<svg::BasinPanel> = maps
         .iter()
         .map(|m| svg::BasinPanel {

@@ -9,6 +9,7 @@ mod emulate_device;
 mod figures;
 mod offline_record;
 mod record;
+mod refused;
 mod replay;
 mod robustness;
 mod scene_args;
@@ -20,19 +21,8 @@ mod switch;
 mod work;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
-
-/// An input refused before any work started (a flag, a scene, a limit): exit status 2, as for
-/// clap's own refusals, and as the node binaries do.
-#[derive(Debug)]
-pub struct Refused(pub String);
-
-impl std::fmt::Display for Refused {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Refused {}
+// every command's refusals are `crate::Refused`
+use refused::Refused;
 
 /// Exit status 2 for refused input (a bad scene or flag, a run over its limits), 1 for a
 /// failure while working.

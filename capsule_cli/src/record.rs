@@ -48,7 +48,7 @@ pub fn main(args: Args) -> Result<()> {
             let split = file.is_dir()
                 || file
                     .file_name()
-                    .is_some_and(|n| n == capsule_record::bag::METADATA_YAML);
+                    .is_some_and(|n| n == capsule_record::metadata_yaml::METADATA_YAML);
             let info = if split {
                 capsule_record::bag::bag_info(&file)?
             } else {
@@ -232,7 +232,14 @@ pub fn format_info(i: &RecordingInfo) -> String {
     if i.topics.is_empty() {
         s += "Topics:            (none)\n";
     }
-    // one line per call: the request paired with its response by sequence number
+    s += &mode_changes(i);
+    s
+}
+
+/// The mode changes, one line per `set_mode` call: the request paired with its response by
+/// sequence number.
+fn mode_changes(i: &RecordingInfo) -> String {
+    let mut s = String::new();
     let mut first = true;
     let call = |m: &capsule_record::info::ModeChange| {
         (m.event.info.client_gid, m.event.info.sequence_number)

@@ -205,15 +205,7 @@ pub fn main(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
-        if let Some(s) = &stability {
-            print_stability(s);
-        }
-        if let Some(p) = schedule.pulse {
-            println!(
-                "gain schedule  kp {} until period {}, {} for {} period(s), then {}",
-                schedule.before, p.at, p.kp, p.periods, schedule.after
-            );
-        }
+        print_stability(stability.as_ref(), &schedule);
         if let Some(path) = &args.csv {
             println!("time history   {} ({} rows)", path.display(), rows.len());
         }
@@ -221,13 +213,12 @@ pub fn main(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The summary's stability lines: multipliers, exponents, and why one is missing.
-fn print_stability(s: &RunStability) {
-    let RunStability {
-        floquet,
-        lyapunov,
-        stability_note,
-    } = s;
+/// The stability analysis (when asked) and the gain schedule, as the text summary prints them.
+fn print_stability(stability: Option<&RunStability>, schedule: &GainSchedule) {
+    let (floquet, lyapunov, stability_note) = match stability {
+        Some(s) => (&s.floquet, &s.lyapunov, &s.stability_note),
+        None => (&None, &None, &None),
+    };
     if let Some(f) = floquet {
         let mus: Vec<String> = f
             .multipliers
@@ -261,6 +252,12 @@ fn print_stability(s: &RunStability) {
     }
     if let Some(n) = stability_note {
         println!("stability      {n}");
+    }
+    if let Some(p) = schedule.pulse {
+        println!(
+            "gain schedule  kp {} until period {}, {} for {} period(s), then {}",
+            schedule.before, p.at, p.kp, p.periods, schedule.after
+        );
     }
 }
 

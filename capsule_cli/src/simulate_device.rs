@@ -90,26 +90,36 @@ pub fn run(
     if let Some(p) = csv {
         write_csv(p, &rows).with_context(|| format!("writing {}", p.display()))?;
     }
+    let out = Output {
+        scene,
+        device,
+        rate_hz,
+        kp: case.kp,
+        progression: result.progression,
+        efficiency: result.efficiency,
+        period: result.period,
+        seen_period: result.seen_period,
+        velocity_error: result.velocity_error,
+        velocity_window: case.velocity_window,
+        displacement_m,
+        duration_s,
+        samples: steps,
+        wall_time_s: wall,
+    };
     if json {
-        let out = Output {
-            scene,
-            device,
-            rate_hz,
-            kp: case.kp,
-            progression: result.progression,
-            efficiency: result.efficiency,
-            period: result.period,
-            seen_period: result.seen_period,
-            velocity_error: result.velocity_error,
-            velocity_window: case.velocity_window,
-            displacement_m,
-            duration_s,
-            samples: steps,
-            wall_time_s: wall,
-        };
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
+    print_summary(&out, &case);
+    if let Some(p) = csv {
+        println!("time history   {} ({} rows)", p.display(), rows.len());
+    }
+    Ok(())
+}
+
+/// The run as text, one line per aspect.
+fn print_summary(out: &Output, case: &LoopCase) {
+    let (scene, device, rate_hz) = (out.scene, &out.device, out.rate_hz);
     let period = |p: Option<usize>| p.map_or("none".to_string(), |p| format!("period-{p}"));
     println!("scene          {}", scene.name);
     println!(
@@ -135,26 +145,23 @@ pub fn run(
     );
     println!(
         "progression    {:+.6e} per period, efficiency {:.6}",
-        result.progression, result.efficiency
+        out.progression, out.efficiency
     );
     println!(
         "orbit          {} on the true state; the controller sees {}",
-        period(result.period),
-        period(result.seen_period)
+        period(out.period),
+        period(out.seen_period)
     );
     println!(
         "velocity       estimated over {} samples, RMS error {:.4}",
-        case.velocity_window, result.velocity_error
+        case.velocity_window, out.velocity_error
     );
     println!(
-        "capsule        {:+.3} mm in {duration_s:.3} s",
-        displacement_m * 1e3
+        "capsule        {:+.3} mm in {:.3} s",
+        out.displacement_m * 1e3,
+        out.duration_s
     );
-    println!("wall time      {wall:.3} s");
-    if let Some(p) = csv {
-        println!("time history   {} ({} rows)", p.display(), rows.len());
-    }
-    Ok(())
+    println!("wall time      {:.3} s", out.wall_time_s);
 }
 
 /// The samples as CSV, SI: the truth, the reading (NaN where not measured), the command.

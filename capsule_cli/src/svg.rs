@@ -704,7 +704,6 @@ const BW: f64 = 360.0;
 /// Basin maps side by side, each with a legend (period, impacts, progression, share) and the
 /// attractors' Poincaré points on top when the plane shows them.
 pub fn basins(title: &str, caption: &[String], maps: &[BasinPanel]) -> String {
-    use capsule_analysis::basin::{Cell, Coord};
     let cw = PL + BW + PR;
     let legend_rows = maps.iter().map(|m| m.labels.len()).max().unwrap_or(0);
     let ch = PT + BW + PB + 16.0 * legend_rows as f64 + 10.0;
@@ -730,65 +729,8 @@ pub fn basins(title: &str, caption: &[String], maps: &[BasinPanel]) -> String {
         };
         let x = half(g.x_range, g.nx);
         let y = half(g.y_range, g.ny);
-        let colour_of: std::collections::HashMap<usize, String> = m
-            .labels
-            .iter()
-            .map(|(i, l)| (*i, label_colour(l)))
-            .collect();
-        let (cw_px, ch_px) = (BW / g.nx as f64, BW / g.ny as f64);
-        // one rectangle per run of equal cells in a row keeps the file small
-        for j in 0..g.ny {
-            let row = &m.map.cells[j * g.nx..(j + 1) * g.nx];
-            let mut i = 0;
-            while i < g.nx {
-                let mut e = i + 1;
-                while e < g.nx && same_fill(&row[e], &row[i]) {
-                    e += 1;
-                }
-                let fill = match &row[i] {
-                    Cell::Pending => "#ffffff".to_string(),
-                    Cell::Failed(_) => "#000000".to_string(),
-                    Cell::Attractor { index, .. } => colour_of
-                        .get(index)
-                        .cloned()
-                        .unwrap_or_else(|| "#888888".into()),
-                };
-                let _ = write!(
-                    out,
-                    r#"<rect x="{:.2}" y="{:.2}" width="{:.2}" height="{:.2}" fill="{fill}"/>"#,
-                    l + i as f64 * cw_px,
-                    b - (j + 1) as f64 * ch_px,
-                    (e - i) as f64 * cw_px + 0.3,
-                    ch_px + 0.3
-                );
-                i = e;
-            }
-            out.push('\n');
-        }
-        let pick = |c: Coord, p: &[f64; 3]| match c {
-            Coord::RelX => Some(p[0]),
-            Coord::RelY => Some(p[1]),
-            Coord::Y1 => Some(p[2]),
-            _ => None,
-        };
-        for (i, _) in &m.labels {
-            let a = &m.map.catalogue.attractors[*i];
-            if a.period.is_none() {
-                continue;
-            }
-            for p in &a.poincare {
-                if let (Some(px), Some(py)) = (pick(g.plane.x, p), pick(g.plane.y, p)) {
-                    if (x.lo..=x.hi).contains(&px) && (y.lo..=y.hi).contains(&py) {
-                        let _ = writeln!(
-                            out,
-                            r#"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="black" stroke="white" stroke-width="1"/>"#,
-                            x.map(px, l, r),
-                            y.map(py, b, t)
-                        );
-                    }
-                }
-            }
-        }
+        basin_cells(&mut out, m, (l, b));
+        attractor_points(&mut out, m, (&x, &y), (l, t, r, b));
         frame(
             &mut out,
             (ox, oy),
@@ -797,23 +739,105 @@ pub fn basins(title: &str, caption: &[String], maps: &[BasinPanel]) -> String {
             &y,
             (&escape(&m.title), g.plane.x.name(), g.plane.y.name()),
         );
-        for (n, (i, label)) in m.labels.iter().enumerate() {
-            let a = &m.map.catalogue.attractors[*i];
-            let ly = b + 50.0 + 16.0 * n as f64;
-            let period = a.period.map_or("none".to_string(), |p| p.to_string());
-            let _ = writeln!(
-                out,
-                r#"<rect x="{l:.1}" y="{:.1}" width="12" height="12" fill="{}" stroke="black" stroke-width="0.5"/><text x="{:.1}" y="{ly:.1}" font-size="11">{label}: period {period}, {:.2} impacts/period, progression {:+.4}, {:.1} %</text>"#,
-                ly - 10.0,
-                label_colour(label),
-                l + 18.0,
-                a.impacts_per_period,
-                a.avg_progression,
-                100.0 * m.map.fraction(*i)
-            );
-        }
+        basin_legend(&mut out, m, (l, b));
     }
     close_page(out, height, caption)
+}
+
+/// A basin map's cells: one rectangle per run of equal cells in a row (a small file), in the
+/// square whose bottom-left corner is `(l, b)`.
+fn basin_cells(out: &mut String, m: &BasinPanel, (l, b): (f64, f64)) {
+    use capsule_analysis::basin::Cell;
+    let g = &m.map.grid;
+    let colour_of: std::collections::HashMap<usize, String> = m
+        .labels
+        .iter()
+        .map(|(i, l)| (*i, label_colour(l)))
+        .collect();
+    let (cw_px, ch_px) = (BW / g.nx as f64, BW / g.ny as f64);
+    // one rectangle per run of equal cells in a row keeps the file small
+    for j in 0..g.ny {
+        let row = &m.map.cells[j * g.nx..(j + 1) * g.nx];
+        let mut i = 0;
+        while i < g.nx {
+            let mut e = i + 1;
+            while e < g.nx && same_fill(&row[e], &row[i]) {
+                e += 1;
+            }
+            let fill = match &row[i] {
+                Cell::Pending => "#ffffff".to_string(),
+                Cell::Failed(_) => "#000000".to_string(),
+                Cell::Attractor { index, .. } => colour_of
+                    .get(index)
+                    .cloned()
+                    .unwrap_or_else(|| "#888888".into()),
+            };
+            let _ = write!(
+                out,
+                r#"<rect x="{:.2}" y="{:.2}" width="{:.2}" height="{:.2}" fill="{fill}"/>"#,
+                l + i as f64 * cw_px,
+                b - (j + 1) as f64 * ch_px,
+                (e - i) as f64 * cw_px + 0.3,
+                ch_px + 0.3
+            );
+            i = e;
+        }
+        out.push('\n');
+    }
+}
+
+/// The periodic attractors' Poincaré points that fall in the plane shown.
+fn attractor_points(
+    out: &mut String,
+    m: &BasinPanel,
+    (x, y): (&Axis, &Axis),
+    (l, t, r, b): (f64, f64, f64, f64),
+) {
+    use capsule_analysis::basin::Coord;
+    let g = &m.map.grid;
+    let pick = |c: Coord, p: &[f64; 3]| match c {
+        Coord::RelX => Some(p[0]),
+        Coord::RelY => Some(p[1]),
+        Coord::Y1 => Some(p[2]),
+        _ => None,
+    };
+    for (i, _) in &m.labels {
+        let a = &m.map.catalogue.attractors[*i];
+        if a.period.is_none() {
+            continue;
+        }
+        for p in &a.poincare {
+            if let (Some(px), Some(py)) = (pick(g.plane.x, p), pick(g.plane.y, p)) {
+                if (x.lo..=x.hi).contains(&px) && (y.lo..=y.hi).contains(&py) {
+                    let _ = writeln!(
+                        out,
+                        r#"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="black" stroke="white" stroke-width="1"/>"#,
+                        x.map(px, l, r),
+                        y.map(py, b, t)
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A basin map's legend under it: colour, period, impacts, progression and share per label.
+fn basin_legend(out: &mut String, m: &BasinPanel, (l, b): (f64, f64)) {
+    for (n, (i, label)) in m.labels.iter().enumerate() {
+        let a = &m.map.catalogue.attractors[*i];
+        let ly = b + 50.0 + 16.0 * n as f64;
+        let period = a.period.map_or("none".to_string(), |p| p.to_string());
+        let _ = writeln!(
+            out,
+            r#"<rect x="{l:.1}" y="{:.1}" width="12" height="12" fill="{}" stroke="black" stroke-width="0.5"/><text x="{:.1}" y="{ly:.1}" font-size="11">{label}: period {period}, {:.2} impacts/period, progression {:+.4}, {:.1} %</text>"#,
+            ly - 10.0,
+            label_colour(label),
+            l + 18.0,
+            a.impacts_per_period,
+            a.avg_progression,
+            100.0 * m.map.fraction(*i)
+        );
+    }
 }
 
 fn same_fill(a: &capsule_analysis::basin::Cell, b: &capsule_analysis::basin::Cell) -> bool {
@@ -850,27 +874,6 @@ pub fn heat_maps(
         width / 2.0,
         escape(title)
     );
-    let colour = |v: f64, reference: f64| -> String {
-        let share = if reference.abs() > 0.0 {
-            v / reference
-        } else {
-            f64::NAN
-        };
-        if !share.is_finite() {
-            return "#dddddd".into();
-        }
-        if share < 0.0 {
-            return "#b07cc6".into();
-        }
-        // red (0) -> yellow (0.5) -> green (1 and above)
-        let s = share.min(1.0);
-        let (r, g) = if s < 0.5 {
-            (230.0, 80.0 + 300.0 * s)
-        } else {
-            (230.0 - 330.0 * (s - 0.5), 230.0)
-        };
-        format!("rgb({:.0},{:.0},90)", r.max(0.0), g.min(230.0))
-    };
     for (k, (name, cells, reference)) in maps.iter().enumerate() {
         let x0 = left + k as f64 * (map_w + gap);
         let _ = writeln!(
@@ -887,46 +890,21 @@ pub fn heat_maps(
                 let _ = writeln!(
                     out,
                     r#"<rect x="{x}" y="{y}" width="{cell_w}" height="{cell_h}" fill="{}" stroke="white"/><text x="{}" y="{}" text-anchor="middle">{v:+.2}</text>"#,
-                    colour(*v, *reference),
+                    heat_colour(*v, *reference),
                     x + cell_w / 2.0,
                     y + cell_h / 2.0 + 4.0
                 );
             }
         }
-        for (j, c) in columns.iter().enumerate() {
-            let _ = writeln!(
-                out,
-                r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-                x0 + (j as f64 + 0.5) * cell_w,
-                top - 6.0,
-                escape(c)
-            );
-        }
-        let _ = writeln!(
-            out,
-            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-            x0 + map_w / 2.0,
-            top + map_h + 20.0,
-            escape(xlabel)
+        let sizes = (cell_w, cell_h, map_w, map_h);
+        heat_map_labels(
+            &mut out,
+            (x0, top),
+            sizes,
+            (columns, rows),
+            (xlabel, ylabel),
+            k == 0,
         );
-        if k == 0 {
-            for (i, r) in rows.iter().enumerate() {
-                let _ = writeln!(
-                    out,
-                    r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
-                    x0 - 6.0,
-                    top + (i as f64 + 0.5) * cell_h + 4.0,
-                    escape(r)
-                );
-            }
-            let _ = writeln!(
-                out,
-                r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
-                top + map_h / 2.0,
-                top + map_h / 2.0,
-                escape(ylabel)
-            );
-        }
     }
     let _ = writeln!(
         out,
@@ -934,6 +912,76 @@ pub fn heat_maps(
         height - 12.0
     );
     out
+}
+
+/// A heat map cell's colour: its value over the reference (green: at least the reference's
+/// progression in its direction; through yellow to red: none; purple: the wrong direction).
+fn heat_colour(v: f64, reference: f64) -> String {
+    let share = if reference.abs() > 0.0 {
+        v / reference
+    } else {
+        f64::NAN
+    };
+    if !share.is_finite() {
+        return "#dddddd".into();
+    }
+    if share < 0.0 {
+        return "#b07cc6".into();
+    }
+    // red (0) -> yellow (0.5) -> green (1 and above)
+    let s = share.min(1.0);
+    let (r, g) = if s < 0.5 {
+        (230.0, 80.0 + 300.0 * s)
+    } else {
+        (230.0 - 330.0 * (s - 0.5), 230.0)
+    };
+    format!("rgb({:.0},{:.0},90)", r.max(0.0), g.min(230.0))
+}
+
+/// A heat map's column labels and axis label; the row labels and vertical axis label beside
+/// the `first` map only.
+fn heat_map_labels(
+    out: &mut String,
+    (x0, top): (f64, f64),
+    (cell_w, cell_h, map_w, map_h): (f64, f64, f64, f64),
+    (columns, rows): (&[String], &[String]),
+    (xlabel, ylabel): (&str, &str),
+    first: bool,
+) {
+    for (j, c) in columns.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+            x0 + (j as f64 + 0.5) * cell_w,
+            top - 6.0,
+            escape(c)
+        );
+    }
+    let _ = writeln!(
+        out,
+        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+        x0 + map_w / 2.0,
+        top + map_h + 20.0,
+        escape(xlabel)
+    );
+    if first {
+        for (i, r) in rows.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
+                x0 - 6.0,
+                top + (i as f64 + 0.5) * cell_h + 4.0,
+                escape(r)
+            );
+        }
+        let _ = writeln!(
+            out,
+            r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+            top + map_h / 2.0,
+            top + map_h / 2.0,
+            escape(ylabel)
+        );
+    }
 }
 
 /// Rasterise an SVG document of ours to PNG at `scale` (fonts: the embedded Ubuntu Light, so no

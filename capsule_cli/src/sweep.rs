@@ -9,6 +9,7 @@ use anyhow::{bail, Context, Result};
 use capsule_analysis::lyapunov::{lyapunov_sweep, Lyapunov};
 use capsule_analysis::{sweep, sweep_following, Param, SweepPoint};
 use capsule_args::ranges;
+use capsule_plant::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -37,7 +38,8 @@ pub struct Args {
     steps: usize,
     /// Output prefix: writes PREFIX.csv, PREFIX.json and PREFIX.svg; a directory (an existing
     /// one, or a path ending in `/`) writes DIR/PARAM.csv, ... . Its directory must exist.
-    #[arg(long, value_name = "PREFIX", default_value = "sweep")]
+    /// Required: the files are the sweep's result.
+    #[arg(long, value_name = "PREFIX")]
     out: PathBuf,
     /// Follow one attractor: each value starts from the previous value's final state (runs
     /// one after the other) instead of every value from the scene's initial state (in parallel).
@@ -96,26 +98,7 @@ pub fn main(args: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let t0 = std::time::Instant::now();
-    // in chunks, so that Ctrl-C stops between them with what finished written
-    work::catch_ctrl_c();
-    let chunk = (rayon::current_num_threads() * 8).max(16);
-    let mut points: Vec<SweepPoint> = Vec::with_capacity(values.len());
-    let mut start = scene.clone();
-    for part in values.chunks(chunk) {
-        if work::interrupted() {
-            break;
-        }
-        let done = if args.follow {
-            let done = sweep_following(&start, param, part, &|| bar.inc(1));
-            if let Some(r) = done.iter().rev().find_map(|p| p.result.as_ref().ok()) {
-                start.initial = r.final_state;
-            }
-            done
-        } else {
-            sweep(&scene, param, part, &|| bar.inc(1))
-        };
-        points.extend(done);
-    }
+    let points = sweep_in_chunks(&scene, param, &values, args.follow, &bar);
     let spectra: Option<Vec<Result<Lyapunov, String>>> = args.lyapunov.then(|| {
         bar.set_position(0);
         bar.set_message("lyapunov");
@@ -129,24 +112,8 @@ pub fn main(args: Args) -> Result<()> {
     let svg_path = prefix.with_extension("svg");
     write_csv(&csv, args.param.name(), &points, spectra.as_deref())
         .with_context(|| format!("writing {}", csv.display()))?;
-    let json_text = match &spectra {
-        None => serde_json::to_string(&points)?,
-        Some(ls) => {
-            #[derive(serde::Serialize)]
-            struct WithLyapunov<'a> {
-                #[serde(flatten)]
-                point: &'a SweepPoint,
-                lyapunov: &'a Result<Lyapunov, String>,
-            }
-            let rows: Vec<WithLyapunov> = points
-                .iter()
-                .zip(ls)
-                .map(|(point, lyapunov)| WithLyapunov { point, lyapunov })
-                .collect();
-            serde_json::to_string(&rows)?
-        }
-    };
-    std::fs::write(&json, json_text).with_context(|| format!("writing {}", json.display()))?;
+    std::fs::write(&json, json_text(&points, spectra.as_deref())?)
+        .with_context(|| format!("writing {}", json.display()))?;
     let largest: Option<Vec<(f64, f64)>> = spectra.as_ref().map(|ls| {
         values
             .iter()
@@ -182,11 +149,8 @@ pub fn main(args: Args) -> Result<()> {
         println!("  {} = {v}: {e}", args.param.name());
     }
     if failed.len() > 5 {
-        println!(
-            "  ... and {} more (all in {})",
-            failed.len() - 5,
-            json.display()
-        );
+        let more = failed.len() - 5;
+        println!("  ... and {more} more (all in {})", json.display());
     }
     if points.len() < values.len() {
         bail!(
@@ -203,6 +167,61 @@ pub fn main(args: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Sweeps `values` in chunks, so that Ctrl-C stops between them with what finished kept;
+/// `follow`: each chunk starts from the last state of the one before.
+fn sweep_in_chunks(
+    scene: &Scene,
+    param: Param,
+    values: &[f64],
+    follow: bool,
+    bar: &ProgressBar,
+) -> Vec<SweepPoint> {
+    work::catch_ctrl_c();
+    let chunk = (rayon::current_num_threads() * 8).max(16);
+    let mut points: Vec<SweepPoint> = Vec::with_capacity(values.len());
+    let mut start = scene.clone();
+    for part in values.chunks(chunk) {
+        if work::interrupted() {
+            break;
+        }
+        let done = if follow {
+            let done = sweep_following(&start, param, part, &|| bar.inc(1));
+            if let Some(r) = done.iter().rev().find_map(|p| p.result.as_ref().ok()) {
+                start.initial = r.final_state;
+            }
+            done
+        } else {
+            sweep(scene, param, part, &|| bar.inc(1))
+        };
+        points.extend(done);
+    }
+    points
+}
+
+/// The sweep as JSON, each point with its Lyapunov spectrum when computed.
+fn json_text(
+    points: &[SweepPoint],
+    spectra: Option<&[Result<Lyapunov, String>]>,
+) -> Result<String> {
+    Ok(match spectra {
+        None => serde_json::to_string(points)?,
+        Some(ls) => {
+            #[derive(serde::Serialize)]
+            struct WithLyapunov<'a> {
+                #[serde(flatten)]
+                point: &'a SweepPoint,
+                lyapunov: &'a Result<Lyapunov, String>,
+            }
+            let rows: Vec<WithLyapunov> = points
+                .iter()
+                .zip(ls)
+                .map(|(point, lyapunov)| WithLyapunov { point, lyapunov })
+                .collect();
+            serde_json::to_string(&rows)?
+        }
+    })
 }
 
 fn write_csv(

@@ -27,9 +27,9 @@ pub struct Args {
     /// Try the pulse at N consecutive starts (--pulse-at, +1, ...) and report which switch.
     #[arg(long, value_name = "N")]
     scan: Option<u32>,
-    /// Output prefix: writes PREFIX.svg, PREFIX.png and PREFIX.json.
-    #[arg(long, value_name = "PREFIX", default_value = "switch")]
-    out: PathBuf,
+    /// Output prefix: writes PREFIX.svg, PREFIX.png and PREFIX.json (no files without it).
+    #[arg(long, value_name = "PREFIX")]
+    out: Option<PathBuf>,
     /// Print the report as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -83,8 +83,14 @@ pub fn main(mut args: Args) -> Result<()> {
     let mut rows: Vec<Snapshot> = Vec::new();
     let report = switch_run(&scene, &schedule, SAMPLES, &mut |s| rows.push(*s))
         .with_context(|| format!("simulating {}", scene.name))?;
-    let doc = figure(&scene, &schedule, &report, &rows);
-    let written = write(&args.out, &doc, &report)?;
+    let written = match &args.out {
+        Some(prefix) => Some(write(
+            prefix,
+            &figure(&scene, &schedule, &report, &rows),
+            &report,
+        )?),
+        None => None,
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -98,14 +104,15 @@ pub fn main(mut args: Args) -> Result<()> {
         };
         println!("before  {}", describe(&report.before));
         println!("after   {}", describe(&report.after));
-        println!(
-            "{}; wrote {written}",
-            if report.switched {
-                "switched"
-            } else {
-                "not switched"
-            }
-        );
+        let verdict = if report.switched {
+            "switched"
+        } else {
+            "not switched"
+        };
+        match written {
+            Some(w) => println!("{verdict}; wrote {w}"),
+            None => println!("{verdict}"),
+        }
     }
     Ok(())
 }
@@ -163,82 +170,22 @@ pub fn figure(
         at: 0,
         periods: 0,
     });
-    let per = SAMPLES as usize;
-    let k_before = report.before.period.unwrap_or(1).max(1);
-    let k_after = report.after.period.unwrap_or(1).max(1);
     let at = p.at as usize;
-    let n = report.poincare.len();
-    let window = |from: usize, to: usize| {
-        &rows[(from * per).min(rows.len())..(to * per + 1).min(rows.len())]
-    };
-    let phase = |r: &[Snapshot]| -> Vec<(f64, f64)> {
-        r.iter()
-            .map(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2))
-            .collect()
-    };
     let y1: Vec<(f64, f64)> = report
         .poincare
         .iter()
         .enumerate()
         .map(|(i, q)| ((i + 1) as f64, q[2]))
         .collect();
-    let red = "#d62728".to_string();
     let a = Panel::new(
         "(a) Poincaré y1 per drive period",
         "period n",
         "y1*",
         vec![Curve::new("", "black", Style::Dots, y1)],
     )
-    .with_vline(at as f64, red.clone());
-    let sec = |c: &[[f64; 3]]| c.iter().map(|q| (q[0], q[1])).collect::<Vec<_>>();
-    let b = Panel::new(
-        "(b) phase plane before (grey) and after (red)",
-        "x1 - x2",
-        "y1 - y2",
-        vec![
-            Curve::new(
-                format!("before: period {}", fmt_period(report.before.period)),
-                "#999999",
-                Style::Line,
-                phase(window(at.saturating_sub(k_before), at)),
-            ),
-            Curve::new(
-                format!("after: period {}", fmt_period(report.after.period)),
-                red.clone(),
-                Style::Line,
-                phase(window(n.saturating_sub(k_after), n)),
-            ),
-            Curve::new(
-                "Poincaré section",
-                "#1f5fd6",
-                Style::Dots,
-                [sec(&report.before.poincare), sec(&report.after.poincare)].concat(),
-            ),
-        ],
-    )
-    .with_vline(scene.model.capsule.delta, "#2ca02c");
-    let (from, to) = (at.saturating_sub(15), (at + 45).min(n));
-    let hist = window(from, to);
-    let c = Panel::new(
-        format!("(c) displacements, periods {from} to {to}"),
-        "tau",
-        "x1 (solid), x2 (dashed)",
-        vec![
-            Curve::new(
-                "x1",
-                "black",
-                Style::Line,
-                hist.iter().map(|s| (s.tau, s.state.x1)).collect(),
-            ),
-            Curve::new(
-                "x2",
-                red,
-                Style::Dashed,
-                hist.iter().map(|s| (s.tau, s.state.x2)).collect(),
-            ),
-        ],
-    )
-    .with_vline(at as f64 * scene.drive.period(), "#d62728");
+    .with_vline(at as f64, RED);
+    let b = phase_panel(scene, report, rows, at);
+    let c = history_panel(scene, report, rows, at);
     let caption = vec![
         format!(
             "{} friction, alpha {}, omega {}, {}; k_p {} until period {}, {} for {} period(s), then {}.",
@@ -268,6 +215,81 @@ pub fn figure(
         svg::PANEL,
         &[a, b, c],
     )
+}
+
+/// The pulse's colour.
+const RED: &str = "#d62728";
+
+/// The samples of drive periods `from` to `to` (both ends included).
+fn window(rows: &[Snapshot], from: usize, to: usize) -> &[Snapshot] {
+    let per = SAMPLES as usize;
+    &rows[(from * per).min(rows.len())..(to * per + 1).min(rows.len())]
+}
+
+/// Panel (b): the last orbit before the pulse and the last after, with the Poincaré points.
+fn phase_panel(scene: &Scene, report: &SwitchReport, rows: &[Snapshot], at: usize) -> Panel {
+    let k_before = report.before.period.unwrap_or(1).max(1);
+    let k_after = report.after.period.unwrap_or(1).max(1);
+    let n = report.poincare.len();
+    let phase = |r: &[Snapshot]| -> Vec<(f64, f64)> {
+        r.iter()
+            .map(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2))
+            .collect()
+    };
+    let sec = |c: &[[f64; 3]]| c.iter().map(|q| (q[0], q[1])).collect::<Vec<_>>();
+    Panel::new(
+        "(b) phase plane before (grey) and after (red)",
+        "x1 - x2",
+        "y1 - y2",
+        vec![
+            Curve::new(
+                format!("before: period {}", fmt_period(report.before.period)),
+                "#999999",
+                Style::Line,
+                phase(window(rows, at.saturating_sub(k_before), at)),
+            ),
+            Curve::new(
+                format!("after: period {}", fmt_period(report.after.period)),
+                RED,
+                Style::Line,
+                phase(window(rows, n.saturating_sub(k_after), n)),
+            ),
+            Curve::new(
+                "Poincaré section",
+                "#1f5fd6",
+                Style::Dots,
+                [sec(&report.before.poincare), sec(&report.after.poincare)].concat(),
+            ),
+        ],
+    )
+    .with_vline(scene.model.capsule.delta, "#2ca02c")
+}
+
+/// Panel (c): the displacements from 15 periods before the pulse to 45 after.
+fn history_panel(scene: &Scene, report: &SwitchReport, rows: &[Snapshot], at: usize) -> Panel {
+    let n = report.poincare.len();
+    let (from, to) = (at.saturating_sub(15), (at + 45).min(n));
+    let hist = window(rows, from, to);
+    Panel::new(
+        format!("(c) displacements, periods {from} to {to}"),
+        "tau",
+        "x1 (solid), x2 (dashed)",
+        vec![
+            Curve::new(
+                "x1",
+                "black",
+                Style::Line,
+                hist.iter().map(|s| (s.tau, s.state.x1)).collect(),
+            ),
+            Curve::new(
+                "x2",
+                RED,
+                Style::Dashed,
+                hist.iter().map(|s| (s.tau, s.state.x2)).collect(),
+            ),
+        ],
+    )
+    .with_vline(at as f64 * scene.drive.period(), RED)
 }
 
 fn fmt_period(p: Option<usize>) -> String {

@@ -3,6 +3,8 @@
 
 use std::fmt;
 
+use capsule_plant::number_text::short;
+
 /// The controller's modes (codes as in `capsule_msgs/srv/SetMode`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -86,10 +88,10 @@ pub enum ModeError {
     #[error("SWITCH_ATTRACTOR is an action with pulse fields, not a mode to stay in: request it through set_mode")]
     NotAMode,
     /// NaN or infinite gain.
-    #[error("gain {0} is not finite")]
+    #[error("gain {} is not finite", short(*.0))]
     NonFiniteGain(f64),
     /// |gain| beyond the configured limit.
-    #[error("gain {gain} is beyond the configured limit |k_p| <= {limit}")]
+    #[error("gain {} is beyond the configured limit |k_p| <= {}", short(*.gain), short(*.limit))]
     BeyondLimit {
         /// The gain that would result.
         gain: f64,
@@ -127,7 +129,7 @@ impl Default for ModeConfig {
 
 /// Why a configuration is unusable.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("controller gain setting `{name}` = {value}: {reason}")]
+#[error("controller gain setting `{name}` = {}: {reason}", short(*.value))]
 pub struct ConfigError {
     /// The setting.
     pub name: &'static str,

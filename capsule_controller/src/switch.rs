@@ -10,6 +10,8 @@
 
 use std::collections::VecDeque;
 
+use capsule_plant::number_text::short;
+
 use crate::period::{self, Over};
 
 /// How an attractor switch is bounded and judged (the controller's settings).
@@ -70,10 +72,10 @@ pub struct SwitchRequest {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SwitchError {
     /// NaN or infinite pulse gain.
-    #[error("pulse gain {0} is not finite")]
+    #[error("pulse gain {} is not finite", short(*.0))]
     NonFiniteGain(f64),
     /// |pulse gain| beyond the controller's limit.
-    #[error("pulse gain {gain} is beyond the configured limit |k_p| <= {limit}")]
+    #[error("pulse gain {} is beyond the configured limit |k_p| <= {}", short(*.gain), short(*.limit))]
     BeyondLimit {
         /// The gain.
         gain: f64,

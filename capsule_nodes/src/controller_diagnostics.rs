@@ -7,7 +7,7 @@ use capsule_msgs::{
     Time,
 };
 
-use crate::controller::ControllerCore;
+use crate::controller_core::ControllerCore;
 
 /// One second of the controller as a diagnostics status, from its counters now and one second
 /// ago.

@@ -1,125 +1,85 @@
 //! The controller's ROS parameters: mode and gain (a set is a `set_mode` request, refused for
-//! the same reason), the mode defaults and limit, the drive, and read-only settings.
+//! the same reason), the mode defaults and limit, the drive, and read-only settings; declared
+//! from the controller's settings table ([`crate::controller_settings`]).
 //!
 //! One source for the refusals: [`rules`] runs `ModeConfig::validate` and
 //! `ModeConfig::select`, the checks `set_mode` runs. The table stores what the controller
 //! really uses (`gain` is the k_p in effect: FORWARD with gain -0.3 stores 0.3, as `set_mode`
 //! answers).
 
+use capsule_args::scene_file::SceneFile;
 use capsule_controller::mode::{Mode, ModeConfig};
 use ros2_client::ParameterValue as V;
 
-use crate::controller::ControllerCore;
-use capsule_ros_base::{
-    param_services::ParamHandle,
-    params::{ParamSpec, ParamTable, Range},
-};
+use crate::controller_core::ControllerCore;
+use crate::controller_settings::ControllerFlags;
+use capsule_ros_base::{param_services::ParamHandle, params::ParamTable};
 
-/// Parameter names.
+/// Parameter names (the settings table's).
 pub mod names {
+    use crate::controller_settings as s;
     /// Mode name (OFF, FORWARD, BACKWARD, CHAOS_CONTROL, CUSTOM; any case, `-` or `_`).
-    pub const MODE: &str = "mode";
+    pub const MODE: &str = s::MODE.name;
     /// k_p in effect.
-    pub const GAIN: &str = "gain";
+    pub const GAIN: &str = s::GAIN.name;
     /// |k_p| of FORWARD / BACKWARD when the gain is 0.
-    pub const DIRECTION_GAIN: &str = "direction_gain";
+    pub const DIRECTION_GAIN: &str = s::DIRECTION_GAIN.name;
     /// k_p of CHAOS_CONTROL when the gain is 0.
-    pub const CHAOS_GAIN: &str = "chaos_gain";
+    pub const CHAOS_GAIN: &str = s::CHAOS_GAIN.name;
     /// Largest |k_p|.
-    pub const GAIN_LIMIT: &str = "gain_limit";
+    pub const GAIN_LIMIT: &str = s::GAIN_LIMIT.name;
     /// Drive amplitude alpha (non-dim).
-    pub const ALPHA: &str = "alpha";
+    pub const ALPHA: &str = s::ALPHA.name;
     /// Drive frequency omega (non-dim).
-    pub const OMEGA: &str = "omega";
+    pub const OMEGA: &str = s::OMEGA.name;
     /// Stale-state timeout \[s\].
-    pub const STATE_TIMEOUT_S: &str = "state_timeout_s";
+    pub const STATE_TIMEOUT_S: &str = s::STATE_TIMEOUT_S.name;
     /// The orbit watch's recurrence tolerance on the Poincaré section (non-dim).
-    pub const ORBIT_TOLERANCE: &str = "orbit_tolerance";
+    pub const ORBIT_TOLERANCE: &str = s::ORBIT_TOLERANCE.name;
     pub use capsule_ros_base::params::names::*;
 }
 use names::*;
 
-/// Values that must be > 0.
-const POSITIVE: Range = Range::Float {
-    from: 1.0e-12,
-    to: 1.0e12,
-};
-
-/// The orbit tolerance's range: above zero, below the switch's reduction tolerance (0.25),
-/// which must stay below the distance between the points of a real cycle.
-pub const ORBIT_TOLERANCE_RANGE: Range = Range::Float {
-    from: 1.0e-6,
-    to: 0.2,
-};
-
-/// The table of a controller configured as `core`.
-pub fn table(core: &ControllerCore, use_sim_time: bool, state_timeout_s: f64) -> ParamTable {
-    let law = core.law();
-    let config = core.config();
-    let scale = core.scale();
-    let table = ParamTable::new()
-        .declare(
-            MODE,
-            ParamSpec::writable("controller mode, as in a set_mode request taking effect now")
-                .constraints("OFF, FORWARD, BACKWARD, CHAOS_CONTROL or CUSTOM"),
-            V::String(core.mode().name().to_string()),
-        )
-        .declare(
-            GAIN,
-            ParamSpec::writable("feedback gain k_p in effect (non-dim); set as a set_mode gain")
-                .constraints("|k_p| <= gain_limit; FORWARD/BACKWARD take the sign of the mode, 0 means the mode's default"),
-            V::Double(law.kp),
-        )
-        .declare(
-            DIRECTION_GAIN,
-            ParamSpec::writable("|k_p| of FORWARD / BACKWARD when the gain is 0")
-                .constraints("finite, <= gain_limit"),
-            V::Double(config.direction_gain),
-        )
-        .declare(
-            CHAOS_GAIN,
-            ParamSpec::writable("k_p of CHAOS_CONTROL when the gain is 0")
-                .constraints("finite, |value| <= gain_limit"),
-            V::Double(config.chaos_gain),
-        )
-        .declare(
-            GAIN_LIMIT,
-            ParamSpec::writable("largest |k_p| any mode accepts")
-                .range(Range::Float { from: 0.0, to: 1.0e6 }),
-            V::Double(config.gain_limit),
-        )
-        .declare(
-            ALPHA,
-            ParamSpec::writable("drive amplitude alpha = P_d / P_f (non-dim)"),
-            V::Double(law.alpha),
-        )
-        .declare(
-            OMEGA,
-            ParamSpec::writable("drive frequency omega = Omega / Omega0 (non-dim)")
-                .range(Range::Float { from: 1.0e-6, to: 1.0e6 }),
-            V::Double(law.omega),
-        )
-        .declare(
-            USE_SIM_TIME,
-            ParamSpec::read_only("take time from /clock (set at start: --use-sim-time or -p use_sim_time:=true)"),
-            V::Boolean(use_sim_time),
-        )
-        .declare(
-            STATE_TIMEOUT_S,
-            ParamSpec::read_only("seconds without state before the controller stops commanding")
-                .range(POSITIVE),
-            V::Double(state_timeout_s),
-        )
-        .declare(
-            ORBIT_TOLERANCE,
-            ParamSpec::read_only("recurrence tolerance of the orbit watch on the Poincare section (non-dim; orbit_period and the attractor switch)")
-                .range(ORBIT_TOLERANCE_RANGE),
-            V::Double(core.orbit_tolerance()),
-        );
-    let values = [scale.m1_kg, scale.k1_n_per_m, scale.pf_n];
-    capsule_ros_base::params::declare_scale(table, values, |what| {
-        ParamSpec::read_only(what).range(POSITIVE)
-    })
+/// The parameters a controller starts with, before `-p` / `--params-file`: each setting by
+/// the precedence (flag, scene, default); the scene's control.kp is the start gain (in CUSTOM
+/// mode if it is not 0, else OFF) when no `--mode` is given.
+pub fn start_table(
+    flags: &ControllerFlags,
+    scene: Option<&SceneFile>,
+    file: &str,
+    use_sim_time: bool,
+) -> Result<ParamTable, String> {
+    let kp = scene.map_or(0.0, |f| f.scene.control.kp);
+    let mode_given = flags.given(MODE).is_some();
+    let other = |name: &str| match name {
+        MODE => Some(V::String(
+            if kp != 0.0 { Mode::Custom } else { Mode::Off }
+                .name()
+                .to_string(),
+        )),
+        GAIN => Some(V::Double(if mode_given { 0.0 } else { kp })),
+        USE_SIM_TIME => Some(V::Boolean(use_sim_time)),
+        _ => None,
+    };
+    let from_scene = |key: &str| {
+        let sc = &scene?.scene;
+        match key {
+            "drive.alpha" => Some(sc.drive.alpha),
+            "drive.omega" => Some(sc.drive.omega),
+            "physical.m1_kg" => Some(sc.physical.m1_kg),
+            "physical.k1_n_per_m" => Some(sc.physical.k1_n_per_m),
+            "physical.pf_n" => Some(sc.physical.pf_n),
+            _ => None,
+        }
+    };
+    let mut table = flags.start_table(file, from_scene, other)?;
+    // a mode given by name, as the flag and the parameter take it
+    let name = table.string(MODE).to_string();
+    let mode = Mode::parse_name(&name).ok_or_else(|| {
+        format!("--mode {name:?}: expected off, forward, backward, chaos-control or custom")
+    })?;
+    table.put(MODE, V::String(mode.name().to_string()));
+    Ok(table)
 }
 
 /// The mode configuration the table holds.
@@ -233,8 +193,119 @@ mod tests {
         ControllerCore::new(scale, 1.6, 1.1, mode, kp, ModeConfig::default(), 0.5)
     }
 
+    /// The parameters of a controller configured as `core` (as the node would start it).
+    fn table(core: &ControllerCore, _use_sim_time: bool, state_timeout_s: f64) -> ParamTable {
+        let scale = core.scale();
+        let law = core.law();
+        let config = core.config();
+        let mut args = vec!["x".to_string()];
+        for (name, v) in [
+            (MODE, 0.0),
+            (GAIN, law.kp),
+            (DIRECTION_GAIN, config.direction_gain),
+            (CHAOS_GAIN, config.chaos_gain),
+            (GAIN_LIMIT, config.gain_limit),
+            (ALPHA, law.alpha),
+            (OMEGA, law.omega),
+            (STATE_TIMEOUT_S, state_timeout_s),
+            (ORBIT_TOLERANCE, core.orbit_tolerance()),
+            (M1_KG, scale.m1_kg),
+            (K1_N_PER_M, scale.k1_n_per_m),
+            (PF_N, scale.pf_n),
+        ] {
+            args.push(format!("--{}", name.replace('_', "-")));
+            args.push(if name == MODE {
+                core.mode().name().to_string()
+            } else {
+                v.to_string()
+            });
+        }
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            flags: ControllerFlags,
+        }
+        let cli = <Cli as clap::Parser>::try_parse_from(args).unwrap_or_else(|e| panic!("{e}"));
+        start_table(&cli.flags, None, "", false).unwrap_or_else(|e| panic!("{e}"))
+    }
+
     fn p(name: &str, v: V) -> (String, V) {
         (name.to_string(), v)
+    }
+
+    #[test]
+    fn huge_numbers_are_written_short_in_set_mode_and_set_parameters_refusals() {
+        let mut c = core(Mode::Forward, 0.2);
+        let mut t = table(&c, false, 0.5);
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::CUSTOM,
+            gain: 1e308,
+            ..SetModeRequest::default()
+        });
+        assert_eq!(
+            r.reason,
+            "gain 1e308 is beyond the configured limit |k_p| <= 2"
+        );
+        let e = t
+            .set_atomically(&[p(GAIN, V::Double(1e308))], rules)
+            .unwrap_err();
+        assert_eq!(e, r.reason);
+        let e = t
+            .set_atomically(&[p(GAIN_LIMIT, V::Double(-1e300))], rules)
+            .unwrap_err();
+        assert_eq!(e, "parameter 'gain_limit' = -1e300: out of range [0, 1e12]");
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::SWITCH_ATTRACTOR,
+            gain: -1.5e300,
+            pulse_periods: 1,
+            target_period: 1,
+            max_tries: 1,
+            ..SetModeRequest::default()
+        });
+        assert_eq!(
+            r.reason,
+            "SWITCH_ATTRACTOR: pulse gain -1.5e300 is beyond the configured limit |k_p| <= 2"
+        );
+    }
+
+    #[test]
+    fn one_range_is_refused_the_same_way_by_flag_scene_and_parameter_set() {
+        #[derive(Debug, clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            flags: ControllerFlags,
+        }
+        let parse = |args: &[&str]| <Cli as clap::Parser>::try_parse_from(args);
+        let flag = parse(&["x", "--alpha", "150"]).unwrap_err().to_string();
+        let scene = SceneFile::from_bytes(b"[drive]\nalpha = 150.0\n", "f.toml", "f".into())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let cli = parse(&["x"]).unwrap_or_else(|e| panic!("{e}"));
+        let from_scene = start_table(&cli.flags, Some(&scene), "f.toml", false).unwrap_err();
+        let mut t = table(&core(Mode::Forward, 0.2), false, 0.5);
+        let set = t
+            .set_atomically(&[p(ALPHA, V::Double(150.0))], rules)
+            .unwrap_err();
+        assert!(
+            flag.contains("'--alpha <ALPHA>': must be in [0, 100] (got 150)"),
+            "{flag}"
+        );
+        assert_eq!(
+            from_scene,
+            "f.toml: drive.alpha: must be in [0, 100] (got 150)"
+        );
+        assert_eq!(set, "parameter 'alpha' = 150: out of range [0, 100]");
+        // the descriptor announces the range, writable
+        let spec = t.spec(ALPHA).cloned().unwrap_or_else(|| panic!("no alpha"));
+        assert_eq!(
+            (spec.range, spec.read_only),
+            (
+                capsule_ros_base::params::Range::Float {
+                    from: 0.0,
+                    to: 100.0
+                },
+                false
+            )
+        );
     }
 
     #[test]

@@ -6,8 +6,10 @@
 //! - [`joint_commands`]: JointState commands as topic_based_ros2_control sends them
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
 //! - [`client`]: a client of the graph (mode requests, demo measurement)
-//! - [`controller`]: the controller node; [`controller_diagnostics`]: its `/diagnostics`;
-//!   [`controller_params`]: its ROS parameters
+//! - [`controller`]: the controller node on DDS; [`controller_core`]: its decisions without
+//!   DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
+//!   parameters; [`controller_settings`]: its settings table
+//! - [`node_settings`]: a node's settings table as its flags and ROS parameters
 //! - [`plant`]: the plant node (pacing, hold, watchdog) around any [`plant::PlantSim`];
 //!   [`emergency_stop`]: its emergency-stop service and latched state
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
@@ -22,12 +24,15 @@ pub mod client;
 pub mod command_feedback;
 pub mod command_gate;
 pub mod controller;
+pub mod controller_core;
 pub mod controller_diagnostics;
 pub mod controller_params;
+pub mod controller_settings;
 pub mod device_driver;
 pub mod emergency_stop;
 pub mod foxglove_bridge;
 pub mod joint_commands;
+pub mod node_settings;
 pub mod plant;
 pub mod plant_identity;
 pub mod plant_params;

@@ -1,95 +1,104 @@
-//! The plant's ROS parameters: what it was started with, all read-only (a running simulation
-//! does not change its scene, rate or pacing); `ros2 param get` / `describe` show them, and
-//! `-p` / `--params-file` set them at start.
+//! The plant's ROS parameters, declared from its settings table
+//! ([`capsule_args::plant_settings`]): what it was started with, all read-only (a running
+//! simulation does not change its scene, rate or pacing); `ros2 param get` / `describe` show
+//! them, and `-p` / `--params-file` set the numeric ones at start.
 
 use ros2_client::ParameterValue as V;
 
-use capsule_ros_base::params::{ParamSpec, ParamTable, Range};
+use capsule_args::plant_settings::PLANT;
+use capsule_args::scene_file::SceneFile;
+use capsule_args::settings::Setting;
+use capsule_ros_base::params::{ParamSpec, ParamTable};
 
-/// Parameter names.
+use crate::node_settings::{SettingFlags, SettingsTable};
+
+/// Parameter names (the settings table's).
 pub mod names {
+    use capsule_args::plant_settings as s;
     /// Scene file.
-    pub const SCENE: &str = "scene";
+    pub const SCENE: &str = s::SCENE.name;
     /// Pacing: realtime or lockstep.
-    pub const PACING: &str = "pacing";
+    pub const PACING: &str = s::PACING.name;
     /// Sample rate \[Hz\].
-    pub const RATE_HZ: &str = "rate_hz";
+    pub const RATE_HZ: &str = s::RATE_HZ.name;
     /// Watchdog timeout \[s\].
-    pub const COMMAND_TIMEOUT_S: &str = "command_timeout_s";
+    pub const COMMAND_TIMEOUT_S: &str = s::COMMAND_TIMEOUT_S.name;
     /// /clock with every N-th sample.
-    pub const CLOCK_EVERY: &str = "clock_every";
+    pub const CLOCK_EVERY: &str = s::CLOCK_EVERY.name;
     /// JointState commands on capsule/joint_commands (`--joint-commands`).
-    pub const JOINT_COMMANDS: &str = "joint_commands";
+    pub const JOINT_COMMANDS: &str = s::JOINT_COMMANDS.name;
     /// Sim time from /clock (the plant is the clock: always false) and the physical scale.
     pub use capsule_ros_base::params::names::*;
 }
 use names::*;
 
-/// What the plant runs with.
+/// The plant's settings table.
+#[derive(Debug, Clone)]
+pub struct Plant;
+impl SettingsTable for Plant {
+    const SETTINGS: &'static [Setting] = &PLANT;
+}
+
+/// The plant's flags made from its table.
+pub type PlantFlags = SettingFlags<Plant>;
+
+/// What only its own source sets: `--scene`, `--pacing` and the scene's `[physical]` (a `-p`
+/// changing one is refused).
 #[derive(Debug, Clone, PartialEq)]
-pub struct PlantParams {
+pub struct Fixed {
     /// Scene file.
     pub scene: String,
     /// `realtime` or `lockstep`.
     pub pacing: String,
+    /// Physical scale (m1 \[kg\], k1 [N/m], P_f \[N\]).
+    pub scale: (f64, f64, f64),
+}
+
+/// What the plant runs with, after the start-up overrides.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantParams {
     /// Sample rate \[Hz\].
     pub rate_hz: f64,
     /// Watchdog timeout \[s\].
     pub command_timeout_s: f64,
     /// /clock with every N-th sample.
     pub clock_every: u64,
-    /// Physical scale (m1 \[kg\], k1 [N/m], P_f \[N\]).
-    pub scale: (f64, f64, f64),
+    /// JointState commands on capsule/joint_commands.
+    pub joint_commands: bool,
 }
 
-/// The table of a plant started with `s`.
-pub fn table(s: &PlantParams) -> ParamTable {
-    let ro = ParamSpec::read_only;
-    let table = ParamTable::new()
-        .declare(SCENE, ro("scene file (model, friction, initial state, scale)"), V::String(s.scene.clone()))
-        .declare(
-            PACING,
-            ro("realtime (one sample per 1/rate of wall time) or lockstep (each step waits for its command)"),
-            V::String(s.pacing.clone()),
-        )
-        .declare(
-            RATE_HZ,
-            ro("sample rate [Hz]").range(Range::Float { from: 1.0e-3, to: 1.0e6 }),
-            V::Double(s.rate_hz),
-        )
-        .declare(
-            COMMAND_TIMEOUT_S,
-            ro("seconds without a fresh command before zero force").range(Range::Float { from: 1.0e-6, to: 1.0e6 }),
-            V::Double(s.command_timeout_s),
-        )
-        .declare(
-            CLOCK_EVERY,
-            ro("/clock with every N-th sample").range(Range::Integer { from: 1, to: i64::MAX }),
-            V::Integer(s.clock_every.min(i64::MAX as u64) as i64),
-        )
+/// The table of a plant started with `flags` on the scene `file`: each setting by the
+/// precedence (flag, the scene's `[node]` key, default), then the sim time (always false) and
+/// the scale.
+pub fn start_table(
+    flags: &PlantFlags,
+    file: &SceneFile,
+    fixed: &Fixed,
+) -> Result<ParamTable, String> {
+    let other = |name: &str| match name {
+        SCENE => Some(V::String(fixed.scene.clone())),
+        PACING => Some(V::String(fixed.pacing.clone())),
+        _ => None,
+    };
+    let table = flags
+        .start_table(&fixed.scene, |key| file.node.value(key), other)?
         .declare(
             USE_SIM_TIME,
-            ro("the plant is the clock: its time is sim time by construction").constraints("false"),
+            ParamSpec::read_only("the plant is the clock: its time is sim time by construction")
+                .constraints("false"),
             V::Boolean(false),
         );
-    let (m1, k1, pf) = s.scale;
-    capsule_ros_base::params::declare_scale(table, [m1, k1, pf], ro)
+    let (m1, k1, pf) = fixed.scale;
+    Ok(capsule_ros_base::params::declare_scale(
+        table,
+        [m1, k1, pf],
+        ParamSpec::read_only,
+    ))
 }
 
-/// Declares [`JOINT_COMMANDS`] (read-only once running), valued by the flag.
-pub fn declare_joint_commands(t: ParamTable, on: bool) -> ParamTable {
-    t.declare(
-        JOINT_COMMANDS,
-        ParamSpec::read_only(
-            "take JointState commands on capsule/joint_commands (topic_based_ros2_control; set at start)",
-        ),
-        V::Boolean(on),
-    )
-}
-
-/// Rate, command timeout and clock thinning from the table after start-up overrides; the
-/// scene, pacing and scale come from `--scene` / `--pacing` only (overriding them is refused).
-pub fn overridable(t: &ParamTable, started: &PlantParams) -> Result<(f64, f64, u64), String> {
+/// What the plant runs with from the table after start-up overrides; the scene, pacing and
+/// scale come from `--scene` / `--pacing` only (overriding them is refused).
+pub fn overridable(t: &ParamTable, started: &Fixed) -> Result<PlantParams, String> {
     let fixed = [
         (SCENE, t.string(SCENE) == started.scene, "--scene"),
         (PACING, t.string(PACING) == started.pacing, "--pacing"),
@@ -119,29 +128,43 @@ pub fn overridable(t: &ParamTable, started: &PlantParams) -> Result<(f64, f64, u
             "parameter '{name}' is set by {by}, not as a parameter"
         ));
     }
-    let every = u64::try_from(t.integer(CLOCK_EVERY)).unwrap_or(1).max(1);
-    Ok((t.double(RATE_HZ), t.double(COMMAND_TIMEOUT_S), every))
+    Ok(PlantParams {
+        rate_hz: t.double(RATE_HZ),
+        command_timeout_s: t.double(COMMAND_TIMEOUT_S),
+        clock_every: u64::try_from(t.integer(CLOCK_EVERY)).unwrap_or(1).max(1),
+        joint_commands: t.boolean(JOINT_COMMANDS),
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use capsule_ros_base::params::no_rules;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        flags: PlantFlags,
+    }
 
     #[test]
     fn everything_is_read_only_once_running_but_overridable_at_start() {
-        let s = PlantParams {
+        let fixed = Fixed {
             scene: "scenes/control_point.toml".into(),
             pacing: "realtime".into(),
-            rate_hz: 1000.0,
-            command_timeout_s: 0.1,
-            clock_every: 1,
             scale: (0.05, 200.0, 0.1),
         };
-        let mut t = table(&s);
+        let file =
+            SceneFile::from_bytes(b"[node]\ncommand_timeout_s = 0.25\n", "f.toml", "f".into())
+                .unwrap_or_else(|e| panic!("{e}"));
+        let cli =
+            Cli::try_parse_from(["x", "--clock-every", "4"]).unwrap_or_else(|e| panic!("{e}"));
+        let mut t = start_table(&cli.flags, &file, &fixed).unwrap_or_else(|e| panic!("{e}"));
         for name in t.names().map(str::to_string).collect::<Vec<_>>() {
             assert!(t.spec(&name).is_some_and(|d| d.read_only), "{name}");
         }
+        assert_eq!(t.string(SCENE), "scenes/control_point.toml");
         let e = t
             .set_atomically(&[(RATE_HZ.into(), V::Double(10.0))], no_rules)
             .unwrap_err();
@@ -152,10 +175,16 @@ mod tests {
         assert!(t
             .override_with(&[(RATE_HZ.into(), V::Double(-1.0))], no_rules)
             .is_err());
-        assert_eq!(overridable(&t, &s), Ok((500.0, 0.1, 1)));
+        let run = PlantParams {
+            rate_hz: 500.0,
+            command_timeout_s: 0.25,
+            clock_every: 4,
+            joint_commands: false,
+        };
+        assert_eq!(overridable(&t, &fixed), Ok(run));
         t.override_with(&[(SCENE.into(), V::String("other.toml".into()))], no_rules)
             .unwrap();
-        let e = overridable(&t, &s).unwrap_err();
+        let e = overridable(&t, &fixed).unwrap_err();
         assert!(e.contains("'scene' is set by --scene"), "{e}");
     }
 }

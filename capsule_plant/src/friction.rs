@@ -460,7 +460,7 @@ impl Friction {
 
     /// The names of all laws, `a, b, c or d`, for messages.
     pub fn names() -> String {
-        crate::model::one_of(Friction::LAWS.map(|l| l.name()))
+        crate::choices::one_of(Friction::LAWS.map(|l| l.name()))
     }
 
     /// The law's constants, each with its slot, in [`FRICTION_CONSTANTS`] order: what scene files

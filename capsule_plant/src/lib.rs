@@ -2,13 +2,17 @@
 //!
 //! A pure library (no ROS, no I/O): the model ([`model`]), its friction laws ([`friction`]), actuator
 //! force laws ([`law`]), the event-driven simulator with three integration methods ([`solver`])
-//! scene files ([`scene`]), and a prototype's sensor and actuator as models ([`device`]).
+//! scene files ([`scene`]), the SI scale ([`physical`]), a prototype's sensor and actuator as
+//! models ([`device`]), and numbers as messages write them ([`number_text`]).
 
+mod choices;
 pub mod device;
 pub mod equations;
 pub mod friction;
 pub mod law;
 pub mod model;
+pub mod number_text;
+pub mod physical;
 mod roots;
 pub mod scene;
 pub mod solver;

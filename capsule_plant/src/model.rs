@@ -54,14 +54,6 @@ impl std::fmt::Display for Capsule {
     }
 }
 
-/// `a, b or c`: a list of names for messages.
-pub(crate) fn one_of<const N: usize>(names: [&str; N]) -> String {
-    match names.split_last() {
-        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
-        _ => names.join(""),
-    }
-}
-
 /// Capsule and friction law: everything the plant needs besides the actuator force.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Model {

@@ -7,7 +7,8 @@
 use crate::scene::parse;
 use crate::{interrupt, Interrupted, SimulationError};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins as basin_map, Cell, Grid, Plane};
+use capsule_analysis::basin::{Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
 use capsule_analysis::continuation::{continue_branch_observed, ContinuationConfig};
 use capsule_analysis::lyapunov::lyapunov_sweep;
@@ -228,9 +229,10 @@ pub fn sweep(
 /// Basins of attraction on a grid of initial states ([`basin_map`], then [`summary`]): the
 /// JSON summary of `capsule basins --json` and the label grid as little-endian i32 row by row
 /// (row 0 at the low `y` end): the attractor's position in `attractors`, -1 failed, -2 not
-/// computed.
+/// computed. `basin_method` is `known-cells` (with `cell` its cube size, `None` for the
+/// default) or `per-state` ([`Method`]).
 #[pyfunction]
-#[pyo3(signature = (scene, nx, ny, x_range, y_range, plane, known_tol))]
+#[pyo3(signature = (scene, nx, ny, x_range, y_range, plane, known_tol, basin_method, cell, cell_hits, cell_check))]
 #[allow(clippy::too_many_arguments)]
 pub fn basins<'py>(
     py: Python<'py>,
@@ -241,6 +243,10 @@ pub fn basins<'py>(
     y_range: (f64, f64),
     plane: &str,
     known_tol: f64,
+    basin_method: &str,
+    cell: Option<f64>,
+    cell_hits: u32,
+    cell_check: usize,
 ) -> PyResult<(String, Bound<'py, PyBytes>)> {
     let scene = parse(scene)?;
     let grid = Grid {
@@ -257,6 +263,29 @@ pub fn basins<'py>(
             "known_tol {known_tol}: must be a finite number >= 0"
         )));
     }
+    let method = match (basin_method, cell) {
+        ("per-state", None) => Method::PerState,
+        ("per-state", Some(_)) => {
+            return Err(PyValueError::new_err(
+                "cell: only the known-cells method has cells (basin_method=\"known-cells\")",
+            ))
+        }
+        ("known-cells", _) => {
+            let c = CellConfig {
+                size: cell.unwrap_or(CellConfig::for_grid(&grid).size),
+                hits: cell_hits,
+                check: cell_check,
+            };
+            c.validate(&grid)
+                .map_err(|(k, r)| PyValueError::new_err(format!("{}: {r}", k.replace('-', "_"))))?;
+            Method::KnownCells(c)
+        }
+        (other, _) => {
+            return Err(PyValueError::new_err(format!(
+                "basin_method {other:?}: must be \"known-cells\" or \"per-state\""
+            )))
+        }
+    };
     let cfg = SettleConfig {
         known_tol,
         ..SettleConfig::for_scene(&scene)
@@ -264,7 +293,7 @@ pub fn basins<'py>(
     let t0 = std::time::Instant::now();
     let schedule = GainSchedule::constant(scene.control.kp);
     let (map, signal) = interrupt::run(py, |cancel: &AtomicBool| {
-        basin_map(&scene, &schedule, &cfg, &grid, &|| {}, cancel)
+        basins_by(&method, &scene, &schedule, &cfg, &grid, &|| {}, cancel)
     });
     let wall = t0.elapsed().as_secs_f64();
     let order = map.catalogue.ordered();

@@ -203,6 +203,27 @@ def test_basins_give_the_commands_table_and_labels(cli, tmp_path):
     assert (got["labels"] >= 0).all()
 
 
+def test_basins_method_keyword_is_the_commands_flag(cli):
+    for method, flag in [("per-state", ["--basin-method", "per-state"]), ("known-cells", [])]:
+        want = json.loads(cli("basins", "--alpha", "1.5", "--grid", "14,12", "--json",
+                              *flag).stdout)
+        got = capsule.basins(alpha=1.5, grid=(14, 12), basin_method=method)
+        assert got["basin_method"]["name"] == method == want["basin_method"]["name"]
+        assert got["names"] == [a["label"] for a in want["attractors"]]
+        assert [a["fraction"] for a in got["attractors"]] == \
+            [a["fraction"] for a in want["attractors"]]
+        assert got["work"]["periods_per_state"] > 0
+    cells = capsule.basins(alpha=1.5, grid=(14, 12), basin_method="known-cells", cell=0.1)
+    assert cells["basin_method"]["size"] == 0.1 and cells["work"]["known_cell"] > 0
+    assert "check" in cells and cells["check"]["sampled"] > 0
+    with pytest.raises(ValueError, match="cell: 0.5 is coarser than the grid's spacing"):
+        capsule.basins(alpha=1.5, grid=(14, 12), cell=0.5)
+    with pytest.raises(ValueError, match="only the known-cells method has cells"):
+        capsule.basins(alpha=1.5, grid=(14, 12), basin_method="per-state", cell=0.1)
+    with pytest.raises(ValueError, match="basin_method \"fast\""):
+        capsule.basins(alpha=1.5, grid=(14, 12), basin_method="fast")
+
+
 def test_continuation_gives_the_commands_branch(cli, tmp_path):
     out = tmp_path / "c"
     cli("continue", "--alpha", "2.0", "--param", "alpha", "--to", "1.2", "--out", out)

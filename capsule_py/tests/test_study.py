@@ -93,8 +93,9 @@ def test_a_study_gives_the_bindings_numbers_for_every_kind(tmp_path):
             got = json.loads(row["result"])
             assert np.array_equal(np.asarray(got["poincare"]), want["poincare"])
         b = ps.run(tmp_path / "bas", kind="basins", grid={"kp": [0.0, 0.1]}, alpha=1.5,
-                   options={"grid": (6, 6)}, scheduler=addr)
-        want = capsule.basins(alpha=1.5, kp=0.1, grid=(6, 6))
+                   options={"grid": (6, 6), "basin_method": "per-state"}, scheduler=addr)
+        want = capsule.basins(alpha=1.5, kp=0.1, grid=(6, 6), basin_method="per-state")
+        assert json.loads(b.loc[1, "result"])["basin_method"]["name"] == "per-state"
         got = json.loads(b.loc[1, "result"])
         assert np.array_equal(np.asarray(got["labels"]), want["labels"])
         assert b.loc[1, "period1_share"] == sum(a["fraction"] for a in want["attractors"]

@@ -4,6 +4,7 @@
 use capsule_msgs::names::type_names;
 use std::{
     collections::BTreeMap,
+    fs::File,
     io::{Read, Seek, SeekFrom},
     path::{Path, PathBuf},
 };
@@ -12,15 +13,15 @@ use capsule_msgs::{SetModeRequest, SetModeResponse};
 use mcap::{
     records::{self, Record},
     sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions},
-    McapError,
+    McapError, Summary,
 };
 
 use crate::{
     cdr,
     open::{check_channel, corrupt, open_checked, parse_whole, read_at, read_header},
+    profile::{CAPSULE_METADATA, QOS_KEY, SCENE_ATTACHMENT},
     scan::{chunk_records, scan},
     types::SetModeEvent,
-    writer::{CAPSULE_METADATA, QOS_KEY, SCENE_ATTACHMENT},
     RecordError,
 };
 
@@ -126,23 +127,7 @@ pub fn info(path: &Path) -> Result<RecordingInfo, RecordError> {
     let header = read_header(&mut f, path)?;
     f.seek(SeekFrom::Start(0))
         .map_err(|e| RecordError::io(path, e))?;
-    let mut reader =
-        SummaryReader::new_with_options(SummaryReaderOptions::default().with_file_size(size));
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| corrupt(path, e))? {
-            SummaryReadEvent::ReadRequest(n) => {
-                let got = f
-                    .read(reader.insert(n))
-                    .map_err(|e| RecordError::io(path, e))?;
-                reader.notify_read(got);
-            }
-            SummaryReadEvent::SeekRequest(to) => {
-                let pos = f.seek(to).map_err(|e| RecordError::io(path, e))?;
-                reader.notify_seeked(pos);
-            }
-        }
-    }
-    let summary = match reader.finish() {
+    let summary = match read_summary(&mut f, path, size)? {
         Some(s) if s.stats.is_some() => s,
         _ => return info_by_scan(path, size, header),
     };
@@ -189,27 +174,7 @@ pub fn info(path: &Path) -> Result<RecordingInfo, RecordError> {
         }
     }
 
-    let mut mode_changes = Vec::new();
-    for chunk in &summary.chunk_indexes {
-        if !event_channels
-            .iter()
-            .any(|c| chunk.message_index_offsets.contains_key(c))
-        {
-            continue;
-        }
-        let buf = read_at(&mut f, path, chunk.chunk_start_offset, chunk.chunk_length)?;
-        let Record::Chunk { header, data } = parse_whole(&buf).map_err(|e| corrupt(path, e))?
-        else {
-            return Err(corrupt(path, McapError::BadIndex));
-        };
-        for rec in chunk_records(header, &data).map_err(|e| corrupt(path, e))? {
-            if let Record::Message { header, data } = rec {
-                if event_channels.contains(&header.channel_id) {
-                    mode_changes.extend(decode_mode_change(header.log_time, &data));
-                }
-            }
-        }
-    }
+    let mut mode_changes = summary_mode_changes(&mut f, path, &summary, &event_channels)?;
     mode_changes.sort_by_key(|m| m.log_time);
     let bounds = if stats.message_count > 0 {
         (stats.message_start_time, stats.message_end_time)
@@ -236,6 +201,58 @@ pub fn info(path: &Path) -> Result<RecordingInfo, RecordError> {
         source: InfoSource::Summary,
         files: 1,
     })
+}
+
+/// The summary section, read from the footer back (`None` when the file has none).
+fn read_summary(f: &mut File, path: &Path, size: u64) -> Result<Option<Summary>, RecordError> {
+    let mut reader =
+        SummaryReader::new_with_options(SummaryReaderOptions::default().with_file_size(size));
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| corrupt(path, e))? {
+            SummaryReadEvent::ReadRequest(n) => {
+                let got = f
+                    .read(reader.insert(n))
+                    .map_err(|e| RecordError::io(path, e))?;
+                reader.notify_read(got);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let pos = f.seek(to).map_err(|e| RecordError::io(path, e))?;
+                reader.notify_seeked(pos);
+            }
+        }
+    }
+    Ok(reader.finish())
+}
+
+/// The mode changes: the service events in the chunks that hold any (by the chunk indexes).
+fn summary_mode_changes(
+    f: &mut File,
+    path: &Path,
+    summary: &Summary,
+    event_channels: &[u16],
+) -> Result<Vec<ModeChange>, RecordError> {
+    let mut mode_changes = Vec::new();
+    for chunk in &summary.chunk_indexes {
+        if !event_channels
+            .iter()
+            .any(|c| chunk.message_index_offsets.contains_key(c))
+        {
+            continue;
+        }
+        let buf = read_at(f, path, chunk.chunk_start_offset, chunk.chunk_length)?;
+        let Record::Chunk { header, data } = parse_whole(&buf).map_err(|e| corrupt(path, e))?
+        else {
+            return Err(corrupt(path, McapError::BadIndex));
+        };
+        for rec in chunk_records(header, &data).map_err(|e| corrupt(path, e))? {
+            if let Record::Message { header, data } = rec {
+                if event_channels.contains(&header.channel_id) {
+                    mode_changes.extend(decode_mode_change(header.log_time, &data));
+                }
+            }
+        }
+    }
+    Ok(mode_changes)
 }
 
 fn info_by_scan(

@@ -8,7 +8,8 @@
 //!   attachment; chunks (uncompressed, zstd or lz4) closed every 0.5 s of log time (and on the caller's
 //!   timer), so a killed run loses at most its open chunk.
 //! - [`bag::BagWriter`]: compression and splitting into numbered files with a rosbag2
-//!   `metadata.yaml`, as rosbag2 users configure recordings.
+//!   `metadata.yaml` ([`metadata_yaml`]), as rosbag2 users configure recordings; the
+//!   profile's names in [`profile`].
 //! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
 //!   file; `open` checks a file before reading it.
@@ -25,7 +26,9 @@ pub mod error;
 pub mod fix_schemas;
 pub mod info;
 pub mod messages;
+pub mod metadata_yaml;
 mod open;
+pub mod profile;
 pub mod recover;
 pub mod sample;
 pub mod scan;

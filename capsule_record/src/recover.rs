@@ -20,8 +20,9 @@ use mcap::{
 
 use crate::{
     fix_schemas::respell_dependencies,
+    profile::{CAPSULE_METADATA, ROSBAG2_METADATA},
     scan::{chunk_records, keep_definition, SchemaRec},
-    writer::{ChunkCompression, RecordWriter, WriterOptions, CAPSULE_METADATA, ROSBAG2_METADATA},
+    writer::{ChunkCompression, RecordWriter, WriterOptions},
     ChannelId, RecordError,
 };
 
@@ -219,6 +220,104 @@ impl Rebuild<'_> {
         self.written.insert(id, (new, ch.topic.clone()));
         Ok(Some(new))
     }
+
+    /// Takes the schemas and channels of the summary, when the footer is intact: it defines
+    /// every one, also those whose first definition was in a damaged chunk.
+    fn take_summary(&mut self, bytes: &[u8]) {
+        let summary = mcap::read::Summary::read(bytes).ok().flatten();
+        if let Some(s) = &summary {
+            self.out.summary_messages = s.stats.as_ref().map(|st| st.message_count);
+            for (id, ch) in &s.channels {
+                if let Some(schema) = &ch.schema {
+                    self.schemas.entry(schema.id).or_insert(SchemaRec {
+                        name: schema.name.clone(),
+                        encoding: schema.encoding.clone(),
+                        data: schema.data.to_vec(),
+                    });
+                }
+                self.channels.entry(*id).or_insert(records::Channel {
+                    id: *id,
+                    schema_id: ch.schema.as_ref().map(|s| s.id).unwrap_or(0),
+                    topic: ch.topic.clone(),
+                    message_encoding: ch.message_encoding.clone(),
+                    metadata: ch.metadata.clone(),
+                });
+            }
+        }
+    }
+
+    /// Takes every intact record of the data section, skipping damaged chunks to the next
+    /// intact one; the compression of the first chunk kept.
+    fn take_data(&mut self, bytes: &[u8]) -> Result<String, RecordError> {
+        let mut compression = String::new();
+        let mut at = MAGIC.len();
+        loop {
+            let (rec, len) = match record_at(bytes, at) {
+                Ok((rec, len, prefix_damaged)) => {
+                    if prefix_damaged {
+                        self.out.damage.push(format!(
+                            "chunk at offset {at}: damaged length prefix, read by its own fields"
+                        ));
+                    }
+                    (rec, len)
+                }
+                Err(e) => {
+                    // a damaged or cut record: go on at the next intact chunk, if any
+                    match resync(bytes, at + 1) {
+                        Some(next) => {
+                            self.out.bytes_skipped += (next - at) as u64;
+                            self.out.chunks_dropped += 1;
+                            self.out.damage.push(format!(
+                                "skipped {} bytes at offset {at} to the next intact chunk: {e}",
+                                next - at
+                            ));
+                            at = next;
+                            continue;
+                        }
+                        None => {
+                            self.out.cut = Some(format!("at offset {at} of {}: {e}", bytes.len()));
+                            break;
+                        }
+                    }
+                }
+            };
+            match rec {
+                Record::Chunk { header, data } => {
+                    let kind = header.compression.clone();
+                    match chunk_records(header, &data) {
+                        Ok(inner) => {
+                            if self.out.chunks_kept == 0 {
+                                compression = kind;
+                            }
+                            self.out.chunks_kept += 1;
+                            for x in inner {
+                                self.take(x, &compression)?;
+                            }
+                        }
+                        Err(e) => {
+                            self.out.chunks_dropped += 1;
+                            self.out
+                                .damage
+                                .push(format!("skipped the chunk at offset {at}: {e}"));
+                        }
+                    }
+                }
+                Record::DataEnd(_) => {
+                    // the summary section follows: its records repeat what the data held
+                    self.out.was_complete =
+                        bytes.ends_with(MAGIC) && bytes.len() >= 2 * MAGIC.len();
+                    break;
+                }
+                Record::Footer(_) => {
+                    self.out.was_complete = true;
+                    break;
+                }
+                other => self.take(other, &compression)?,
+            }
+            at += len;
+        }
+        Ok(compression)
+    }
 }
 
 /// Reads `input` keeping every intact chunk and writes a complete `ros2`-profile file to
@@ -248,94 +347,8 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
             ..Recovered::default()
         },
     };
-    // the summary (when the footer is intact) defines every schema and channel, also those
-    // whose first definition was in a damaged chunk
-    let summary = mcap::read::Summary::read(&bytes).ok().flatten();
-    if let Some(s) = &summary {
-        r.out.summary_messages = s.stats.as_ref().map(|st| st.message_count);
-        for (id, ch) in &s.channels {
-            if let Some(schema) = &ch.schema {
-                r.schemas.entry(schema.id).or_insert(SchemaRec {
-                    name: schema.name.clone(),
-                    encoding: schema.encoding.clone(),
-                    data: schema.data.to_vec(),
-                });
-            }
-            r.channels.entry(*id).or_insert(records::Channel {
-                id: *id,
-                schema_id: ch.schema.as_ref().map(|s| s.id).unwrap_or(0),
-                topic: ch.topic.clone(),
-                message_encoding: ch.message_encoding.clone(),
-                metadata: ch.metadata.clone(),
-            });
-        }
-    }
-    let mut compression = String::new();
-    let mut at = MAGIC.len();
-    loop {
-        let (rec, len) = match record_at(&bytes, at) {
-            Ok((rec, len, prefix_damaged)) => {
-                if prefix_damaged {
-                    r.out.damage.push(format!(
-                        "chunk at offset {at}: damaged length prefix, read by its own fields"
-                    ));
-                }
-                (rec, len)
-            }
-            Err(e) => {
-                // a damaged or cut record: go on at the next intact chunk, if any
-                match resync(&bytes, at + 1) {
-                    Some(next) => {
-                        r.out.bytes_skipped += (next - at) as u64;
-                        r.out.chunks_dropped += 1;
-                        r.out.damage.push(format!(
-                            "skipped {} bytes at offset {at} to the next intact chunk: {e}",
-                            next - at
-                        ));
-                        at = next;
-                        continue;
-                    }
-                    None => {
-                        r.out.cut = Some(format!("at offset {at} of {}: {e}", bytes.len()));
-                        break;
-                    }
-                }
-            }
-        };
-        match rec {
-            Record::Chunk { header, data } => {
-                let kind = header.compression.clone();
-                match chunk_records(header, &data) {
-                    Ok(inner) => {
-                        if r.out.chunks_kept == 0 {
-                            compression = kind;
-                        }
-                        r.out.chunks_kept += 1;
-                        for x in inner {
-                            r.take(x, &compression)?;
-                        }
-                    }
-                    Err(e) => {
-                        r.out.chunks_dropped += 1;
-                        r.out
-                            .damage
-                            .push(format!("skipped the chunk at offset {at}: {e}"));
-                    }
-                }
-            }
-            Record::DataEnd(_) => {
-                // the summary section follows: its records repeat what the data held
-                r.out.was_complete = bytes.ends_with(MAGIC) && bytes.len() >= 2 * MAGIC.len();
-                break;
-            }
-            Record::Footer(_) => {
-                r.out.was_complete = true;
-                break;
-            }
-            other => r.take(other, &compression)?,
-        }
-        at += len;
-    }
+    r.take_summary(&bytes);
+    let compression = r.take_data(&bytes)?;
     r.writer(&compression)?;
     let Some(w) = r.writer.take() else {
         return Err(RecordError::Usage("no writer".into()));

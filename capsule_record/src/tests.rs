@@ -449,7 +449,8 @@ fn a_damaged_chunk_header_skips_to_the_next_intact_chunk() {
 #[test]
 fn split_by_duration_and_size_gives_numbered_files_and_one_metadata_yaml() {
     let tmp = Tmp::new("split");
-    use crate::bag::{bag_files, bag_info, BagOptions, BagWriter, METADATA_YAML};
+    use crate::bag::{bag_files, bag_info, BagOptions, BagWriter};
+    use crate::metadata_yaml::METADATA_YAML;
     for (name, bag) in [
         (
             "split_dur",

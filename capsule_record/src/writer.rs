@@ -11,19 +11,11 @@ use std::{
 use mcap::{records::MessageHeader, WriteOptions};
 
 use crate::{
-    bag::{metadata_yaml, BagFile, BagTopic},
+    metadata_yaml::{metadata_yaml, BagFile, BagTopic},
+    profile::{CAPSULE_METADATA, QOS_KEY, ROSBAG2_METADATA, SCENE_ATTACHMENT},
     types::{ros2msg_schema, OfferedQos},
     RecordError,
 };
-
-/// Name of the attachment that holds the scene file.
-pub const SCENE_ATTACHMENT: &str = "scene.toml";
-/// Name of the metadata record with capsule's own facts (scene name, start time, tool).
-pub const CAPSULE_METADATA: &str = "capsule";
-/// Name of the metadata record rosbag2 writes.
-pub const ROSBAG2_METADATA: &str = "rosbag2";
-/// Channel metadata key with the publisher's QoS (rosbag2's).
-pub const QOS_KEY: &str = "offered_qos_profiles";
 
 /// The scene a run used, stored with the recording.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -6,32 +6,22 @@
 //!
 //! - [`Graph`]: which remote readers and writers matched our endpoints (discovery events of the
 //!   participant), to wait for subscribers or publishers before starting;
-//! - [`RosClock`]: ROS time, from our own `/clock` subscription only under `use_sim_time`.
+//! - ROS time, from our own `/clock` subscription only under `use_sim_time`: [`RosClock`]
+//!   (in [`crate::clock`]).
 //!
 //! The Spinner's parameter services (hard-wired to the Enhanced mapping) go with it; the loop
 //! nodes serve their own in either mapping ([`crate::param_services`]). The command-line tools
 //! (`capsule_ros`, `capsule replay`) keep the Spinner.
 
-use capsule_msgs::names::topics;
-use capsule_msgs::std_types::Clock;
 use std::{
     collections::{HashMap, HashSet},
-    sync::{
-        atomic::{AtomicI64, Ordering},
-        Arc, Mutex, PoisonError,
-    },
+    sync::{Arc, Mutex, PoisonError},
     time::Duration,
 };
 
-use crate::error::Result;
-use crate::ros::subscribe;
-use capsule_msgs::Time;
 use futures::StreamExt;
-use ros2_client::Node;
 use rustdds::{DomainParticipant, DomainParticipantStatusEvent, RTPSEntity, StatusEvented, GUID};
 use tokio::sync::watch;
-
-use crate::ros::{qos, types, RosOptions};
 
 #[derive(Debug, Default)]
 struct Matches {
@@ -219,47 +209,6 @@ impl Graph {
     /// Waits for `n` publishers of our reader `reader`; false after `timeout`.
     pub async fn wait_publishers(&self, reader: GUID, n: usize, timeout: Duration) -> bool {
         self.wait(n, timeout, |g| g.publishers(reader)).await
-    }
-}
-
-/// ROS time as a node sees it: the wall clock, or under `use_sim_time` the latest `/clock`
-/// (zero until the first one arrives, as in rclcpp).
-#[derive(Clone)]
-pub struct RosClock {
-    sim_nanos: Option<Arc<AtomicI64>>,
-}
-
-impl RosClock {
-    /// The wall clock, or (under `settings.use_sim_time`) a `/clock` subscription on `node`.
-    pub fn new(settings: &RosOptions, node: &mut Node) -> Result<RosClock> {
-        if !settings.use_sim_time {
-            return Ok(RosClock { sim_nanos: None });
-        }
-        let topic = settings.topic(node, topics::CLOCK, types::clock(), &qos::clock())?;
-        // best effort, like rclcpp's and rclpy's time source
-        let sub = subscribe::<Clock>(node, &topic, &qos::clock_reader())?;
-        let nanos = Arc::new(AtomicI64::new(0));
-        let n = Arc::clone(&nanos);
-        tokio::spawn(async move {
-            let stream = sub.async_stream();
-            futures::pin_mut!(stream);
-            while let Some(msg) = stream.next().await {
-                if let Ok((clock, _)) = msg {
-                    n.store(clock.clock.to_nanos(), Ordering::Relaxed);
-                }
-            }
-        });
-        Ok(RosClock {
-            sim_nanos: Some(nanos),
-        })
-    }
-
-    /// Now, in ROS time.
-    pub fn now(&self) -> Time {
-        match &self.sim_nanos {
-            Some(n) => Time::from_nanos(n.load(Ordering::Relaxed)),
-            None => Time::from_nanos(capsule_record::writer::now_ns() as i64),
-        }
     }
 }
 

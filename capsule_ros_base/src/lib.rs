@@ -2,8 +2,10 @@
 //! are in `capsule_nodes`.
 //!
 //! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
-//! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps)
-//! - [`graph`]: matched endpoints and ROS time for the loop nodes (instead of ros2-client's spinner)
+//! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps, enclave)
+//! - [`security`]: SROS2's `ROS_SECURITY_*` conventions and enclaves (DDS Security)
+//! - [`graph`], [`clock`]: matched endpoints and ROS time for the loop nodes (instead of
+//!   ros2-client's spinner)
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
@@ -14,6 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod affinity;
+pub mod clock;
 pub mod conflicts;
 pub mod error;
 pub mod graph;
@@ -22,4 +25,5 @@ pub mod param_services;
 pub mod params;
 pub mod ros;
 pub mod ros_args;
+pub mod security;
 pub mod throttle;

@@ -17,7 +17,8 @@ use futures::StreamExt;
 use ros2_client::{
     parameters::raw,
     qos::{Durability, History, WhenFull},
-    rcl_interfaces as rcl, Context, Node, ParameterValue, QosProfile, ServiceTypeName,
+    rcl_interfaces as rcl, Context, Message, Node, ParameterValue, Publisher, QosProfile, Server,
+    ServiceTypeName,
 };
 use tokio::sync::mpsc;
 use tracing::{info, warn};
@@ -78,115 +79,165 @@ pub fn serve(
     rules: Rules,
     now: impl Fn() -> Time + Send + Sync + 'static,
 ) -> Result<(ParamHandle, mpsc::UnboundedReceiver<ParamTable>)> {
-    let mapping = settings.mapping.into();
-    // The six rcl_interfaces services: `variable: service name, type => request, response`.
-    macro_rules! servers {
-        ($($var:ident: $name:literal, $ty:literal => $req:ident, $resp:ident;)*) => {$(
-            let $var: ros2_client::Server<rcl::$req, rcl::$resp> = node
-                .create_server(
-                    mapping,
-                    &settings.ros_name(concat!("~/", $name))?,
-                    &ServiceTypeName::new("rcl_interfaces", $ty),
-                    qos::service(),
-                    qos::service(),
-                )
-                .context(concat!($name, " service"))?;
-        )*};
-    }
-    servers! {
-        list: "list_parameters", "ListParameters" => ListParametersRequest, ListParametersResponse;
-        describe: "describe_parameters", "DescribeParameters" => DescribeParametersRequest, DescribeParametersResponse;
-        get: "get_parameters", "GetParameters" => GetParametersRequest, GetParametersResponse;
-        types: "get_parameter_types", "GetParameterTypes" => GetParameterTypesRequest, GetParameterTypesResponse;
-        set: "set_parameters", "SetParameters" => SetParametersRequest, SetParametersResponse;
-        set_atomic: "set_parameters_atomically", "SetParametersAtomically" => SetParametersRequest, SetParametersAtomicallyResponse;
-    }
+    let servers = Servers::create(node, settings)?;
     let events = node
         .create_publisher::<raw::ParameterEvent>(
             &context.get_parameter_events_topic(),
             Some(events_qos()),
         )
         .context("/parameter_events publisher")?;
-    let node_name = node.fully_qualified_name();
     let table = Arc::new(Mutex::new(table));
-    let (own_tx, mut own_rx) = mpsc::unbounded_channel::<Vec<Param>>();
+    let (own_tx, own_rx) = mpsc::unbounded_channel::<Vec<Param>>();
     let (applied_tx, applied_rx) = mpsc::unbounded_channel();
     let handle = ParamHandle {
         table: Arc::clone(&table),
         own_changes: own_tx,
     };
-    tokio::spawn(async move {
-        let publish = |changed: &[Param]| {
-            let ev = event(&node_name, changed, now());
-            let events = &events;
-            async move {
-                if let Err(e) = events.async_publish(ev).await {
-                    warn!("parameter event not sent: {e:?}");
-                }
-            }
-        };
-        let mut list_rq = list.receive_request_stream();
-        let mut describe_rq = describe.receive_request_stream();
-        let mut get_rq = get.receive_request_stream();
-        let mut types_rq = types.receive_request_stream();
-        let mut set_rq = set.receive_request_stream();
-        let mut atomic_rq = set_atomic.receive_request_stream();
+    let answering = Answering {
+        table,
+        rules,
+        events,
+        node_name: node.fully_qualified_name(),
+        now,
+        applied: applied_tx,
+    };
+    tokio::spawn(answering.run(servers, own_rx));
+    Ok((handle, applied_rx))
+}
+
+/// The six rcl_interfaces services of a node.
+struct Servers {
+    list: Server<rcl::ListParametersRequest, rcl::ListParametersResponse>,
+    describe: Server<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
+    get: Server<rcl::GetParametersRequest, rcl::GetParametersResponse>,
+    types: Server<rcl::GetParameterTypesRequest, rcl::GetParameterTypesResponse>,
+    set: Server<rcl::SetParametersRequest, rcl::SetParametersResponse>,
+    set_atomic: Server<rcl::SetParametersRequest, rcl::SetParametersAtomicallyResponse>,
+}
+
+impl Servers {
+    fn create(node: &mut Node, settings: &RosOptions) -> Result<Servers> {
+        Ok(Servers {
+            list: server(node, settings, "list_parameters", "ListParameters")?,
+            describe: server(node, settings, "describe_parameters", "DescribeParameters")?,
+            get: server(node, settings, "get_parameters", "GetParameters")?,
+            types: server(node, settings, "get_parameter_types", "GetParameterTypes")?,
+            set: server(node, settings, "set_parameters", "SetParameters")?,
+            set_atomic: server(
+                node,
+                settings,
+                "set_parameters_atomically",
+                "SetParametersAtomically",
+            )?,
+        })
+    }
+}
+
+/// The node's service `~/NAME` of type `rcl_interfaces/srv/TYPE`, in its service mapping.
+fn server<Q, R>(
+    node: &mut Node,
+    settings: &RosOptions,
+    name: &str,
+    ty: &str,
+) -> Result<Server<Q, R>>
+where
+    Q: Message + Clone + 'static,
+    R: Message + 'static,
+{
+    node.create_server(
+        settings.mapping.into(),
+        &settings.ros_name(&format!("~/{name}"))?,
+        &ServiceTypeName::new("rcl_interfaces", ty),
+        qos::service(),
+        qos::service(),
+    )
+    .with_context(|| format!("{name} service"))
+}
+
+/// What the serving task holds besides the servers.
+struct Answering<N> {
+    table: Arc<Mutex<ParamTable>>,
+    rules: Rules,
+    events: Publisher<raw::ParameterEvent>,
+    node_name: String,
+    now: N,
+    /// The tables remote sets produced, to the node.
+    applied: mpsc::UnboundedSender<ParamTable>,
+}
+
+impl<N: Fn() -> Time> Answering<N> {
+    /// Publishes `changed` on `/parameter_events`.
+    async fn publish(&self, changed: &[Param]) {
+        let ev = event(&self.node_name, changed, (self.now)());
+        if let Err(e) = self.events.async_publish(ev).await {
+            warn!("parameter event not sent: {e:?}");
+        }
+    }
+
+    /// Answers requests, and publishes the node's own changes, until the node goes.
+    async fn run(self, sv: Servers, mut own_rx: mpsc::UnboundedReceiver<Vec<Param>>) {
+        let a = &self;
+        let mut list_rq = sv.list.receive_request_stream();
+        let mut describe_rq = sv.describe.receive_request_stream();
+        let mut get_rq = sv.get.receive_request_stream();
+        let mut types_rq = sv.types.receive_request_stream();
+        let mut set_rq = sv.set.receive_request_stream();
+        let mut atomic_rq = sv.set_atomic.receive_request_stream();
         loop {
             tokio::select! {
                 Ok((id, rq)) = list_rq.select_next_some() => {
-                    let result = locked(&table).list(&rq.prefixes, rq.depth);
-                    let _ = list.async_send_response(id, rcl::ListParametersResponse { result }).await;
+                    let result = locked(&a.table).list(&rq.prefixes, rq.depth);
+                    let _ = sv.list.async_send_response(id, rcl::ListParametersResponse { result }).await;
                 }
                 Ok((id, rq)) = describe_rq.select_next_some() => {
-                    let values = locked(&table).describe(&rq.names);
-                    let _ = describe.async_send_response(id, rcl::DescribeParametersResponse { values }).await;
+                    let values = locked(&a.table).describe(&rq.names);
+                    let _ = sv.describe.async_send_response(id, rcl::DescribeParametersResponse { values }).await;
                 }
                 Ok((id, rq)) = get_rq.select_next_some() => {
-                    let values = locked(&table).values(&rq.names);
-                    let _ = get.async_send_response(id, rcl::GetParametersResponse { values }).await;
+                    let values = locked(&a.table).values(&rq.names);
+                    let _ = sv.get.async_send_response(id, rcl::GetParametersResponse { values }).await;
                 }
                 Ok((id, rq)) = types_rq.select_next_some() => {
-                    let values = locked(&table).types(&rq.names);
-                    let _ = types.async_send_response(id, rcl::GetParameterTypesResponse { values }).await;
+                    let values = locked(&a.table).types(&rq.names);
+                    let _ = sv.types.async_send_response(id, rcl::GetParameterTypesResponse { values }).await;
                 }
                 Ok((id, rq)) = set_rq.select_next_some() => {
                     let params = from_wire(rq.parameter);
                     let (results, changed, after) = {
-                        let mut t = locked(&table);
-                        let (r, c) = t.set_each(&params, rules);
+                        let mut t = locked(&a.table);
+                        let (r, c) = t.set_each(&params, a.rules);
                         (r, c, t.clone())
                     };
                     log_set(&params, &results);
                     if !changed.is_empty() {
-                        publish(&changed).await;
-                        let _ = applied_tx.send(after);
+                        a.publish(&changed).await;
+                        let _ = a.applied.send(after);
                     }
                     let results = results.into_iter().map(raw::SetParametersResult::from).collect();
-                    let _ = set.async_send_response(id, rcl::SetParametersResponse { results }).await;
+                    let _ = sv.set.async_send_response(id, rcl::SetParametersResponse { results }).await;
                 }
                 Ok((id, rq)) = atomic_rq.select_next_some() => {
                     let params = from_wire(rq.parameter);
                     let (result, after) = {
-                        let mut t = locked(&table);
-                        let r = t.set_atomically(&params, rules);
+                        let mut t = locked(&a.table);
+                        let r = t.set_atomically(&params, a.rules);
                         (r, t.clone())
                     };
                     log_set(&params, std::slice::from_ref(&result.as_ref().map(|_| ()).map_err(Clone::clone)));
                     if let Ok(changed) = &result {
                         if !changed.is_empty() {
-                            publish(changed).await;
-                            let _ = applied_tx.send(after);
+                            a.publish(changed).await;
+                            let _ = a.applied.send(after);
                         }
                     }
                     let result = result.map(|_| ()).into();
-                    let _ = set_atomic.async_send_response(id, rcl::SetParametersAtomicallyResponse { result }).await;
+                    let _ = sv.set_atomic.async_send_response(id, rcl::SetParametersAtomicallyResponse { result }).await;
                 }
-                Some(changed) = own_rx.recv() => publish(&changed).await,
+                Some(changed) = own_rx.recv() => a.publish(&changed).await,
                 else => break,
             }
         }
-    });
-    Ok((handle, applied_rx))
+    }
 }
 
 fn locked(t: &Mutex<ParamTable>) -> std::sync::MutexGuard<'_, ParamTable> {

@@ -13,6 +13,8 @@
 
 use std::collections::BTreeMap;
 
+use capsule_plant::number_text::short;
+
 use ros2_client::{parameters::raw, rcl_interfaces::ListParametersResult, ParameterValue};
 
 /// The numeric range a descriptor announces (and a set must respect).
@@ -335,11 +337,14 @@ impl ParamTable {
         }
         match (value, spec.range) {
             (ParameterValue::Double(d), _) if !d.is_finite() => {
-                Err(format!("parameter '{name}' = {d}: not finite"))
+                Err(format!("parameter '{name}' = {}: not finite", short(*d)))
             }
             (ParameterValue::Double(d), Range::Float { from, to }) if !(from..=to).contains(d) => {
                 Err(format!(
-                    "parameter '{name}' = {d}: out of range [{from}, {to}]"
+                    "parameter '{name}' = {}: out of range [{}, {}]",
+                    short(*d),
+                    short(from),
+                    short(to)
                 ))
             }
             (ParameterValue::Integer(i), Range::Integer { from, to })
@@ -502,6 +507,19 @@ mod tests {
                 assert_eq!(t, before);
             }
         }
+    }
+
+    #[test]
+    fn refusals_write_numbers_as_short_as_they_round_trip() {
+        let mut t = table();
+        let e = t
+            .set_atomically(&[p("limit", V::Double(1e308))], no_rules)
+            .unwrap_err();
+        assert_eq!(e, "parameter 'limit' = 1e308: out of range [0, 10]");
+        let e = t
+            .set_atomically(&[p("limit", V::Double(-0.25))], no_rules)
+            .unwrap_err();
+        assert_eq!(e, "parameter 'limit' = -0.25: out of range [0, 10]");
     }
 
     #[test]

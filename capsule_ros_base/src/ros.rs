@@ -17,6 +17,7 @@ use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use crate::{
     affinity::{self, CpuList},
     graph::Graph,
+    security::{Security, SecurityEnv},
 };
 
 /// How far DDS discovery reaches (the ROS 2 `ROS_AUTOMATIC_DISCOVERY_RANGE` idea).
@@ -79,6 +80,10 @@ pub struct RosArgs {
     /// `taskset -c`); nodes of one loop sharing a CPU wake each other more cheaply
     #[arg(long, value_name = "LIST")]
     pub cpu_affinity: Option<CpuList>,
+    /// SROS2 enclave of this node, e.g. /capsule/plant (as `--ros-args --enclave`); used when
+    /// $ROS_SECURITY_ENABLE is true, $ROS_SECURITY_ENCLAVE_OVERRIDE wins (docs/ros.md, Security)
+    #[arg(long, value_name = "ENCLAVE")]
+    pub enclave: Option<String>,
 }
 
 /// The environment a node reads its defaults from (so tests can pass their own).
@@ -92,6 +97,8 @@ pub struct RosEnv {
     pub localhost_only: Option<String>,
     /// `RMW_IMPLEMENTATION`.
     pub rmw_implementation: Option<String>,
+    /// SROS2's `ROS_SECURITY_*`.
+    pub security: SecurityEnv,
 }
 
 impl RosEnv {
@@ -107,6 +114,7 @@ impl RosEnv {
             discovery_range: get("ROS_AUTOMATIC_DISCOVERY_RANGE"),
             localhost_only: get("ROS_LOCALHOST_ONLY"),
             rmw_implementation: get("RMW_IMPLEMENTATION"),
+            security: SecurityEnv::from_process(),
         }
     }
 }
@@ -130,6 +138,8 @@ pub struct RosOptions {
     pub use_sim_time: bool,
     /// CPUs to pin the node's threads to (checked against the allowed ones).
     pub cpu_affinity: Option<CpuList>,
+    /// DDS Security: the enclave, or why not.
+    pub security: Security,
 }
 
 impl RosOptions {
@@ -187,6 +197,7 @@ impl RosOptions {
             remaps: BTreeMap::new(),
             use_sim_time: args.use_sim_time,
             cpu_affinity: args.cpu_affinity.clone(),
+            security: Security::resolve(&env.security, args.enclave.as_deref())?,
         };
         if let Some(list) = &settings.cpu_affinity {
             affinity::check(list, &affinity::allowed()?)
@@ -266,19 +277,64 @@ impl RosOptions {
         .with_context(|| format!("service {name}"))
     }
 
-    /// Creates the DDS participant (loopback only when the range says so) and the ROS context.
+    /// Creates the DDS participant (loopback only when the range says so; secured with the
+    /// enclave if [`Security::Enclave`]) and the ROS context.
     pub fn context(&self) -> Result<Context> {
+        let participant = match &self.security {
+            Security::Off => self.participant(None)?,
+            Security::Unsecured { why } => {
+                tracing::warn!("ROS_SECURITY_ENABLE=true but running UNSECURED: {why}");
+                self.participant(None)?
+            }
+            Security::Enclave { name, dir, enforce } => match self.participant(Some(dir)) {
+                Ok(p) => p,
+                Err(e) if *enforce => return Err(e),
+                Err(e) => {
+                    tracing::warn!(
+                        "enclave {name}: {}; running UNSECURED (ROS_SECURITY_STRATEGY is not Enforce)",
+                        crate::error::chain(&e)
+                    );
+                    self.participant(None)?
+                }
+            },
+        };
+        Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
+    }
+
+    /// The DDS participant, with the builtin security plugins configured from `enclave`.
+    fn participant(&self, enclave: Option<&std::path::Path>) -> Result<rustdds::DomainParticipant> {
         let mut builder = rustdds::DomainParticipantBuilder::new(self.domain_id);
         if self.range == DiscoveryRange::Localhost {
             builder = builder.with_only_networks([Ipv4Addr::LOCALHOST]);
         }
-        let participant = builder.build().with_context(|| {
-            format!(
+        if let Some(dir) = enclave {
+            builder = crate::security::configure(builder, dir)?;
+        }
+        builder.build().map_err(|e| {
+            let what = format!(
                 "cannot create a DDS participant in domain {}",
                 self.domain_id
-            )
-        })?;
-        Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
+            );
+            match enclave {
+                Some(dir) => {
+                    // RustDDS names the step that refused; say which file, if we can tell
+                    let file = crate::security::diagnose(dir)
+                        .map(|why| format!(" ({why})"))
+                        .unwrap_or_default();
+                    crate::error::NodeError::Failed {
+                        what: format!(
+                            "{what}: DDS Security refused the enclave {}{file}",
+                            dir.display()
+                        ),
+                        source: e.into(),
+                    }
+                }
+                None => crate::error::NodeError::Failed {
+                    what,
+                    source: e.into(),
+                },
+            }
+        })
     }
 
     fn bare_node(&self, context: &Context) -> Result<Node> {
@@ -315,12 +371,13 @@ impl RosOptions {
     /// One line for the log: where this node talks.
     pub fn describe(&self) -> String {
         format!(
-            "node {}/{} domain {} discovery {:?} service mapping {:?}{}",
+            "node {}/{} domain {} discovery {:?} service mapping {:?}, {}{}",
             self.namespace.trim_end_matches('/'),
             self.node_name,
             self.domain_id,
             self.range,
             self.mapping,
+            self.security.describe(),
             if self.use_sim_time {
                 " use_sim_time"
             } else {

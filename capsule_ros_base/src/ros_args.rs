@@ -1,6 +1,7 @@
 //! The ROS 2 command-line habits beside the nodes' own flags: `--ros-args ... [--]` with
 //! `-p NAME:=VALUE`, `--params-file FILE` (ROS 2 YAML: `/**:` or `/node_name:`, then
-//! `ros__parameters:`), `-r __ns:=/x`, `-r __node:=name`, `-r [node:]from:=to`.
+//! `ros__parameters:`), `-r __ns:=/x`, `-r __node:=name`, `-r [node:]from:=to`, `-e` /
+//! `--enclave /name` (SROS2, [`crate::security`]).
 //!
 //! [`split`] takes the `--ros-args` blocks out of argv before clap sees the rest; the names
 //! and remaps go into [`RosArgs`] (one place resolves them: [`crate::ros::RosOptions`]); the
@@ -34,6 +35,7 @@ enum Source {
 pub struct RosCli {
     sources: Vec<Source>,
     remaps: Vec<String>,
+    enclave: Option<String>,
 }
 
 /// A parameter override and where it came from (for error messages).
@@ -77,6 +79,7 @@ pub fn split(argv: impl IntoIterator<Item = OsString>) -> Result<(Vec<OsString>,
                     cli.sources.push(Source::Param(v));
                 }
                 "--params-file" => cli.sources.push(Source::File(value(&a)?.into())),
+                "-e" | "--enclave" => cli.enclave = Some(value(&a)?),
                 "-r" | "--remap" => {
                     let v = value(&a)?;
                     if !v.contains(":=") {
@@ -85,7 +88,7 @@ pub fn split(argv: impl IntoIterator<Item = OsString>) -> Result<(Vec<OsString>,
                     cli.remaps.push(v);
                 }
                 other => bail!(
-                    "--ros-args {other:?}: not supported (supported: -p NAME:=VALUE, --params-file FILE, -r FROM:=TO with __ns / __node, --; log levels: RUST_LOG)"
+                    "--ros-args {other:?}: not supported (supported: -p NAME:=VALUE, --params-file FILE, -r FROM:=TO with __ns / __node, -e ENCLAVE, --; log levels: RUST_LOG)"
                 ),
             }
         }
@@ -106,11 +109,27 @@ pub fn parse_node_cli<C: clap::Parser>(
     Ok((cli, overrides))
 }
 
+/// [`parse_node_cli`] for a node or tool that has no ROS parameters: names, remaps and the
+/// enclave are taken, a parameter (`-p`, `--params-file`) is an error naming it.
+pub fn parse_cli_without_params<C: clap::Parser>(
+    default_node: &str,
+    ros: fn(&mut C) -> &mut RosArgs,
+) -> Result<C> {
+    let (cli, overrides) = parse_node_cli(default_node, ros)?;
+    match overrides.first() {
+        Some(o) => bail!("{}: {default_node} has no ROS parameters", o.origin),
+        None => Ok(cli),
+    }
+}
+
 impl RosCli {
     /// Puts the names and remaps into `ros` (`__ns`, `__node`/`__name`, node-specific
     /// `node:from:=to` for this node, plain `from:=to`) and then, from the parameters for the
     /// node so named, `use_sim_time`. Returns the other overrides, in order.
     pub fn apply_to(&self, ros: &mut RosArgs, default_node: &str) -> Result<Vec<Override>> {
+        if let Some(e) = &self.enclave {
+            ros.enclave = Some(e.clone());
+        }
         for r in &self.remaps {
             let (lhs, to) = r.split_once(":=").unwrap_or((r, ""));
             let (node, from) = match lhs.split_once(':') {
@@ -407,6 +426,8 @@ mod tests {
             "gain:=0.3",
             "-p",
             "use_sim_time:=true",
+            "-e",
+            "/capsule/controller",
             "--",
             "-r",
             "a:=b",
@@ -416,6 +437,7 @@ mod tests {
         assert_eq!(t.ros.node_name.as_deref(), Some("ctl"));
         assert_eq!(t.ros.remap, ["a:=b", "capsule/state:=/sim/state"]);
         assert!(t.ros.use_sim_time);
+        assert_eq!(t.ros.enclave.as_deref(), Some("/capsule/controller"));
         assert_eq!(o.len(), 1);
         assert_eq!((o[0].name.as_str(), &o[0].value), ("gain", &V::Double(0.3)));
         Ok(())
@@ -490,9 +512,9 @@ mod tests {
             err(&["c", "--ros-args", "-p", "gain"]).contains("-p \"gain\": expected NAME:=VALUE")
         );
         assert!(err(&["c", "--ros-args", "-p"]).contains("a value is missing"));
-        assert!(
-            err(&["c", "--ros-args", "--enclave", "x"]).contains("\"--enclave\": not supported")
-        );
+        assert!(err(&["c", "--ros-args", "--log-level", "x"])
+            .contains("\"--log-level\": not supported"));
+        assert!(err(&["c", "--ros-args", "--enclave"]).contains("--enclave: a value is missing"));
         assert!(err(&["c", "--ros-args", "-r", "__log_level:=x"])
             .contains("__log_level is not supported"));
         let e = err(&["c", "--ros-args", "--params-file", "/nonexistent/p.yaml"]);

@@ -221,7 +221,7 @@ capsule_plant | --scene scenes/control_point.toml --check --startup-timeout-s 1e
 capsule_plant | --scene scenes/control_point.toml --check --rate-hz 1e-300 | must be in
 capsule_plant | --scene scenes/control_point.toml --check --rate-hz nan | finite
 capsule_controller | --scene scenes/control_point.toml --check --orbit-tolerance 0.5 | must be in
-capsule_plant | --scene scenes/control_point.toml --check --command-timeout-s 0 | must be > 0
+capsule_plant | --scene scenes/control_point.toml --check --command-timeout-s 0 | must be in [1e-6, 1e6] (got 0)
 capsule_plant | --scene scenes/control_point.toml --check --until-s -1 | must be > 0
 capsule_plant | --scene scenes/control_point.toml --check --retransmit-ms 4294967296 | from 1 to 60000
 capsule_plant | --scene scenes/control_point.toml --check --flush-ms 0 | from 1 to 60000
@@ -239,9 +239,9 @@ capsule_controller | --scene scenes/control_point.toml --check --gain-limit -1 |
 capsule_controller | --scene scenes/control_point.toml --check --direction-gain 3 | --direction-gain 3: beyond gain_limit (--gain-limit 2)
 capsule_controller | --scene scenes/control_point.toml --check --chaos-gain -5 --gain-limit 4 | --chaos-gain -5: beyond gain_limit (--gain-limit 4)
 capsule | replay {rec} --gain-limit nan | '--gain-limit <GAIN_LIMIT>': must be a finite number
-capsule_controller | --scene scenes/control_point.toml --check --omega 0 | must be > 0
-capsule_controller | --scene scenes/control_point.toml --check --m1-kg -1 | must be > 0
-capsule_controller | --scene scenes/control_point.toml --check --state-timeout-s 1e308 | <= 1e6
+capsule_controller | --scene scenes/control_point.toml --check --omega 0 | must be in [1e-6, 1e6] (got 0)
+capsule_controller | --scene scenes/control_point.toml --check --m1-kg -1 | must be in [1e-12, 1e12] (got -1)
+capsule_controller | --scene scenes/control_point.toml --check --state-timeout-s 1e308 | must be in [1e-6, 1e6] (got 1e308)
 capsule_controller | --scene scenes/control_point.toml --check --status-period-ms 4294967296 | from 1 to 60000
 capsule_recorder | --check --wait-publishers-s 1e308 | must be in
 capsule_recorder | --check --idle-stop-s 1e308 | must be in
@@ -284,11 +284,8 @@ fn the_controller_gain_flags_state_their_range_in_help() {
     assert_ok(&o);
     let help = String::from_utf8_lossy(&o.stdout).into_owned();
     for (flag, range) in [
-        ("--direction-gain", "[0, 1e12] and at most --gain-limit"),
-        (
-            "--chaos-gain",
-            "[-1e12, 1e12] and |k_p| at most --gain-limit",
-        ),
+        ("--direction-gain", "[0, 1e12] and at most gain_limit"),
+        ("--chaos-gain", "[-1e12, 1e12] and |k_p| at most gain_limit"),
         ("--gain-limit", "[0, 1e12]"),
     ] {
         let at = help
@@ -306,6 +303,51 @@ fn the_controller_gain_flags_state_their_range_in_help() {
         ),
     );
     assert_ok(&o);
+}
+
+/// One setting, one range, three sources: the controller's drive amplitude (settings table:
+/// alpha in [0, 100]) as a flag, as the scene's drive.alpha and as a ROS parameter at start is
+/// refused with the same range and the value given (`ros2 param set` on the running node:
+/// ros::params).
+#[test]
+fn one_range_is_refused_the_same_way_by_flag_scene_and_parameter() {
+    let tmp = TempDir::new("bad_input_one_range");
+    let scene = tmp.arg("alpha150.toml");
+    std::fs::write(&scene, "[drive]\nalpha = 150.0\n").unwrap_or_else(|e| panic!("{e}"));
+    let good = "scenes/control_point.toml";
+    for (args, source) in [
+        (
+            line("--check --alpha 150 --scene", &[good]),
+            "'--alpha <ALPHA>': ",
+        ),
+        (
+            line("--check --scene", &[&scene]),
+            "alpha150.toml: drive.alpha: ",
+        ),
+        (
+            line(
+                "--check --scene",
+                &[good, "--ros-args", "-p", "alpha:=150.0"],
+            ),
+            "-p alpha:=150.0: parameter 'alpha' = 150: ",
+        ),
+    ] {
+        let o = run("capsule_controller", &args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(source), "{args:?}: `{err}` lacks `{source}`");
+        assert!(
+            err.contains("[0, 100]") && err.contains("150"),
+            "{args:?}: {err}"
+        );
+    }
+    // the help says the same range, and where else the value comes from
+    let o = run("capsule_controller", &["--help"]);
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        help.contains("[0, 100] [scene: drive.alpha; parameter alpha, writable]"),
+        "{help}"
+    );
 }
 
 #[test]

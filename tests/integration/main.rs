@@ -2,9 +2,13 @@
 
 mod attractors;
 mod bad_input;
+mod basin_cells;
 mod cli;
 mod common;
+mod docs_links;
+mod examples;
 mod hard_cases;
+mod import_circles;
 mod paper;
 mod python;
 mod record;

@@ -49,7 +49,7 @@ fn section5_negative_gains_move_backward_with_one_impact_positive_forward_with_t
         } else {
             assert!(r.avg_progression > 0.0, "kp = {kp}: {}", r.avg_progression);
             // the paper's insets (k_p = 0.1, 0.2) show two impacts; here the second impact
-            // appears between k_p = 0.07 and 0.08 (README, departures)
+            // appears between k_p = 0.07 and 0.08 (docs/model.md, departures)
             let expected = if kp >= 0.1 { 2.0 } else { 1.0 };
             assert_eq!(r.impacts_per_period, expected, "kp = {kp}");
         }

@@ -10,6 +10,7 @@ mod harness;
 
 mod colcon;
 mod device;
+mod example_controller;
 mod fastdds;
 mod fault_matrix;
 mod faults;
@@ -18,5 +19,6 @@ mod interop;
 mod joint_commands;
 mod lockstep;
 mod params;
+mod security;
 mod switch;
 mod views;

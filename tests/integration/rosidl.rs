@@ -1,9 +1,10 @@
 //! ROS 2's own interface tools read capsule_msgs (#19): rosidl_adapter turns every .msg/.srv
 //! into IDL, rosidl_parser parses it, rosidl_generator_c and rosidl_typesupport_introspection_c
 //! generate the C type support, which is compiled and run (tests/peers/rosidl_check.py, with
-//! Debian's python3-rosidl, rosidl-core, librcutils-dev, librosidl-*-dev; `.ci/ros-setup.sh`
-//! installs them). What those tools read must be what our crate serialises: the fields, their
-//! order and types, and the constants, compared with `capsule_msgs::interface`.
+//! Debian's python3-rosidl, rosidl-generator-c-cpp, librcutils-dev, librosidl-*-dev;
+//! `.ci/ros-setup.sh` installs what is missing). What those tools read must be what our crate
+//! serialises: the fields, their order and types, and the constants, compared with
+//! `capsule_msgs::interface`.
 
 use crate::common::succeeded;
 use capsule_msgs::interface::{parse_definition, RosInterface, HEADER_MSG, TIME_MSG};

@@ -497,7 +497,7 @@ mod continuation {
             p.kind,
             SpecialKind::PeriodDoubling | SpecialKind::Fold | SpecialKind::Torus
         )));
-        // the second impact appears between k_p = 0.07 and 0.08 (the sweep's finding, README)
+        // the second impact appears between k_p = 0.07 and 0.08 (the sweep's finding, docs/model.md)
         let g = values(&b, SpecialKind::Grazing);
         assert!(
             g.len() == 1 && g[0] > 0.07 && g[0] < 0.08,

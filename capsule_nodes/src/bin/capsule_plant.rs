@@ -9,7 +9,8 @@ use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::{
     device_driver::{DeviceDriver, DriverOptions, Source},
     plant::{self, InPlantRecordOptions, Pacing, PlantCore, PlantOptions, PlantSim},
-    plant_params, recorder,
+    plant_params::{self, PlantFlags},
+    recorder,
     sim::SimulatedPlant,
     views,
 };
@@ -46,13 +47,6 @@ struct Cli {
     /// controller's answer (reproducible, as fast as the loop allows)
     #[arg(long, value_enum, default_value = "realtime")]
     pacing: Pacing,
-    /// Sample rate [Hz], 1e-3 to 1e6 (overrides the scene's node.rate_hz)
-    #[arg(long, value_parser = ranges::within(ranges::RATE_HZ.0, ranges::RATE_HZ.1))]
-    rate_hz: Option<f64>,
-    /// Seconds without a fresh command before zero force, (0, 1e6] (overrides
-    /// node.command_timeout_s)
-    #[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]
-    command_timeout_s: Option<f64>,
     /// Actuator force limit [N], (0, 1e12]: larger commands are applied saturated at it,
     /// counted and logged [default: 100 P_f of the scene's [physical] scale]
     #[arg(long, value_parser = ranges::positive(1e12))]
@@ -69,11 +63,6 @@ struct Cli {
     /// Publish the first sample once this many subscribers matched the state topic, 0 to 1000
     #[arg(long, default_value_t = 0, value_parser = ranges::count_usize(0, ranges::MAX_SUBSCRIBERS as usize))]
     wait_subscribers: usize,
-    /// Publish /clock with every N-th sample (1 = every sample; larger saves CPU at high rates
-    /// at the cost of a coarser sim clock for use_sim_time nodes). /clock is sent only while
-    /// it has a subscriber; a recording always holds it. 1 to 1000000
-    #[arg(long, default_value_t = 1, value_parser = ranges::count(1, 1_000_000))]
-    clock_every: u64,
     /// Record the graph in this process to DIR/capsule_<scene>_<UTC time>.mcap (what the plant
     /// publishes and receives, the controller's status and mode changes): the same file as
     /// capsule_recorder writes, at a fraction of its CPU at high rates
@@ -97,12 +86,10 @@ struct Cli {
     /// Check the scene and flags, print what would run, and exit (no DDS)
     #[arg(long)]
     check: bool,
-    /// Also take commands as sensor_msgs/JointState on capsule/joint_commands (the effort of
-    /// inner_mass_joint is the actuator force [N], the joint found by name), as
-    /// topic_based_ros2_control sends them; checked as force commands are (also
-    /// `-p joint_commands:=true`). Real-time pacing only
-    #[arg(long)]
-    joint_commands: bool,
+    // the plant's settings table (capsule_args::plant_settings): --rate-hz, --command-timeout-s,
+    // --clock-every, --joint-commands
+    #[command(flatten)]
+    settings: PlantFlags,
     #[command(flatten)]
     views: views::ViewArgs,
     #[command(flatten)]
@@ -154,52 +141,75 @@ fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOp
 fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Plant, PlantOptions)> {
     let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
     let scene = &file.scene;
-    // both in range: the [node] table's reader and the flags' parsers check the same bounds
-    let rate = cli.rate_hz.unwrap_or(file.node.rate_hz);
-    let timeout = cli.command_timeout_s.unwrap_or(file.node.command_timeout_s);
-    if scene.solver.method == Method::Fixed {
-        let per_sample = 1.0 / rate / scene.physical.time_s() / scene.solver.step;
-        if per_sample > MAX_FIXED_STEPS_PER_SAMPLE {
-            bail!(
-                "{}: solver.step = {:e}: {per_sample:.3e} fixed steps per sample at {rate} Hz, more \
-                 than the plant's limit of {MAX_FIXED_STEPS_PER_SAMPLE:e}: raise the step or the rate",
-                cli.scene,
-                scene.solver.step
-            );
-        }
-    }
     if cli.source == Source::Sim && (cli.dry_run || cli.max_travel_m.is_some()) {
         bail!("--dry-run and --max-travel-m are for --source serial:PATH (a simulated capsule has no device to spare)");
     }
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
-    // ROS parameters: the flags' and scene's values, then -p / --params-file over them
-    let started_with = plant_params::PlantParams {
+    // the settings table's precedence: default, the scene's [node], flag; then -p /
+    // --params-file over the parameters
+    let fixed = plant_params::Fixed {
         scene: cli.scene.clone(),
         pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
-        rate_hz: rate,
-        command_timeout_s: timeout,
-        clock_every: cli.clock_every,
         scale: (
             scene.physical.m1_kg,
             scene.physical.k1_n_per_m,
             scene.physical.pf_n,
         ),
     };
-    let mut params = cli.views.declare(plant_params::declare_joint_commands(
-        plant_params::table(&started_with),
-        cli.joint_commands,
-    ));
+    let params =
+        plant_params::start_table(&cli.settings, &file, &fixed).map_err(anyhow::Error::msg)?;
+    let mut params = cli.views.declare(params);
     ros_args::apply_overrides(&mut params, overrides, capsule_ros_base::params::no_rules)?;
-    let joint_commands = params.boolean(plant_params::names::JOINT_COMMANDS);
-    if joint_commands && cli.pacing == Pacing::Lockstep {
+    let run = plant_params::overridable(&params, &fixed).map_err(anyhow::Error::msg)?;
+    if run.joint_commands && cli.pacing == Pacing::Lockstep {
         bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
     }
-    let (rate, timeout, clock_every) =
-        plant_params::overridable(&params, &started_with).map_err(anyhow::Error::msg)?;
+    check_fixed_steps(cli, scene, run.rate_hz)?;
     let max_force_n = cli
         .max_force_n
         .unwrap_or(capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n());
-    let source: Box<dyn PlantSim + Send> = match &cli.source {
+    let source = source(cli, scene, run.rate_hz, max_force_n)?;
+    let core = PlantCore::new(source, scene.physical, run.rate_hz, run.command_timeout_s)
+        .with_max_force_n(max_force_n);
+    let opts = PlantOptions {
+        pacing: cli.pacing,
+        until_s: cli.until_s,
+        retransmit: Duration::from_millis(cli.retransmit_ms),
+        startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
+        wait_subscribers: cli.wait_subscribers,
+        clock_every: run.clock_every,
+        record: record_options(cli, &file)?,
+        params,
+        joint_commands: run.joint_commands,
+    };
+    Ok((settings, core, opts))
+}
+
+/// Refuses a fixed-step scene that would take more steps per sample than a loop affords.
+fn check_fixed_steps(cli: &Cli, scene: &capsule_plant::scene::Scene, rate: f64) -> Result<()> {
+    if scene.solver.method != Method::Fixed {
+        return Ok(());
+    }
+    let per_sample = 1.0 / rate / scene.physical.time_s() / scene.solver.step;
+    if per_sample > MAX_FIXED_STEPS_PER_SAMPLE {
+        bail!(
+            "{}: solver.step = {:e}: {per_sample:.3e} fixed steps per sample at {rate} Hz, more \
+             than the plant's limit of {MAX_FIXED_STEPS_PER_SAMPLE:e}: raise the step or the rate",
+            cli.scene,
+            scene.solver.step
+        );
+    }
+    Ok(())
+}
+
+/// The source `--source` names, around the scene's capsule.
+fn source(
+    cli: &Cli,
+    scene: &capsule_plant::scene::Scene,
+    rate_hz: f64,
+    max_force_n: f64,
+) -> Result<Box<dyn PlantSim + Send>> {
+    Ok(match &cli.source {
         Source::Sim => Box::new(SimulatedPlant(
             Simulator::new(scene.model(), scene.initial_state(), 0.0, scene.solver())
                 .map_err(|e| anyhow::anyhow!("{}: cannot set up the simulation: {e}", cli.scene))?,
@@ -208,7 +218,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Pla
             DriverOptions {
                 path: path.clone(),
                 baud: *baud,
-                rate_hz: rate,
+                rate_hz,
                 max_force_n,
                 max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
                 gap_m: scene.model.capsule.delta * scene.physical.length_m(),
@@ -216,20 +226,7 @@ fn build(cli: &Cli, overrides: &[ros_args::Override]) -> Result<(RosOptions, Pla
             },
             scene.physical,
         )),
-    };
-    let core = PlantCore::new(source, scene.physical, rate, timeout).with_max_force_n(max_force_n);
-    let opts = PlantOptions {
-        pacing: cli.pacing,
-        until_s: cli.until_s,
-        retransmit: Duration::from_millis(cli.retransmit_ms),
-        startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
-        wait_subscribers: cli.wait_subscribers,
-        clock_every,
-        record: record_options(cli, &file)?,
-        params,
-        joint_commands,
-    };
-    Ok((settings, core, opts))
+    })
 }
 
 fn main() -> std::process::ExitCode {

@@ -6,7 +6,10 @@ use std::{path::PathBuf, time::Duration};
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_nodes::recorder::{self, RecorderOptions};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    ros::{self, RosArgs, RosEnv, RosOptions},
+    ros_args,
+};
 use clap::Parser;
 
 /// Records state, force commands, controller status, /clock and the set_mode service events to
@@ -82,7 +85,10 @@ fn build(cli: &Cli) -> Result<(RosOptions, RecorderOptions)> {
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
+    let cli = match ros_args::parse_cli_without_params::<Cli>(nodes::RECORDER, |c| &mut c.ros) {
+        Ok(cli) => cli,
+        Err(e) => return ros::exit_code("capsule_recorder", Err(e)),
+    };
     let would = |opts: &RecorderOptions| format!(", would write {}", opts.output.display());
     ros::node_main(
         "capsule_recorder",

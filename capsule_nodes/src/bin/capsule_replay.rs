@@ -15,7 +15,7 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::ranges;
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
-use capsule_nodes::controller::{ControllerCore, GainArgs};
+use capsule_nodes::{controller_core::ControllerCore, controller_settings::GainFlags};
 use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,
@@ -62,7 +62,7 @@ struct Args {
     tolerance: f64,
     /// --check-controller: the controller's gain settings
     #[command(flatten)]
-    gains: GainArgs,
+    gains: GainFlags,
     #[command(flatten)]
     ros: RosArgs,
 }
@@ -280,14 +280,16 @@ struct Check {
     pub requests: (u64, u64),
 }
 
-fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
+/// The controller as the recording started it: the attached scene's scale and drive, the
+/// gain flags, and the mode in force at the start (the controller's first status, else the
+/// scene's gain).
+fn recorded_controller(args: &Args, msgs: &[Message]) -> Result<ControllerCore> {
     let file = args.file.display().to_string();
     let scene = capsule_record::info(&args.file)?
         .scene_toml
         .with_context(|| format!("{file}: no scene attached: cannot configure the controller"))?;
     let scene = Scene::from_toml_str(&scene, &format!("{file}:scene.toml"))?;
     let config = args.gains.config()?;
-    // the mode in force at the start: the controller's first status, else the scene's gain
     let first_status = msgs
         .iter()
         .find(|m| m.type_name == type_names::STATUS)
@@ -305,7 +307,7 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
         None if scene.control.kp != 0.0 => (Mode::Custom, scene.control.kp),
         None => (Mode::Off, 0.0),
     };
-    let mut core = ControllerCore::new(
+    Ok(ControllerCore::new(
         scene.physical,
         scene.drive.alpha,
         scene.drive.omega,
@@ -313,15 +315,23 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
         kp,
         config,
         f64::INFINITY,
-    );
+    ))
+}
+
+/// Commands by state seq (the library's, the recording's) and mode requests (replayed, answered
+/// differently).
+type Redriven = (BTreeMap<u64, f64>, BTreeMap<u64, f64>, (u64, u64));
+
+/// Feeds the recorded states and mode requests to `core` in log-time order. A scheduled switch
+/// (`effective_from`, e.g. `capsule_ros set-mode --at-s`) replays exactly; an immediate one is
+/// placed where the recorder saw the request, which in a loaded system can be a sample away
+/// from where the controller applied it.
+fn redrive(core: &mut ControllerCore, msgs: &[Message]) -> Result<Redriven> {
     let t0 = msgs.first().map(|m| m.log_time).unwrap_or(0);
     let mut ours: BTreeMap<u64, f64> = BTreeMap::new();
     let mut recorded: BTreeMap<u64, f64> = BTreeMap::new();
     let mut requests = (0u64, 0u64);
     let mut pending_answers: Vec<(([u8; 16], i64), capsule_msgs::SetModeResponse)> = Vec::new();
-    // Log-time order. A scheduled switch (`effective_from`, e.g. `capsule_ros set-mode --at-s`)
-    // replays exactly; an immediate one is placed where the recorder saw the request, which in
-    // a loaded system can be a sample away from where the controller applied it.
     for m in msgs {
         match m.type_name.as_str() {
             type_names::STATE => {
@@ -366,6 +376,13 @@ fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
             _ => {}
         }
     }
+    Ok((ours, recorded, requests))
+}
+
+fn check_controller(args: &Args, msgs: &[Message]) -> Result<()> {
+    let mut core = recorded_controller(args, msgs)?;
+    let (ours, recorded, requests) = redrive(&mut core, msgs)?;
+    let file = args.file.display().to_string();
     if recorded.is_empty() {
         bail!("{file}: no force commands recorded: nothing to compare");
     }

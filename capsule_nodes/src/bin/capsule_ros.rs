@@ -7,7 +7,10 @@ use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_nodes::client::{state_subscription, ModeClient, SegmentMeter};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    ros::{self, RosArgs, RosEnv, RosOptions},
+    ros_args,
+};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 
@@ -138,27 +141,9 @@ async fn run(cli: Cli) -> Result<()> {
                 mode: parse_mode(&mode)?,
                 gain,
                 effective_from: capsule_nodes::client::effective_from(at_s)?,
-                pulse_periods: pulse.pulse_periods,
-                target_period: pulse.target_period,
-                max_tries: pulse.max_tries,
+                ..pulse.request()
             };
-            let context = settings.context()?;
-            let mut node = settings.node(&context)?;
-            let client = ModeClient::new(&mut node, &settings, &cli.service)?;
-            let resp = client
-                .call(&node, req, Duration::from_secs_f64(timeout_s))
-                .await?;
-            println!(
-                "accepted={} mode={} gain={} reason={}",
-                resp.accepted,
-                capsule_msgs::mode_name(resp.mode).unwrap_or("?"),
-                resp.gain,
-                resp.reason
-            );
-            if !resp.accepted {
-                std::process::exit(3);
-            }
-            Ok(())
+            set_mode(&settings, &cli.service, req, timeout_s).await
         }
         Cmd::SwitchAttractor {
             scene,
@@ -168,25 +153,14 @@ async fn run(cli: Cli) -> Result<()> {
             after_periods,
             timeout_s,
         } => {
-            let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
+            let scene = SceneFile::read(std::path::Path::new(&scene))?.scene;
             let req = SetModeRequest {
                 mode: SetModeRequest::SWITCH_ATTRACTOR,
                 gain,
-                effective_from: Time::ZERO,
-                pulse_periods: pulse.pulse_periods,
-                target_period: pulse.target_period,
-                max_tries: pulse.max_tries,
+                ..pulse.request()
             };
-            switch_attractor(
-                &settings,
-                &cli.service,
-                &sc,
-                req,
-                before_periods,
-                after_periods,
-                timeout_s,
-            )
-            .await
+            let watch = SwitchWatch::new(&scene, before_periods, after_periods);
+            switch_attractor(&settings, &cli.service, watch, req, timeout_s).await
         }
         Cmd::Period { scene, periods } => {
             let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
@@ -203,92 +177,304 @@ async fn run(cli: Cli) -> Result<()> {
             timeout_s,
         } => {
             let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
-            let period_s = sc.drive.period() * sc.physical.time_s();
-            let mut plan = Vec::new();
-            let mut t = 0.0;
-            for seg in &segments {
-                let (m, n) = seg
-                    .split_once(':')
-                    .with_context(|| format!("--segments {seg:?}: expected MODE:PERIODS"))?;
-                let mode = Mode::parse_name(m)
-                    .with_context(|| format!("--segments {seg:?}: unknown mode"))?;
-                let n: f64 = n.parse().ok().filter(|n: &f64| *n > settle_periods && *n <= 1e9).with_context(|| {
-                    format!("--segments {seg:?}: PERIODS must be a number above --settle-periods {settle_periods} and at most 1e9")
-                })?;
-                plan.push((mode, t, t + n * period_s));
-                t += n * period_s;
-            }
-            if plan.is_empty() {
-                bail!("--segments: nothing to run");
-            }
-            let context = settings.context()?;
-            let mut node = settings.node(&context)?;
-            let client = ModeClient::new(&mut node, &settings, &cli.service)?;
-            let timeout = Duration::from_secs_f64(timeout_s);
-            for (mode, from, _) in plan.iter().skip(1) {
-                let req = SetModeRequest {
-                    mode: mode.code(),
-                    gain: 0.0,
-                    effective_from: Time::from_secs_f64(*from),
-                    ..SetModeRequest::default()
-                };
-                let resp = client.call(&node, req, timeout).await?;
-                if !resp.accepted {
-                    bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
-                }
-                println!(
-                    "scheduled {mode} from t = {from:.3} s (k_p = {})",
-                    resp.gain
-                );
-            }
-            let windows = plan
-                .iter()
-                .map(|(m, from, to)| (m.name().to_string(), from + settle_periods * period_s, *to))
-                .collect();
-            let mut meter = SegmentMeter::new(windows, period_s, sc.physical.length_m());
-            let sub = state_subscription(&mut node, &settings)?;
-            let states = sub.async_stream();
-            tokio::pin!(states);
-            let started = Instant::now();
-            while !meter.done() {
-                let left = timeout.saturating_sub(started.elapsed());
-                match tokio::time::timeout(left, states.next()).await {
-                    Err(_) => bail!(
-                        "demo timed out after {timeout_s} s on {}",
-                        settings.resolve_name(capsule_msgs::names::topics::STATE)
-                    ),
-                    Ok(None) => bail!("state stream ended"),
-                    Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),
-                    Ok(Some(Ok((s, _)))) => meter.sample(&s),
-                }
-            }
-            let wall = started.elapsed().as_secs_f64();
-            println!(
-                "segment         periods  progression/period (non-dim)  progression/period [mm]"
-            );
-            for r in meter.results() {
-                println!(
-                    "{:<15} {:>7.1}  {:>28.6}  {:>23.6}",
-                    r.mode,
-                    r.periods,
-                    r.per_period,
-                    r.per_period_m * 1e3
-                );
-            }
-            println!("sim time {t:.3} s in {wall:.2} s wall");
-            let results = meter.results();
-            let get = |m: &str| results.iter().find(|r| r.mode == m).map(|r| r.per_period);
-            if let (Some(f), Some(b), Some(o)) = (get("FORWARD"), get("BACKWARD"), get("OFF")) {
-                let yes = |ok: bool| if ok { "yes" } else { "NO" };
-                println!(
-                    "forward > 0: {}, backward < 0: {}, off near 0 (under 5 % of forward): {}",
-                    yes(f > 0.0),
-                    yes(b < 0.0),
-                    yes(o.abs() < 0.05 * f.abs())
-                );
-            }
-            Ok(())
+            let demo = DemoPlan::new(&sc, &segments, settle_periods)?;
+            demo.run(&settings, &cli.service, timeout_s).await
         }
+    }
+}
+
+impl PulseArgs {
+    /// A request with these pulse fields, the rest default.
+    fn request(&self) -> SetModeRequest {
+        SetModeRequest {
+            pulse_periods: self.pulse_periods,
+            target_period: self.target_period,
+            max_tries: self.max_tries,
+            ..SetModeRequest::default()
+        }
+    }
+}
+
+/// Prints a set_mode answer as the subcommands do.
+fn print_answer(resp: &capsule_msgs::SetModeResponse) {
+    println!(
+        "accepted={} mode={} gain={} reason={}",
+        resp.accepted,
+        capsule_msgs::mode_name(resp.mode).unwrap_or("?"),
+        resp.gain,
+        resp.reason
+    );
+}
+
+/// The `set-mode` subcommand: one call, the answer printed; exit status 3 when refused.
+async fn set_mode(
+    settings: &RosOptions,
+    service: &str,
+    req: SetModeRequest,
+    timeout_s: f64,
+) -> Result<()> {
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let client = ModeClient::new(&mut node, settings, service)?;
+    let resp = client
+        .call(&node, req, Duration::from_secs_f64(timeout_s))
+        .await?;
+    print_answer(&resp);
+    if !resp.accepted {
+        std::process::exit(3);
+    }
+    Ok(())
+}
+
+/// The demo's schedule: each segment's mode, start and end \[s of sim time\].
+struct DemoPlan {
+    segments: Vec<(Mode, f64, f64)>,
+    settle_periods: f64,
+    period_s: f64,
+    length_m: f64,
+}
+
+impl DemoPlan {
+    /// The schedule of `--segments` (MODE:PERIODS, in order) for a scene.
+    fn new(
+        sc: &capsule_plant::scene::Scene,
+        segments: &[String],
+        settle_periods: f64,
+    ) -> Result<DemoPlan> {
+        let period_s = sc.drive.period() * sc.physical.time_s();
+        let mut plan = Vec::new();
+        let mut t = 0.0;
+        for seg in segments {
+            let (m, n) = seg
+                .split_once(':')
+                .with_context(|| format!("--segments {seg:?}: expected MODE:PERIODS"))?;
+            let mode =
+                Mode::parse_name(m).with_context(|| format!("--segments {seg:?}: unknown mode"))?;
+            let n: f64 = n.parse().ok().filter(|n: &f64| *n > settle_periods && *n <= 1e9).with_context(|| {
+                format!("--segments {seg:?}: PERIODS must be a number above --settle-periods {settle_periods} and at most 1e9")
+            })?;
+            plan.push((mode, t, t + n * period_s));
+            t += n * period_s;
+        }
+        if plan.is_empty() {
+            bail!("--segments: nothing to run");
+        }
+        Ok(DemoPlan {
+            segments: plan,
+            settle_periods,
+            period_s,
+            length_m: sc.physical.length_m(),
+        })
+    }
+
+    /// Schedules the segments, measures them on the state topic, prints the table.
+    async fn run(&self, settings: &RosOptions, service: &str, timeout_s: f64) -> Result<()> {
+        let context = settings.context()?;
+        let mut node = settings.node(&context)?;
+        let client = ModeClient::new(&mut node, settings, service)?;
+        let timeout = Duration::from_secs_f64(timeout_s);
+        for (mode, from, _) in self.segments.iter().skip(1) {
+            let req = SetModeRequest {
+                mode: mode.code(),
+                gain: 0.0,
+                effective_from: Time::from_secs_f64(*from),
+                ..SetModeRequest::default()
+            };
+            let resp = client.call(&node, req, timeout).await?;
+            if !resp.accepted {
+                bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
+            }
+            println!(
+                "scheduled {mode} from t = {from:.3} s (k_p = {})",
+                resp.gain
+            );
+        }
+        let windows = self
+            .segments
+            .iter()
+            .map(|(m, from, to)| {
+                let settled = from + self.settle_periods * self.period_s;
+                (m.name().to_string(), settled, *to)
+            })
+            .collect();
+        let mut meter = SegmentMeter::new(windows, self.period_s, self.length_m);
+        let sub = state_subscription(&mut node, settings)?;
+        let states = sub.async_stream();
+        tokio::pin!(states);
+        let started = Instant::now();
+        while !meter.done() {
+            let left = timeout.saturating_sub(started.elapsed());
+            match tokio::time::timeout(left, states.next()).await {
+                Err(_) => bail!(
+                    "demo timed out after {timeout_s} s on {}",
+                    settings.resolve_name(capsule_msgs::names::topics::STATE)
+                ),
+                Ok(None) => bail!("state stream ended"),
+                Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),
+                Ok(Some(Ok((s, _)))) => meter.sample(&s),
+            }
+        }
+        self.report(&meter, started.elapsed().as_secs_f64());
+        Ok(())
+    }
+
+    /// Prints each segment's progression and whether the directions came out right.
+    fn report(&self, meter: &SegmentMeter, wall: f64) {
+        let t = self.segments.last().map_or(0.0, |(_, _, to)| *to);
+        println!("segment         periods  progression/period (non-dim)  progression/period [mm]");
+        for r in meter.results() {
+            println!(
+                "{:<15} {:>7.1}  {:>28.6}  {:>23.6}",
+                r.mode,
+                r.periods,
+                r.per_period,
+                r.per_period_m * 1e3
+            );
+        }
+        println!("sim time {t:.3} s in {wall:.2} s wall");
+        let results = meter.results();
+        let get = |m: &str| results.iter().find(|r| r.mode == m).map(|r| r.per_period);
+        if let (Some(f), Some(b), Some(o)) = (get("FORWARD"), get("BACKWARD"), get("OFF")) {
+            let yes = |ok: bool| if ok { "yes" } else { "NO" };
+            println!(
+                "forward > 0: {}, backward < 0: {}, off near 0 (under 5 % of forward): {}",
+                yes(f > 0.0),
+                yes(b < 0.0),
+                yes(o.abs() < 0.05 * f.abs())
+            );
+        }
+    }
+}
+
+/// What `switch-attractor` watches: the orbit on the plant's state before and after the
+/// switch, and the controller's status during it.
+struct SwitchWatch {
+    /// The orbit as the plant's state shows it (the controller's status reports its own).
+    watch: capsule_controller::switch::OrbitWatch,
+    scale: capsule_plant::scene::PhysicalScale,
+    period_s: f64,
+    before_periods: f64,
+    after_periods: f64,
+    first: Option<f64>,
+    /// Sim time of the last state \[s\].
+    t: f64,
+    phase: SwitchPhase,
+    before: Option<usize>,
+    last_status: Option<ControllerStatus>,
+    shown: (u8, i32),
+}
+
+/// Where `switch-attractor` is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SwitchPhase {
+    /// Watching the orbit before asking.
+    Before,
+    /// The switch runs.
+    Switching,
+    /// The switch ended; watching the orbit until this sim time \[s\].
+    After(f64),
+}
+
+impl SwitchWatch {
+    fn new(sc: &capsule_plant::scene::Scene, before_periods: f64, after_periods: f64) -> Self {
+        use capsule_controller::switch::{OrbitWatch, SwitchConfig};
+        let period = sc.drive.period();
+        SwitchWatch {
+            watch: OrbitWatch::new(period, &SwitchConfig::DEFAULT),
+            scale: sc.physical,
+            period_s: period * sc.physical.time_s(),
+            before_periods,
+            after_periods,
+            first: None,
+            t: 0.0,
+            phase: SwitchPhase::Before,
+            before: None,
+            last_status: None,
+            shown: (u8::MAX, -1),
+        }
+    }
+
+    /// A state sample; true when it is time to request the switch.
+    fn on_state(&mut self, s: &capsule_msgs::CapsuleState) -> Result<bool> {
+        let (v, l) = (self.scale.velocity_m_per_s(), self.scale.length_m());
+        let t = s.header.stamp.as_secs_f64();
+        self.t = t;
+        let t0 = *self.first.get_or_insert(t);
+        let x = [
+            s.mass_position / l,
+            s.mass_velocity / v,
+            s.capsule_position / l,
+            s.capsule_velocity / v,
+        ];
+        self.watch.sample(t / self.scale.time_s(), x);
+        if self.phase != SwitchPhase::Before || t - t0 < self.before_periods * self.period_s {
+            return Ok(false);
+        }
+        let Some(p) = self.watch.period() else {
+            bail!(
+                "the state shows no periodic orbit after {} periods: nothing to switch from",
+                self.before_periods
+            );
+        };
+        self.before = Some(p);
+        println!("before: orbit period {p} (state, t = {t:.3} s)");
+        self.phase = SwitchPhase::Switching;
+        Ok(true)
+    }
+
+    /// True once the orbit has been watched long enough after the switch.
+    fn done(&self) -> bool {
+        matches!(self.phase, SwitchPhase::After(until) if self.t >= until)
+    }
+
+    /// A status of the controller: each new phase or try of the switch printed.
+    fn on_status(&mut self, st: ControllerStatus) {
+        if self.phase == SwitchPhase::Switching
+            && st.switch_state != ControllerStatus::SWITCH_NONE
+            && (st.switch_state, st.switch_tries) != self.shown
+        {
+            self.shown = (st.switch_state, st.switch_tries);
+            println!(
+                "status: switch {} tries {} orbit period {} k_p {} pulse {:.4}..{:.4} s (t = {:.3} s)",
+                switch_name(st.switch_state),
+                st.switch_tries,
+                st.orbit_period,
+                st.gain,
+                st.switch_pulse_start.as_secs_f64(),
+                st.switch_pulse_end.as_secs_f64(),
+                st.header.stamp.as_secs_f64()
+            );
+            if st.switch_state >= ControllerStatus::SWITCH_SUCCEEDED {
+                self.phase = SwitchPhase::After(self.t + self.after_periods * self.period_s);
+            }
+        }
+        self.last_status = Some(st);
+    }
+
+    /// The result line; exit status 4 when the switch did not reach the target.
+    fn report(&self) -> Result<()> {
+        let Some(st) = &self.last_status else {
+            bail!("no controller status received");
+        };
+        println!(
+            "SWITCH result={} tries={} max_tries={} target={} before={} after={} status_orbit_period={} mode={} gain={} pulse_start_s={:.6} pulse_end_s={:.6} t={:.3}",
+            switch_name(st.switch_state),
+            st.switch_tries,
+            st.switch_max_tries,
+            st.switch_target_period,
+            self.before.map_or(0, |p| p as i32),
+            self.watch.period().map_or(0, |p| p as i32),
+            st.orbit_period,
+            st.mode_name,
+            st.gain,
+            st.switch_pulse_start.as_secs_f64(),
+            st.switch_pulse_end.as_secs_f64(),
+            self.t,
+        );
+        if st.switch_state != ControllerStatus::SWITCH_SUCCEEDED {
+            std::process::exit(4);
+        }
+        Ok(())
     }
 }
 
@@ -296,16 +482,10 @@ async fn run(cli: Cli) -> Result<()> {
 async fn switch_attractor(
     settings: &RosOptions,
     service: &str,
-    sc: &capsule_plant::scene::Scene,
+    mut sw: SwitchWatch,
     req: SetModeRequest,
-    before_periods: f64,
-    after_periods: f64,
     timeout_s: f64,
 ) -> Result<()> {
-    use capsule_controller::switch::{OrbitWatch, SwitchConfig};
-    let scale = sc.physical;
-    let period = sc.drive.period();
-    let period_s = period * scale.time_s();
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
     let client = ModeClient::new(&mut node, settings, service)?;
@@ -315,23 +495,15 @@ async fn switch_attractor(
     tokio::pin!(states);
     let statuses = status_sub.async_stream();
     tokio::pin!(statuses);
-    // the orbit as the plant's state shows it (the controller's status reports its own)
-    let mut watch = OrbitWatch::new(period, &SwitchConfig::DEFAULT);
     let timeout = Duration::from_secs_f64(timeout_s);
     let started = Instant::now();
-    let (v, l) = (scale.velocity_m_per_s(), scale.length_m());
-    let mut first: Option<f64> = None;
-    let mut t = 0.0;
-    // phase 0: watch; 1: switching; 2: watching after the end
-    let mut phase = 0;
-    let mut until = f64::INFINITY;
-    let mut before = None;
-    let mut last_status: Option<capsule_msgs::ControllerStatus> = None;
-    let mut shown = (u8::MAX, -1);
-    loop {
+    while !sw.done() {
         let left = timeout.saturating_sub(started.elapsed());
         if left.is_zero() {
-            bail!("switch-attractor timed out after {timeout_s} s (sim time {t:.3} s)");
+            bail!(
+                "switch-attractor timed out after {timeout_s} s (sim time {:.3} s)",
+                sw.t
+            );
         }
         tokio::select! {
             _ = tokio::time::sleep(left) => continue,
@@ -339,71 +511,23 @@ async fn switch_attractor(
                 None => bail!("state stream ended"),
                 Some(Err(e)) => tracing::warn!("bad state sample: {e:?}"),
                 Some(Ok((s, _))) => {
-                    t = s.header.stamp.as_secs_f64();
-                    let t0 = *first.get_or_insert(t);
-                    let x = [s.mass_position / l, s.mass_velocity / v, s.capsule_position / l, s.capsule_velocity / v];
-                    watch.sample(t / scale.time_s(), x);
-                    if phase == 0 && t - t0 >= before_periods * period_s {
-                        let Some(p) = watch.period() else {
-                            bail!("the state shows no periodic orbit after {before_periods} periods: nothing to switch from");
-                        };
-                        before = Some(p);
-                        println!("before: orbit period {p} (state, t = {t:.3} s)");
+                    if sw.on_state(&s)? {
                         let resp = client.call(&node, req.clone(), Duration::from_secs(10)).await?;
-                        println!("accepted={} mode={} gain={} reason={}", resp.accepted,
-                            capsule_msgs::mode_name(resp.mode).unwrap_or("?"), resp.gain, resp.reason);
+                        print_answer(&resp);
                         if !resp.accepted {
                             std::process::exit(3);
                         }
-                        phase = 1;
-                    }
-                    if phase == 2 && t >= until {
-                        break;
                     }
                 }
             },
             st = statuses.next() => match st {
                 None => bail!("status stream ended"),
                 Some(Err(e)) => tracing::warn!("bad status: {e:?}"),
-                Some(Ok((st, _))) => {
-                    if phase == 1 && st.switch_state != ControllerStatus::SWITCH_NONE
-                        && (st.switch_state, st.switch_tries) != shown {
-                        shown = (st.switch_state, st.switch_tries);
-                        println!("status: switch {} tries {} orbit period {} k_p {} pulse {:.4}..{:.4} s (t = {:.3} s)",
-                            switch_name(st.switch_state), st.switch_tries, st.orbit_period, st.gain,
-                            st.switch_pulse_start.as_secs_f64(), st.switch_pulse_end.as_secs_f64(), st.header.stamp.as_secs_f64());
-                        if st.switch_state >= ControllerStatus::SWITCH_SUCCEEDED {
-                            phase = 2;
-                            until = t + after_periods * period_s;
-                        }
-                    }
-                    last_status = Some(st);
-                }
+                Some(Ok((st, _))) => sw.on_status(st),
             },
         }
     }
-    let Some(st) = last_status else {
-        bail!("no controller status received");
-    };
-    let after = watch.period();
-    println!(
-        "SWITCH result={} tries={} max_tries={} target={} before={} after={} status_orbit_period={} mode={} gain={} pulse_start_s={:.6} pulse_end_s={:.6} t={t:.3}",
-        switch_name(st.switch_state),
-        st.switch_tries,
-        st.switch_max_tries,
-        st.switch_target_period,
-        before.map_or(0, |p| p as i32),
-        after.map_or(0, |p| p as i32),
-        st.orbit_period,
-        st.mode_name,
-        st.gain,
-        st.switch_pulse_start.as_secs_f64(),
-        st.switch_pulse_end.as_secs_f64(),
-    );
-    if st.switch_state != ControllerStatus::SWITCH_SUCCEEDED {
-        std::process::exit(4);
-    }
-    Ok(())
+    sw.report()
 }
 
 /// The name of a `ControllerStatus.SWITCH_*` value.
@@ -416,7 +540,10 @@ fn switch_name(state: u8) -> &'static str {
 
 fn main() -> std::process::ExitCode {
     ros::init_logging();
-    let cli = Cli::parse();
+    let cli = match ros_args::parse_cli_without_params::<Cli>("capsule_ros", |c| &mut c.ros) {
+        Ok(cli) => cli,
+        Err(e) => return ros::exit_code("capsule_ros", Err(e)),
+    };
     ros::exit_code(
         "capsule_ros",
         ros::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),

@@ -58,7 +58,7 @@ impl Actuator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::PhysicalScale;
+    use crate::physical::PhysicalScale;
 
     #[test]
     fn dead_band_and_saturation_shape_the_command() {

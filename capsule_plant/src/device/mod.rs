@@ -12,7 +12,7 @@ pub mod sensor;
 
 use serde::Serialize;
 
-use crate::scene::PhysicalScale;
+use crate::physical::PhysicalScale;
 
 /// Which quantities a device measures (the hello frame's `measured` bits).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

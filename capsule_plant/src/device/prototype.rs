@@ -5,7 +5,7 @@
 use super::actuator::Actuator;
 use super::sensor::{Reading, Sensor, Truth};
 use super::DeviceModel;
-use crate::scene::PhysicalScale;
+use crate::physical::PhysicalScale;
 use crate::solver::{SimError, Simulator};
 use crate::ConstantForce;
 

@@ -140,7 +140,7 @@ impl Sensor {
 mod tests {
     use super::*;
     use crate::device::Measured;
-    use crate::scene::PhysicalScale;
+    use crate::physical::PhysicalScale;
 
     fn truth(t: f64) -> Truth {
         Truth {

@@ -57,7 +57,7 @@ impl Method {
 
     /// The names of all methods, `a, b or c`, for messages.
     pub fn names() -> String {
-        crate::model::one_of(Method::ALL.map(Method::name))
+        crate::choices::one_of(Method::ALL.map(Method::name))
     }
 }
 

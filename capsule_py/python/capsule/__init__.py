@@ -238,8 +238,16 @@ def _basins_out(text: str, labels: Optional[bytes]) -> Dict[str, Any]:
 
 def basins(scene: SceneLike = None, *, grid: Tuple[int, int] = (100, 100),
            x_range: Tuple[float, float] = (-2.0, 2.0), y_range: Tuple[float, float] = (-2.0, 2.0),
-           plane: str = "x1-x2,y1-y2", known_tol: float = 1e-4, **overrides: Any) -> Dict[str, Any]:
+           plane: str = "x1-x2,y1-y2", known_tol: float = 1e-4,
+           basin_method: str = "known-cells",
+           cell: Optional[float] = None, cell_hits: int = 2, cell_check: int = 200,
+           **overrides: Any) -> Dict[str, Any]:
     """Basins of attraction on a grid of initial states (``capsule basins``).
+
+    ``basin_method="known-cells"`` stops a run once it enters cells of the Poincaré section (edge
+    ``cell``, default half the grid's spacing) labelled by earlier runs, ``cell_hits`` points in
+    a row, and reruns ``cell_check`` of those states per state as a check (``work``, ``check``,
+    ``warning``); ``basin_method="per-state"`` runs each state until it settles on its own.
 
     Returns ``labels``: an ``(ny, nx)`` int32 array (row 0 at the low end of ``y_range``) of
     indices into ``attractors`` (-1: the run failed, -2: not computed), ``attractors``: the
@@ -252,7 +260,9 @@ def basins(scene: SceneLike = None, *, grid: Tuple[int, int] = (100, 100),
     nx, ny = (int(v) for v in grid)
     try:
         text, labels = _capsule.basins(toml_text, nx, ny, tuple(map(float, x_range)),
-                                       tuple(map(float, y_range)), plane, float(known_tol))
+                                       tuple(map(float, y_range)), plane, float(known_tol),
+                                       str(basin_method), None if cell is None else float(cell),
+                                       int(cell_hits), int(cell_check))
     except Interrupted as e:
         if e.partial is not None:
             e.partial = _basins_out(e.partial, None)

@@ -39,6 +39,8 @@ def sweep(param: str, values: Sequence[float], scene: SceneLike = None, *, follo
 def basins(scene: SceneLike = None, *, grid: Tuple[int, int] = (100, 100),
            x_range: Tuple[float, float] = (-2.0, 2.0), y_range: Tuple[float, float] = (-2.0, 2.0),
            plane: str = "x1-x2,y1-y2", known_tol: float = 1e-4,
+           basin_method: str = "known-cells",
+           cell: Optional[float] = None, cell_hits: int = 2, cell_check: int = 200,
            **overrides: Any) -> Dict[str, Any]: ...
 def continue_branch(param: str, to: float, scene: SceneLike = None, *, arc_step: float = 0.01,
                     max_arc_step: float = 0.02, max_points: int = 5000,

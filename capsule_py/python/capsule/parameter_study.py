@@ -52,7 +52,8 @@ CONNECT_TIMEOUT_S = 5.0
 _OPTIONS = {
     "simulate": {"pulse_kp", "pulse_at", "pulse_periods", "kp_after", "stability"},
     "sweep": {"param", "values", "follow", "lyapunov"},
-    "basins": {"grid", "x_range", "y_range", "plane", "known_tol"},
+    "basins": {"grid", "x_range", "y_range", "plane", "known_tol", "basin_method", "cell", "cell_hits",
+               "cell_check"},
     "continue": {"param", "to", "arc_step", "max_arc_step", "max_points"},
 }
 _REQUIRED = {"simulate": set(), "sweep": {"param", "values"}, "basins": set(),

@@ -44,7 +44,7 @@ fn colcon_build() -> Result<PathBuf, String> {
     std::os::unix::fs::symlink(target, work.join("build/capsule_nodes"))
         .map_err(|e| format!("link the build directory to the target directory: {e}"))?;
     // capsule_msgs is skipped: its ament_cmake build needs rosidl_default_generators, which
-    // only a ROS 2 installation provides (README, colcon)
+    // only a ROS 2 installation provides (docs/ros.md, colcon)
     let out = Command::new("colcon")
         .current_dir(&work)
         .arg("--log-base")

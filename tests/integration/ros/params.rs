@@ -27,11 +27,13 @@ fn controller_parameters_get_set_and_refuse_over_the_cyclone_peer() {
             --set 'gain=0.5' --set 'mode="backward"' --set 'alpha=1.5' \
             --refuse 'gain="x"' --refuse 'gain=nan' --refuse 'gain=5.0' --refuse 'gain=1' \
             --refuse 'no_such=1.0' --refuse 'm1_kg=0.1' --refuse 'mode="sideways"' \
-            --refuse 'gain_limit=-1.0' || exit 1
+            --refuse 'gain_limit=-1.0' --refuse 'gain=1e308' --refuse 'alpha=150.0' || exit 1
         # the controller runs what the parameters say
         peer status --periods 0 --timeout 5 || exit 1
         # set_mode refuses the same gain for the same reason
         peer set-mode 2 5.0 || exit 1
+        # and a huge gain, written short in both reasons
+        peer set-mode 4 1e308 || exit 1
         stop $C"#,
     );
     let p = p.as_str();
@@ -78,6 +80,10 @@ fn controller_parameters_get_set_and_refuse_over_the_cyclone_peer() {
             "unknown mode \\\"sideways\\\"",
             "out of range",
             "\"atomic_refused\": \"parameter 'no_such' is not declared\"",
+            // the settings table's range, as the flag and the scene key refuse it (bad_input)
+            "parameter 'alpha' = 150: out of range [0, 100]",
+            // numbers as short as they round-trip, not 309 digits
+            "\"reason\": \"gain 1e308 is beyond the configured limit |k_p| <= 2\"",
         ],
     );
     assert_contains(
@@ -89,9 +95,15 @@ fn controller_parameters_get_set_and_refuse_over_the_cyclone_peer() {
         ],
     );
     // set_mode's reason is the parameter's
+    let answers = run.lines_starting("{\"accepted\"");
+    assert_eq!(answers.len(), 2, "{answers:?}");
     assert_contains(
-        run.line("{\"accepted\""),
+        answers[0],
         &["\"reason\": \"gain -5 is beyond the configured limit |k_p| <= 2\""],
+    );
+    assert_contains(
+        answers[1],
+        &["\"reason\": \"gain 1e308 is beyond the configured limit |k_p| <= 2\""],
     );
 }
 

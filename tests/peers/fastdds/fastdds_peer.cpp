@@ -18,8 +18,12 @@
 //                                             rmw_cyclonedds layout on the same topic), layout
 //                                             (the ActuatorForce name with another layout)
 // Fast DDS uses UDPv4 on 127.0.0.1 only (builtin transports off, interface whitelist).
+// Secured as rmw_fastrtps secures a node when ROS_SECURITY_ENABLE=true: the builtin plugins
+// (PKI-DH, Access-Permissions, AES-GCM-GMAC) on the six files of the enclave
+// $ROS_SECURITY_KEYSTORE/enclaves$ROS_SECURITY_ENCLAVE_OVERRIDE.
 // Exit status 0 = the checks held; 1 = a check failed (the reason on stderr).
 
+#include <climits>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -52,7 +56,10 @@ using Clock = std::chrono::steady_clock;
 
 [[noreturn]] static void fail(const std::string& why) {
   std::fprintf(stderr, "fastdds_peer: %s\n", why.c_str());
-  std::exit(1);
+  std::fflush(nullptr);
+  // no destructors: Fast DDS 2.9 crashes tearing down a participant whose writer its access
+  // control refused
+  std::_Exit(1);
 }
 
 /// Now + S seconds.
@@ -80,6 +87,33 @@ static std::string num(double v) {
   return o.str();
 }
 
+/// The DDS Security properties of the enclave the ROS_SECURITY_* variables name (none unless
+/// ROS_SECURITY_ENABLE is exactly "true"), under the names rmw_fastrtps gives them.
+static void secure(DomainParticipantQos& qos) {
+  const char* enable = std::getenv("ROS_SECURITY_ENABLE");
+  if (!enable || std::string(enable) != "true") return;
+  const char* ks = std::getenv("ROS_SECURITY_KEYSTORE");
+  const char* enclave = std::getenv("ROS_SECURITY_ENCLAVE_OVERRIDE");
+  if (!ks || !enclave || enclave[0] != '/')
+    fail("ROS_SECURITY_ENABLE=true: set ROS_SECURITY_KEYSTORE and ROS_SECURITY_ENCLAVE_OVERRIDE=/name");
+  std::string dir = std::string(ks) + "/enclaves" + enclave;
+  char real[PATH_MAX];
+  if (!realpath(dir.c_str(), real)) fail("no enclave directory " + dir);
+  auto file = [&](const char* name) { return "file://" + std::string(real) + "/" + name; };
+  auto& p = qos.properties().properties();
+  p.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_ca", file("identity_ca.cert.pem"));
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_certificate", file("cert.pem"));
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.private_key", file("key.pem"));
+  p.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions_ca",
+                 file("permissions_ca.cert.pem"));
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", file("governance.p7s"));
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", file("permissions.p7s"));
+  p.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+  std::fprintf(stderr, "fastdds_peer: secured with the enclave %s (%s)\n", enclave, real);
+}
+
 /// One participant on loopback only, with the topics, writers and readers it made.
 class Peer {
  public:
@@ -90,6 +124,7 @@ class Peer {
     udp->interfaceWhiteList.push_back("127.0.0.1");
     qos.transport().user_transports.push_back(udp);
     qos.transport().use_builtin_transports = false;
+    secure(qos);
     const char* dom = std::getenv("ROS_DOMAIN_ID");
     int domain = dom ? std::atoi(dom) : 0;
     dp_ = DomainParticipantFactory::get_instance()->create_participant(domain, qos);

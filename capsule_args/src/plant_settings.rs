@@ -1,0 +1,77 @@
+//! The plant node's settings table (see [`crate::settings`]): what it starts with, each with
+//! its flag, scene key, range and ROS parameter. All read-only once running (a running
+//! simulation does not change its scene, rate or pacing); `-p` / `--params-file` set the
+//! numeric ones at start.
+
+use crate::settings::{Kind, Setting};
+
+/// Scene file (`--scene`, declared by the binary: it is required).
+pub const SCENE: Setting = Setting::new(
+    "scene",
+    "Scene file (model, friction, initial state, scale)",
+    Kind::Text,
+);
+/// Pacing (`--pacing`, declared by the binary: its choices).
+pub const PACING: Setting = Setting::new(
+    "pacing",
+    "realtime (one sample per 1/rate of wall time) or lockstep (each step waits for its command)",
+    Kind::Text,
+);
+/// Sample rate: one sample per 1000 s to 1 MHz (a period that every clock and `Duration`
+/// holds).
+pub const RATE_HZ: Setting = Setting::new(
+    "rate_hz",
+    "Sample rate (and control rate) [Hz]",
+    Kind::Number {
+        min: 1e-3,
+        max: 1e6,
+    },
+)
+.flag()
+.scene("node.rate_hz")
+.default(1000.0);
+/// After this long without a command the plant applies zero force.
+pub const COMMAND_TIMEOUT_S: Setting = Setting::new(
+    "command_timeout_s",
+    "Seconds without a fresh command before zero force",
+    Kind::Number {
+        min: 1e-6,
+        max: 1e6,
+    },
+)
+.flag()
+.scene("node.command_timeout_s")
+.default(0.1);
+/// /clock with every N-th sample.
+pub const CLOCK_EVERY: Setting = Setting::new(
+    "clock_every",
+    "Publish /clock with every N-th sample (1 = every sample; larger saves CPU at high rates \
+     at the cost of a coarser sim clock for use_sim_time nodes). /clock is sent only while it \
+     has a subscriber; a recording always holds it",
+    Kind::Count {
+        min: 1,
+        max: 1_000_000,
+    },
+)
+.flag()
+.default(1.0);
+/// JointState commands on capsule/joint_commands.
+pub const JOINT_COMMANDS: Setting = Setting::new(
+    "joint_commands",
+    "Also take commands as sensor_msgs/JointState on capsule/joint_commands (the effort of \
+     inner_mass_joint is the actuator force [N], the joint found by name), as \
+     topic_based_ros2_control sends them; checked as force commands are. Real-time pacing only",
+    Kind::Switch,
+)
+.flag();
+
+/// The plant's settings, in the order `--help` and `ros2 param list` show them (with the
+/// physical scale and use_sim_time, which every node declares: `capsule_ros_base::params`).
+pub const PLANT: [Setting; 6] = [
+    SCENE,
+    PACING,
+    RATE_HZ,
+    COMMAND_TIMEOUT_S,
+    CLOCK_EVERY,
+    JOINT_COMMANDS,
+];

@@ -1,0 +1,261 @@
+//! A node's settings, declared once: one [`Setting`] per value a node starts with, from which
+//! its command-line flag, its ROS parameter (descriptor, range, read-only), its scene key, its
+//! help and its place in the precedence all come (the friction constants' way:
+//! `capsule_plant::friction::FRICTION_CONSTANTS`). The tables: [`crate::plant_settings::PLANT`]
+//! and `capsule_nodes::controller_settings::CONTROLLER`.
+//!
+//! Precedence, the same for every setting of every node (later wins):
+//!
+//! 1. the setting's default;
+//! 2. the scene file's key;
+//! 3. the command-line flag;
+//! 4. the ROS parameter at start (`--ros-args -p NAME:=VALUE`, `--params-file`);
+//! 5. `ros2 param set` on the running node (writable settings only).
+//!
+//! Each source refuses a value out of the setting's range with the same range in the message
+//! ([`Setting::check`], [`Setting::range_text`]); the ROS descriptor announces that range.
+
+use capsule_plant::number_text::short;
+use capsule_plant::scene::Rule;
+
+use crate::ranges::{self, FlagParser};
+
+/// The values a setting takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Kind {
+    /// A finite number in the closed range `[min, max]`.
+    Number {
+        /// Smallest value.
+        min: f64,
+        /// Largest value.
+        max: f64,
+    },
+    /// Any finite number: the node's own rules judge it (a gain against the gain limit).
+    Finite,
+    /// A whole number in `[min, max]`.
+    Count {
+        /// Smallest value.
+        min: u64,
+        /// Largest value.
+        max: u64,
+    },
+    /// On or off (a flag without value).
+    Switch,
+    /// Text (a name, a path).
+    Text,
+}
+
+/// One setting of a node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setting {
+    /// The ROS parameter's name; the flag is `--` and the name with `-` for `_`.
+    pub name: &'static str,
+    /// What it is, with its unit (one line: the flag's help and the parameter's description).
+    pub help: &'static str,
+    /// The values it takes.
+    pub kind: Kind,
+    /// What else a value must satisfy, in words (between settings: "at most the gain limit").
+    pub rule: &'static str,
+    /// It has a command-line flag made from this entry (else the binary declares it, or it has
+    /// none).
+    pub flag: bool,
+    /// Its key in the scene file (`node.rate_hz`), if the scene gives it.
+    pub scene: Option<&'static str>,
+    /// `ros2 param set` may change it on the running node (else read-only once running).
+    pub writable: bool,
+    /// Its value when no source gives one (numbers and counts).
+    pub default: Option<f64>,
+}
+
+impl Setting {
+    /// A setting of `kind`: read-only once running, no flag, no scene key, no default.
+    pub const fn new(name: &'static str, help: &'static str, kind: Kind) -> Setting {
+        Setting {
+            name,
+            help,
+            kind,
+            rule: "",
+            flag: false,
+            scene: None,
+            writable: false,
+            default: None,
+        }
+    }
+
+    /// With a command-line flag.
+    pub const fn flag(mut self) -> Setting {
+        self.flag = true;
+        self
+    }
+
+    /// Given by the scene file's `key`.
+    pub const fn scene(mut self, key: &'static str) -> Setting {
+        self.scene = Some(key);
+        self
+    }
+
+    /// Writable on the running node.
+    pub const fn writable(mut self) -> Setting {
+        self.writable = true;
+        self
+    }
+
+    /// With a default value.
+    pub const fn default(mut self, value: f64) -> Setting {
+        self.default = Some(value);
+        self
+    }
+
+    /// With a rule between settings, in words.
+    pub const fn rule(mut self, text: &'static str) -> Setting {
+        self.rule = text;
+        self
+    }
+
+    /// The flag's name without the dashes (`rate-hz`).
+    pub fn flag_name(&self) -> String {
+        self.name.replace('_', "-")
+    }
+
+    /// The range as messages and help write it: `[1e-3, 1e6]`, `1 to 1000000`; `None` for
+    /// any finite number, a switch or text.
+    pub fn range_text(&self) -> Option<String> {
+        match self.kind {
+            Kind::Number { min, max } => Some(format!("[{}, {}]", short(min), short(max))),
+            Kind::Count { min, max } => Some(format!("{min} to {max}")),
+            Kind::Finite | Kind::Switch | Kind::Text => None,
+        }
+    }
+
+    /// The scene reader's rule for this setting's value (numbers only).
+    pub fn scene_rule(&self) -> Rule {
+        match self.kind {
+            Kind::Number { min, max } => Rule::Within((min, max)),
+            Kind::Count { min, max } => Rule::Within((min as f64, max as f64)),
+            Kind::Finite | Kind::Switch | Kind::Text => Rule::Finite,
+        }
+    }
+
+    /// Checks a number (from the scene, or any source but the flag's text): the reason it is
+    /// refused, as the flag's parser words it.
+    pub fn check(&self, v: f64) -> Result<(), String> {
+        if !v.is_finite() {
+            return Err(format!("must be a finite number (got {})", short(v)));
+        }
+        let inside = match self.kind {
+            Kind::Number { min, max } => (min..=max).contains(&v),
+            Kind::Count { min, max } => v.fract() == 0.0 && (min as f64..=max as f64).contains(&v),
+            Kind::Finite | Kind::Switch | Kind::Text => true,
+        };
+        match (inside, self.kind) {
+            (true, _) => Ok(()),
+            (false, Kind::Count { min, max }) => Err(format!(
+                "must be a whole number from {min} to {max} (got {})",
+                short(v)
+            )),
+            (false, _) => Err(format!(
+                "must be in {} (got {})",
+                self.range_text().unwrap_or_default(),
+                short(v)
+            )),
+        }
+    }
+
+    /// The flag's parser of a number (a [`Kind::Number`] or [`Kind::Finite`]).
+    pub fn number_parser(&self) -> impl FlagParser<f64> {
+        let (min, max) = match self.kind {
+            Kind::Number { min, max } => (min, max),
+            _ => (f64::MIN, f64::MAX),
+        };
+        ranges::within(min, max)
+    }
+
+    /// The flag's parser of a count (a [`Kind::Count`]).
+    pub fn count_parser(&self) -> impl FlagParser<u64> {
+        let (min, max) = match self.kind {
+            Kind::Count { min, max } => (min, max),
+            _ => (0, u64::MAX),
+        };
+        ranges::count(min, max)
+    }
+
+    /// The help line: what it is, its range and rule, then its default, scene key and
+    /// parameter (`Sample rate [Hz], [1e-3, 1e6] [default: 1000; scene: node.rate_hz;
+    /// parameter rate_hz, read-only]`).
+    pub fn help_line(&self) -> String {
+        let mut text = self.help.to_string();
+        if let Some(range) = self.range_text() {
+            text += &format!(", {range}");
+        }
+        if !self.rule.is_empty() {
+            text += &format!(" and {}", self.rule);
+        }
+        let mut tags = Vec::new();
+        if let Some(d) = self.default {
+            tags.push(format!("default: {}", short(d)));
+        }
+        if let Some(key) = self.scene {
+            tags.push(format!("scene: {key}"));
+        }
+        let access = if self.writable {
+            "writable"
+        } else {
+            "read-only"
+        };
+        tags.push(format!("parameter {}, {access}", self.name));
+        format!("{text} [{}]", tags.join("; "))
+    }
+}
+
+/// The setting named `name` in `table`.
+pub fn find<'a>(table: &'a [Setting], name: &str) -> Option<&'a Setting> {
+    table.iter().find(|s| s.name == name)
+}
+
+/// The precedence, as `--help` ends with it.
+pub const PRECEDENCE: &str = "Settings with a [parameter] take, later winning: their default, the scene file's key, the \
+flag, `--ros-args -p NAME:=VALUE` or `--params-file` at start, and (writable ones) `ros2 param set` on the running node; \
+each refuses a value out of its range the same way.";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RATE: Setting = Setting::new(
+        "rate_hz",
+        "Sample rate [Hz]",
+        Kind::Number {
+            min: 1e-3,
+            max: 1e6,
+        },
+    )
+    .flag()
+    .scene("node.rate_hz")
+    .default(1000.0);
+
+    #[test]
+    fn a_setting_says_its_range_the_same_way_to_every_source() {
+        assert_eq!(RATE.flag_name(), "rate-hz");
+        assert_eq!(RATE.range_text().as_deref(), Some("[1e-3, 1e6]"));
+        let flag = RATE.number_parser()("1e-300").unwrap_err();
+        let checked = RATE.check(1e-300).unwrap_err();
+        assert_eq!(flag, "must be in [1e-3, 1e6] (got 1e-300)");
+        assert_eq!(checked, flag);
+        assert_eq!(RATE.number_parser()("500"), Ok(500.0));
+        assert_eq!(
+            RATE.check(f64::NAN).unwrap_err(),
+            "must be a finite number (got NaN)"
+        );
+        assert_eq!(
+            RATE.help_line(),
+            "Sample rate [Hz], [1e-3, 1e6] [default: 1e3; scene: node.rate_hz; parameter rate_hz, read-only]"
+        );
+        let every = Setting::new("clock_every", "x", Kind::Count { min: 1, max: 10 });
+        assert!(every.check(2.5).is_err_and(|e| e.contains("from 1 to 10")));
+        assert_eq!(
+            every.count_parser()("0").unwrap_err(),
+            "must be a whole number from 1 to 10 (got 0)"
+        );
+        assert_eq!(find(&[RATE, every], "clock_every"), Some(&every));
+    }
+}

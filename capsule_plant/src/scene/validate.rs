@@ -1,0 +1,85 @@
+//! Validation of a scene: every value checked, the first bad one refused with its key.
+
+use super::error::{Fault, Invalid};
+use super::rule::Rule;
+use super::types::Scene;
+use crate::solver::Method;
+
+impl Scene {
+    /// Check every value; the first bad one is refused with its key and the reason.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let c = &self.model.capsule;
+        let mut checks: Vec<(&str, f64, Rule)> = vec![
+            ("capsule.gamma", c.gamma, Rule::Positive),
+            ("capsule.beta", c.beta, Rule::NonNegative),
+            ("capsule.delta", c.delta, Rule::NonNegative),
+            ("capsule.xi", c.xi, Rule::NonNegative),
+            ("drive.alpha", self.drive.alpha, Rule::NonNegative),
+            ("drive.omega", self.drive.omega, Rule::Positive),
+            ("control.kp", self.control.kp, Rule::Finite),
+            ("initial.state[0] (x1)", self.initial.x1, Rule::Finite),
+            ("initial.state[1] (y1)", self.initial.y1, Rule::Finite),
+            ("initial.state[2] (x2)", self.initial.x2, Rule::Finite),
+            ("initial.state[3] (y2)", self.initial.y2, Rule::Finite),
+        ];
+        let friction = self.model.friction.constants();
+        let keys: Vec<String> = friction
+            .iter()
+            .map(|(c, _)| format!("friction.{}", c.key))
+            .collect();
+        for ((c, v), key) in friction.iter().zip(&keys) {
+            let rule = if c.positive {
+                Rule::Positive
+            } else {
+                Rule::NonNegative
+            };
+            checks.push((key, *v, rule));
+        }
+        match self.solver.method {
+            Method::Adaptive => checks.push(("solver.tol", self.solver.tol, Rule::Tolerance)),
+            Method::Fixed => checks.push(("solver.step", self.solver.step, Rule::Positive)),
+            Method::Exact => {}
+        }
+        for (key, v, rule) in checks {
+            rule.check(key, v)?;
+        }
+        self.physical.validate()?;
+        if let Some(d) = &self.device {
+            for (key, v, positive) in d.numbers() {
+                let rule = if positive {
+                    Rule::Positive
+                } else {
+                    Rule::NonNegative
+                };
+                rule.check(&format!("device.{key}"), v)?;
+            }
+        }
+        let h = self.horizon;
+        if h.periods == 0 {
+            return Err(Invalid::new(
+                "horizon.periods",
+                Fault::NotACount {
+                    got: "0".into(),
+                    min: 1,
+                    max: u32::MAX,
+                },
+            ));
+        }
+        if h.transient >= h.periods {
+            return Err(Invalid::new(
+                "horizon.transient",
+                Fault::TransientNotBelowPeriods {
+                    transient: h.transient,
+                    periods: h.periods,
+                },
+            ));
+        }
+        if self.solver.method == Method::Exact && !self.model.friction.is_piecewise_linear() {
+            return Err(Invalid::new(
+                "solver.method",
+                Fault::ExactNeedsPiecewiseLinear(self.model.friction.name()),
+            ));
+        }
+        Ok(())
+    }
+}
