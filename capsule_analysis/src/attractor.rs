@@ -10,6 +10,7 @@
 //!
 //! [`RunReport`]: crate::RunReport
 
+use crate::cycle::{canonical, same_cycle, SAME_TOL};
 use crate::run::{detect_period, PERIOD_TOL};
 use crate::schedule::GainSchedule;
 use capsule_controller::period::{close, reduced};
@@ -239,7 +240,7 @@ impl Trajectory {
     fn cycle(&self, n: usize, k: usize) -> Attractor {
         let hits: u32 = self.impacts[n - k..n].iter().sum();
         let last = &self.points[n - k..n];
-        let d = reduced(last, Catalogue::SAME_TOL);
+        let d = reduced(last, SAME_TOL);
         Attractor {
             period: Some(d),
             impacts_per_period: f64::from(hits) / k as f64,
@@ -391,29 +392,6 @@ pub fn settle_watched(
     })
 }
 
-/// A cycle rotated to start at its point of lowest `y1` (ties broken by the other coordinates).
-pub fn canonical(cycle: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let start = (0..cycle.len())
-        .min_by(|&a, &b| {
-            let (p, q) = (cycle[a], cycle[b]);
-            p[2].total_cmp(&q[2])
-                .then(p[0].total_cmp(&q[0]))
-                .then(p[1].total_cmp(&q[1]))
-        })
-        .unwrap_or(0);
-    cycle[start..]
-        .iter()
-        .chain(&cycle[..start])
-        .copied()
-        .collect()
-}
-
-/// `a` and `b` are the same cycle, whatever point each starts at, within `tol`.
-pub fn same_cycle(a: &[[f64; 3]], b: &[[f64; 3]], tol: f64) -> bool {
-    let k = a.len();
-    k == b.len() && k > 0 && (0..k).any(|r| (0..k).all(|i| close(&a[i], &b[(i + r) % k], tol)))
-}
-
 /// Follows a trajectory along a known attractor: which one, which of its points comes next,
 /// for how many periods it has followed.
 #[derive(Debug, Default)]
@@ -467,9 +445,6 @@ pub struct Catalogue {
 }
 
 impl Catalogue {
-    /// Two periodic attractors whose cycles agree within this (max norm) are one.
-    pub const SAME_TOL: f64 = 1e-4;
-
     /// The index of the attractor `a` is, if known. The non-periodic outcomes form one class
     /// per [`Character`] (chaotic, quasi-periodic, unknown).
     pub fn find(&self, a: &Attractor) -> Option<usize> {
@@ -477,7 +452,7 @@ impl Catalogue {
             .iter()
             .position(|b| match (a.period, b.period) {
                 (None, None) => a.character() == b.character(),
-                (Some(_), Some(_)) => same_cycle(&a.poincare, &b.poincare, Self::SAME_TOL),
+                (Some(_), Some(_)) => same_cycle(&a.poincare, &b.poincare, SAME_TOL),
                 _ => false,
             })
     }
@@ -553,15 +528,8 @@ mod tests {
     }
 
     #[test]
-    fn same_orbit_from_any_point_of_its_cycle_is_one_attractor() {
+    fn a_cycle_is_reduced_to_its_smallest_period() {
         let a = [[0.1, 0.2, 0.3], [0.4, 0.5, -0.6], [0.7, 0.8, 0.9]];
-        let b = [a[1], a[2], a[0]];
-        assert!(same_cycle(&a, &b, 1e-12));
-        assert_eq!(canonical(&a), canonical(&b));
-        assert_eq!(canonical(&a)[0], a[1]);
-        let mut moved = a;
-        moved[2][0] += 1e-3;
-        assert!(!same_cycle(&a, &moved, 1e-4));
         // a period-1 orbit seen as a converging 4-cycle is period 1; a true 3-cycle stays 3
         let near = [
             [0.5, 1.0, 1.2],

@@ -19,6 +19,7 @@
 //! Branch switching at a period doubling: [`switch_at_period_doubling`] (one level).
 
 use crate::floquet::{map_only, modulus, poincare_map, StabilityError};
+use crate::linear::{eigenvalues3, solve};
 use crate::run::run;
 use crate::sweep::Param;
 use capsule_plant::scene::Scene;
@@ -151,37 +152,9 @@ pub enum ContinuationError {
     },
 }
 
-/// Solve the 4 x 4 system `a x = b` by Gaussian elimination with partial pivoting; `None` if
-/// singular.
-#[allow(clippy::needless_range_loop)] // index loops read as the textbook algorithm
-fn solve4(mut a: [[f64; 4]; 4], mut b: [f64; 4]) -> Option<[f64; 4]> {
-    let scale = a
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, v| m.max(v.abs()))
-        .max(f64::MIN_POSITIVE);
-    for c in 0..4 {
-        let piv = (c..4).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if a[piv][c].abs() <= 1e-13 * scale {
-            return None;
-        }
-        a.swap(c, piv);
-        b.swap(c, piv);
-        for r in c + 1..4 {
-            let f = a[r][c] / a[c][c];
-            for k in c..4 {
-                a[r][k] -= f * a[c][k];
-            }
-            b[r] -= f * b[c];
-        }
-    }
-    let mut x = [0.0; 4];
-    for c in (0..4).rev() {
-        let s: f64 = (c + 1..4).map(|k| a[c][k] * x[k]).sum();
-        x[c] = (b[c] - s) / a[c][c];
-    }
-    Some(x)
-}
+/// Pivots of Newton's and the tangent's bordered 4 x 4 systems at most this relative to the
+/// matrix's largest entry count as singular (a branch point).
+const SINGULAR: f64 = 1e-13;
 
 /// The problem: a scene, a parameter, a period.
 struct Problem<'a> {
@@ -241,7 +214,7 @@ impl Problem<'_> {
             }
             a[3] = t;
             b[3] = -(0..4).map(|i| t[i] * (u[i] - u0[i])).sum::<f64>();
-            let du = solve4(a, b).ok_or("singular Jacobian in Newton's step")?;
+            let du = solve(a, b, SINGULAR).ok_or("singular Jacobian in Newton's step")?;
             for i in 0..4 {
                 u[i] += du[i];
             }
@@ -273,13 +246,13 @@ fn unit_tangent(gx: &[[f64; 3]; 3], gp: &[f64; 3], prev: [f64; 4]) -> Option<[f6
         a[i] = [gx[i][0], gx[i][1], gx[i][2], gp[i]];
     }
     a[3] = prev;
-    let t = solve4(a, [0.0, 0.0, 0.0, 1.0])?;
+    let t = solve(a, [0.0, 0.0, 0.0, 1.0], SINGULAR)?;
     let n = t.iter().map(|v| v * v).sum::<f64>().sqrt();
     Some(t.map(|v| v / n))
 }
 
 fn point(value: f64, x: [f64; 3], lin: &crate::floquet::Linearization) -> BranchPoint {
-    let mut multipliers = crate::floquet::eigenvalues3(&lin.jacobian).to_vec();
+    let mut multipliers = eigenvalues3(&lin.jacobian).to_vec();
     multipliers.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
     let count = |f: fn(&EventKind) -> bool| lin.events.iter().filter(|e| f(e)).count();
     let events: Vec<&str> = lin
@@ -610,25 +583,6 @@ fn locate(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn solves_a_linear_system_and_refuses_a_singular_one() {
-        let a = [
-            [2.0, 1.0, 0.0, 0.0],
-            [1.0, 3.0, 1.0, 0.0],
-            [0.0, 1.0, 4.0, 1.0],
-            [0.0, 0.0, 1.0, 5.0],
-        ];
-        let x = [1.0, -2.0, 0.5, 3.0];
-        let b = [0, 1, 2, 3].map(|i| (0..4).map(|k| a[i][k] * x[k]).sum::<f64>());
-        let got = solve4(a, b).unwrap_or_else(|| panic!("singular?"));
-        for (g, w) in got.iter().zip(&x) {
-            assert!((g - w).abs() < 1e-14, "{got:?}");
-        }
-        let mut s = a;
-        s[3] = s[2];
-        assert!(solve4(s, b).is_none());
-    }
 
     #[test]
     fn the_tangent_is_the_null_vector_and_none_at_a_branch_point() {

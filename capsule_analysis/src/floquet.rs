@@ -24,6 +24,7 @@ use capsule_plant::AffineLaw;
 use capsule_plant::{EventKind, Phase, Regime, SimError, Simulator, State, Transition};
 use serde::Serialize;
 use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicU64, Ordering};
 use thiserror::Error;
 
 /// Largest RK4 step for the variational equation of a nonlinear regime.
@@ -136,6 +137,17 @@ fn flow_jacobian(eq: &Equations, regime: &Regime, tau: f64, v: &Core, dt: f64) -
     phi
 }
 
+/// Calls of [`advance_linearized`] in this process: every Floquet multiplier, Lyapunov exponent
+/// and Newton step on the Poincaré map goes through it, so zero means no such analysis ran.
+static LINEARIZED: AtomicU64 = AtomicU64::new(0);
+
+/// How many stretches of trajectory this process has linearized ([`advance_linearized`]) so
+/// far: a counter of the stability analyses' work, for checking that an unrequested one did
+/// not run.
+pub fn linearizations() -> u64 {
+    LINEARIZED.load(Ordering::Relaxed)
+}
+
 /// Advance `sim` to `tau_end` and return the Jacobian of its `[z, y1, y2, p]` at `tau_end` with
 /// respect to that at the start; the events crossed are appended to `events` and the smallest
 /// transversality is folded into `transversality`.
@@ -147,6 +159,7 @@ pub fn advance_linearized(
     events: &mut Vec<EventKind>,
     transversality: &mut f64,
 ) -> Result<Mat4, StabilityError> {
+    LINEARIZED.fetch_add(1, Ordering::Relaxed);
     let mut trace: Vec<Transition> = Vec::new();
     let (mut t, mut regime, mut core) = (sim.time(), sim.regime(), sim.core());
     sim.advance_until(law, tau_end, &mut |tr| {
@@ -283,7 +296,7 @@ pub fn floquet(scene: &Scene, x: [f64; 3], period: usize) -> Result<Floquet, Sta
         .zip(&x)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
-    let mut multipliers = eigenvalues3(&lin.jacobian).to_vec();
+    let mut multipliers = crate::linear::eigenvalues3(&lin.jacobian).to_vec();
     multipliers.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
     Ok(Floquet {
         largest_modulus: modulus(&multipliers[0]),
@@ -301,88 +314,23 @@ pub fn modulus(z: &[f64; 2]) -> f64 {
     z[0].hypot(z[1])
 }
 
-/// The eigenvalues of a real 3 x 3 matrix, as `[re, im]`: a real root of the characteristic
-/// polynomial by safeguarded Newton, the other two from the deflated quadratic.
-pub fn eigenvalues3(m: &[[f64; 3]; 3]) -> [[f64; 2]; 3] {
-    let tr = m[0][0] + m[1][1] + m[2][2];
-    let minors = m[0][0] * m[1][1] - m[0][1] * m[1][0] + m[0][0] * m[2][2] - m[0][2] * m[2][0]
-        + m[1][1] * m[2][2]
-        - m[1][2] * m[2][1];
-    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    // p(l) = l^3 + a l^2 + b l + c
-    let (a, b, c) = (-tr, minors, -det);
-    let p = |l: f64| ((l + a) * l + b) * l + c;
-    let dp = |l: f64| (3.0 * l + 2.0 * a) * l + b;
-    // bracket a real root in [-r, r] (Cauchy bound) and bisect with Newton steps
-    let r = 1.0 + a.abs().max(b.abs()).max(c.abs());
-    let (mut lo, mut hi) = (-r, r);
-    let mut l = 0.0;
-    for _ in 0..200 {
-        let pl = p(l);
-        if pl == 0.0 {
-            break;
-        }
-        if pl < 0.0 {
-            lo = l;
-        } else {
-            hi = l;
-        }
-        let d = dp(l);
-        let newton = if d != 0.0 { l - pl / d } else { f64::NAN };
-        let next = if newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        if (next - l).abs() <= 1e-16 * l.abs().max(1e-300) {
-            l = next;
-            break;
-        }
-        l = next;
-    }
-    // deflate: p(l) = (x - l)(x^2 + q1 x + q0)
-    let q1 = a + l;
-    let q0 = b + l * q1;
-    let disc = q1 * q1 - 4.0 * q0;
-    let (r1, r2) = if disc >= 0.0 {
-        let s = disc.sqrt();
-        // the root of larger modulus first, the other from the product (no cancellation)
-        let sign = if q1 >= 0.0 { 1.0 } else { -1.0 };
-        let big = -0.5 * (q1 + sign * s);
-        let small = if big != 0.0 { q0 / big } else { 0.0 };
-        ([big, 0.0], [small, 0.0])
-    } else {
-        let im = 0.5 * (-disc).sqrt();
-        ([-0.5 * q1, im], [-0.5 * q1, -im])
-    };
-    [[l, 0.0], r1, r2]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn eigenvalues_of_known_matrices() {
-        // triangular: the diagonal
-        let m = [[0.5, 1.0, 2.0], [0.0, -0.3, 4.0], [0.0, 0.0, 0.0]];
-        let mut e: Vec<f64> = eigenvalues3(&m).iter().map(|z| z[0]).collect();
-        e.sort_by(f64::total_cmp);
-        for (got, want) in e.iter().zip([-0.3, 0.0, 0.5]) {
-            assert!((got - want).abs() < 1e-14, "{e:?}");
-        }
-        // a rotation by 0.3 scaled by 0.9, and 0.2
-        let (c, s) = (0.9 * 0.3f64.cos(), 0.9 * 0.3f64.sin());
-        let m = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 0.2]];
-        let e = eigenvalues3(&m);
-        let mut mods: Vec<f64> = e.iter().map(modulus).collect();
-        mods.sort_by(f64::total_cmp);
-        assert!(
-            (mods[0] - 0.2).abs() < 1e-14 && (mods[2] - 0.9).abs() < 1e-14,
-            "{e:?}"
-        );
-        assert!(e.iter().any(|z| (z[1] - s).abs() < 1e-14), "{e:?}");
+    fn the_multipliers_are_the_jacobians_eigenvalues_largest_first() {
+        // the section-5 period-1 orbit at k_p = 0.1 (stable, sticks once per period)
+        let mut s = Scene::default();
+        s.control.kp = 0.1;
+        let r = crate::run(&s).unwrap_or_else(|e| panic!("{e}"));
+        let f = r.final_state;
+        let fl = floquet(&s, [f.x1 - f.x2, f.y1, f.y2], 1).unwrap_or_else(|e| panic!("{e}"));
+        let mods: Vec<f64> = fl.multipliers.iter().map(modulus).collect();
+        assert!(mods.windows(2).all(|w| w[0] >= w[1]), "{mods:?}");
+        assert_eq!(fl.largest_modulus, mods[0]);
+        assert!(fl.largest_modulus < 1.0 && fl.closure < 1e-9, "{fl:?}");
+        // sticking projects one direction out: a multiplier at rounding
+        assert!(mods[2] < 1e-12, "{mods:?}");
     }
 }

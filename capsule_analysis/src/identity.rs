@@ -3,15 +3,16 @@
 //! - **Periodic orbits** are refined to the exact orbit by Newton's method on the Poincaré map
 //!   (its exact Jacobian, [`poincare_map`]): two runs that approach one orbit from different
 //!   sides, or so slowly (a multiplier near -1 or on a complex pair near the unit circle) that
-//!   their last cycles still differ by more than [`crate::attractor::Catalogue::SAME_TOL`],
+//!   their last cycles still differ by more than [`crate::cycle::SAME_TOL`],
 //!   end on the same refined cycle, and a cycle seen at twice its period (the halves not yet
 //!   equal) is reduced to its own period.
 //! - **Runs that neither settle nor diverge** are told apart by their largest Lyapunov exponent
 //!   ([`lyapunov`], over [`LYAPUNOV_PERIODS`] periods from where the run ended): chaotic when it
 //!   is clearly positive, quasi-periodic or slowly converging when it is near zero.
 
-use crate::attractor::{canonical, Catalogue};
-use crate::floquet::{eigenvalues3, map_only, modulus, poincare_map};
+use crate::cycle::{canonical, SAME_TOL};
+use crate::floquet::{map_only, modulus, poincare_map};
+use crate::linear::{eigenvalues3, solve};
 use crate::lyapunov::lyapunov;
 use capsule_controller::period::reduced;
 use capsule_plant::scene::{Horizon, Scene};
@@ -55,32 +56,6 @@ fn max_norm(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
 }
 
-/// `a x = b` for a 3 x 3 `a` (Gaussian elimination with partial pivoting); `None` if singular.
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
-    for c in 0..3 {
-        let p = (c..3).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if a[p][c].abs() < 1e-300 {
-            return None;
-        }
-        a.swap(c, p);
-        b.swap(c, p);
-        let pivot = a[c];
-        for r in c + 1..3 {
-            let f = a[r][c] / pivot[c];
-            for (v, p) in a[r].iter_mut().zip(pivot).skip(c) {
-                *v -= f * p;
-            }
-            b[r] -= f * b[c];
-        }
-    }
-    let mut x = [0.0; 3];
-    for r in (0..3).rev() {
-        let s: f64 = (r + 1..3).map(|k| a[r][k] * x[k]).sum();
-        x[r] = (b[r] - s) / a[r][r];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
 /// The periodic orbit of period `k` (or a divisor) near `cycle` (a run's last `k` section
 /// points), by Newton's method on the `k`-fold Poincaré map of `scene`; `None` when Newton
 /// does not converge, lands far from the cycle, or the law is not covered by the map (memory).
@@ -100,7 +75,7 @@ pub fn refine(scene: &Scene, cycle: &[[f64; 3]]) -> Option<Refined> {
         for (i, row) in a.iter_mut().enumerate() {
             row[i] -= 1.0;
         }
-        let dx = solve3(a, f.map(|v| -v))?;
+        let dx = solve(a, f.map(|v| -v), 0.0)?;
         for i in 0..3 {
             x[i] += dx[i];
         }
@@ -114,7 +89,7 @@ pub fn refine(scene: &Scene, cycle: &[[f64; 3]]) -> Option<Refined> {
         points.push(to_section(&p));
         p = map_only(scene, p, 1).ok()?;
     }
-    let d = reduced(&points, Catalogue::SAME_TOL * 1e-3);
+    let d = reduced(&points, SAME_TOL * 1e-3);
     let jac = poincare_map(scene, x, d).ok()?.jacobian;
     let largest_modulus = eigenvalues3(&jac).iter().map(modulus).fold(0.0, f64::max);
     Some(Refined {
@@ -140,7 +115,7 @@ pub fn largest_exponent(scene: &Scene, state: State) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::attractor::same_cycle;
+    use crate::cycle::same_cycle;
 
     #[test]
     fn newton_refines_a_rough_cycle_onto_the_orbit() {
@@ -164,21 +139,5 @@ mod tests {
         let got2 = refine(&s, &two).unwrap_or_else(|| panic!("no refinement"));
         assert_eq!(got2.period, 1);
         assert!(same_cycle(&got.cycle, &got2.cycle, 1e-9));
-    }
-
-    #[test]
-    fn solve3_solves_and_refuses_singular() {
-        let a = [[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 4.0]];
-        let x = solve3(a, [3.0, 5.0, 5.0]).unwrap_or_else(|| panic!("singular"));
-        for (g, w) in x.iter().zip([1.0, 1.0, 1.0]) {
-            assert!((g - w).abs() < 1e-12);
-        }
-        assert_eq!(
-            solve3(
-                [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]],
-                [1.0; 3]
-            ),
-            None
-        );
     }
 }

@@ -1,7 +1,8 @@
 //! Switching between coexisting attractors with a gain schedule (the paper's Fig 20): run the
 //! schedule and name the attractor before the gain changes and the one at the end.
 
-use crate::attractor::{same_cycle, Attractor, Catalogue, Trajectory};
+use crate::attractor::{Attractor, Trajectory};
+use crate::cycle::{same_cycle, SAME_TOL};
 use crate::run::PERIOD_TOL;
 use crate::schedule::GainSchedule;
 use capsule_plant::scene::Scene;
@@ -47,7 +48,7 @@ pub fn switch_run(
     let before = run.classify(start - start / 3, start, PERIOD_TOL);
     let after = run.classify(n - (n - end) / 3, n, PERIOD_TOL);
     let switched = match (before.period, after.period) {
-        (Some(_), Some(_)) => !same_cycle(&before.poincare, &after.poincare, Catalogue::SAME_TOL),
+        (Some(_), Some(_)) => !same_cycle(&before.poincare, &after.poincare, SAME_TOL),
         (None, None) => false,
         _ => true,
     };

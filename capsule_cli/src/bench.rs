@@ -219,9 +219,29 @@ fn stability(args: &Args) -> Result<()> {
     Ok(())
 }
 
+/// Work-precision per friction law and method, then the zero-order hold's error per control
+/// rate: a table on stdout, CSV, JSON and log-log plots under `--out`.
 fn accuracy(args: &Args) -> Result<()> {
     work::check_parent(&args.out)?;
-    let scenes = [
+    let scenes = accuracy_scenes();
+    let all = accuracy_table(&scenes, args.repeat)?;
+    let (csv, json) = write_accuracy_tables(&args.out, &all)?;
+    plot_accuracy(&args.out, &scenes, &all)?;
+    let zpath = zero_order_hold(&args.out)?;
+    println!(
+        "wrote {}, {}, {}{}",
+        csv.display(),
+        json.display(),
+        zpath.display(),
+        png_beside(&zpath)
+    );
+    Ok(())
+}
+
+/// One periodic scene per friction law: the section-5 control point (Coulomb, `k_p = 0.1`) and
+/// the section-3 set for viscous, Stribeck and seven-parameter friction.
+fn accuracy_scenes() -> [Scene; 4] {
+    [
         section5(0.1),
         section3(
             Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
@@ -240,15 +260,19 @@ fn accuracy(args: &Args) -> Result<()> {
             }),
             1.9,
         ),
-    ];
+    ]
+}
+
+/// Every method's ladder of settings on each scene (best of `repeat`), printed as a table.
+fn accuracy_table(scenes: &[Scene], repeat: u32) -> Result<Vec<Point>> {
     let mut all: Vec<Point> = Vec::new();
     println!(
         "{:<40} {:<9} {:>8} {:>11} {:>11} {:>11} {:>10} {:>10}",
         "scene", "method", "setting", "err prog", "err x2", "err poinc", "ms", "rhs evals"
     );
-    for scene in &scenes {
-        let points = ladder(scene, args.repeat)
-            .with_context(|| format!("accuracy ladder for {}", scene.name))?;
+    for scene in scenes {
+        let points =
+            ladder(scene, repeat).with_context(|| format!("accuracy ladder for {}", scene.name))?;
         for p in &points {
             println!(
                 "{:<40} {:<9} {:>8.0e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10.3} {:>10}",
@@ -264,12 +288,17 @@ fn accuracy(args: &Args) -> Result<()> {
         }
         all.extend(points);
     }
-    let csv = args.out.with_extension("csv");
+    Ok(all)
+}
+
+/// The work-precision points as `PREFIX.csv` and `PREFIX.json`; their paths.
+fn write_accuracy_tables(out: &std::path::Path, all: &[Point]) -> Result<(PathBuf, PathBuf)> {
+    let csv = out.with_extension("csv");
     let mut w = std::io::BufWriter::new(
         std::fs::File::create(&csv).with_context(|| format!("writing {}", csv.display()))?,
     );
     writeln!(w, "scene,friction,method,setting,err_progression,err_final_x2,err_poincare,wall_s,steps,rejected,rhs_evals,events")?;
-    for p in &all {
+    for p in all {
         writeln!(
             w,
             "\"{}\",{},{},{},{},{},{},{},{},{},{},{}",
@@ -288,11 +317,15 @@ fn accuracy(args: &Args) -> Result<()> {
         )?;
     }
     w.flush()?;
-    let json = args.out.with_extension("json");
-    std::fs::write(&json, serde_json::to_string_pretty(&all)?)
+    let json = out.with_extension("json");
+    std::fs::write(&json, serde_json::to_string_pretty(all)?)
         .with_context(|| format!("writing {}", json.display()))?;
-    // log-log plots per law: error of the progression against wall time and against
-    // right-hand-side evaluations, a curve per method
+    Ok((csv, json))
+}
+
+/// Log-log plots per law: the error of the progression against wall time and against
+/// right-hand-side evaluations, a curve per method (`PREFIX_LAW.svg`, `PREFIX_LAW_work.svg`).
+fn plot_accuracy(out: &std::path::Path, scenes: &[Scene], all: &[Point]) -> Result<()> {
     type Cost = fn(&Point) -> f64;
     let costs: [(&str, &str, Cost); 2] = [
         ("", "wall time [s]", |p| p.wall_s),
@@ -300,7 +333,7 @@ fn accuracy(args: &Args) -> Result<()> {
             p.work.rhs_evals as f64
         }),
     ];
-    for scene in &scenes {
+    for scene in scenes {
         let law = scene.model.friction.name();
         for (suffix, xlabel, cost) in costs {
             let mut series = Vec::new();
@@ -322,7 +355,7 @@ fn accuracy(args: &Args) -> Result<()> {
                     });
                 }
             }
-            let path = PathBuf::from(format!("{}_{law}{suffix}.svg", args.out.display()));
+            let path = PathBuf::from(format!("{}_{law}{suffix}.svg", out.display()));
             let title = format!("{}: error of average progression vs cost", scene.name);
             std::fs::write(
                 &path,
@@ -332,7 +365,13 @@ fn accuracy(args: &Args) -> Result<()> {
             println!("wrote {}{}", path.display(), png_beside(&path));
         }
     }
-    // the sampled controller: error against the continuous law per control rate
+    Ok(())
+}
+
+/// The sampled controller: the error against the continuous law per control rate (section 5,
+/// `k_p = 0.1`), printed, plotted (`PREFIX_zoh.svg`) and written (`PREFIX_zoh.json`); the
+/// plot's path.
+fn zero_order_hold(out: &std::path::Path) -> Result<PathBuf> {
     let rates = [16, 32, 64, 128, 256, 512, 1024, 4096];
     let zoh = rate_ladder(&section5(0.1), &rates)?;
     println!();
@@ -345,7 +384,7 @@ fn accuracy(args: &Args) -> Result<()> {
             r.samples_per_period, r.avg_progression, r.rel_error
         );
     }
-    let zpath = PathBuf::from(format!("{}_zoh.svg", args.out.display()));
+    let zpath = PathBuf::from(format!("{}_zoh.svg", out.display()));
     let series = [svg::Series {
         name: "zero-order hold".into(),
         colour: "darkgreen",
@@ -365,17 +404,10 @@ fn accuracy(args: &Args) -> Result<()> {
     )
     .with_context(|| format!("writing {}", zpath.display()))?;
     std::fs::write(
-        PathBuf::from(format!("{}_zoh.json", args.out.display())),
+        PathBuf::from(format!("{}_zoh.json", out.display())),
         serde_json::to_string_pretty(&zoh)?,
     )?;
-    println!(
-        "wrote {}, {}, {}{}",
-        csv.display(),
-        json.display(),
-        zpath.display(),
-        png_beside(&zpath)
-    );
-    Ok(())
+    Ok(zpath)
 }
 
 /// Render `svg` to a PNG beside it (in-process, [`svg::png`]); says what it did.

@@ -26,6 +26,11 @@ pub struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Also analyse the stability of the attractor the run ends on: the Floquet multipliers of a
+    /// periodic result and the Lyapunov spectrum over the measured periods (JSON fields
+    /// floquet, lyapunov and stability_note). Without it neither runs.
+    #[arg(long, conflicts_with = "device")]
+    stability: bool,
     /// Close the law through the scene's [device] sensor and actuator models (the typical
     /// device when the scene has none), sampled at --rate-hz on measured positions, as the
     /// plant node runs a real capsule: an emulate-device run offline. --csv then holds the
@@ -109,8 +114,9 @@ struct Output<'a> {
     schedule: &'a GainSchedule,
     #[serde(flatten)]
     report: &'a RunReport,
+    /// Only when asked (`--stability`): absent, it adds no field.
     #[serde(flatten)]
-    stability: &'a RunStability,
+    stability: Option<&'a RunStability>,
     wall_time_s: f64,
 }
 
@@ -152,7 +158,7 @@ pub fn main(args: Args) -> Result<()> {
         &mut |s| rows.push(*s),
         &mut |n| progress.go_on(n),
     );
-    // from here on Ctrl-C ends the process as usual (the stability analysis below)
+    // from here on Ctrl-C ends the process as usual (the stability analysis, if asked)
     work::release_ctrl_c();
     progress.finish();
     let report = report.with_context(|| format!("simulating {}", scene.name))?;
@@ -181,19 +187,25 @@ pub fn main(args: Args) -> Result<()> {
             scene.horizon.periods
         );
     };
-    let stability = stability::of_run(&scene, &schedule, &report);
+    let stability = args
+        .stability
+        .then(|| stability::of_run(&scene, &schedule, &report));
+    tracing::debug!(
+        linearizations = capsule_analysis::floquet::linearizations(),
+        "stability analysis"
+    );
     if args.json {
         let out = Output {
             scene: &scene,
             schedule: &schedule,
             report: &report,
-            stability: &stability,
+            stability: stability.as_ref(),
             wall_time_s: wall,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_summary(&scene, &report, wall);
-        print_stability(&stability, &schedule);
+        print_stability(stability.as_ref(), &schedule);
         if let Some(path) = &args.csv {
             println!("time history   {} ({} rows)", path.display(), rows.len());
         }
@@ -201,13 +213,12 @@ pub fn main(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The stability analysis and the gain schedule, as the text summary prints them.
-fn print_stability(stability: &RunStability, schedule: &GainSchedule) {
-    let RunStability {
-        floquet,
-        lyapunov,
-        stability_note,
-    } = stability;
+/// The stability analysis (when asked) and the gain schedule, as the text summary prints them.
+fn print_stability(stability: Option<&RunStability>, schedule: &GainSchedule) {
+    let (floquet, lyapunov, stability_note) = match stability {
+        Some(s) => (&s.floquet, &s.lyapunov, &s.stability_note),
+        None => (&None, &None, &None),
+    };
     if let Some(f) = floquet {
         let mus: Vec<String> = f
             .multipliers

@@ -60,11 +60,11 @@ pub fn params() -> Vec<&'static str> {
     Param::ALL.iter().map(|p| p.name()).collect()
 }
 
-/// One run ([`run_scheduled_until`]) and its stability ([`of_run`]): the JSON of `capsule
-/// simulate --json`, and with `samples_per_period > 0` the time history as 10 columns of f64
+/// One run ([`run_scheduled_until`]) and, when asked, its stability ([`of_run`]): the JSON of
+/// `capsule simulate --json` (with `stability`, of `--stability`), and with `samples_per_period > 0` the time history as 10 columns of f64
 /// (tau, x1, y1, x2, y2, stuck, contact, friction, contact and actuator force) row by row.
 #[pyfunction]
-#[pyo3(signature = (scene, samples_per_period=0, pulse=None, kp_after=None, stability=true))]
+#[pyo3(signature = (scene, samples_per_period=0, pulse=None, kp_after=None, stability=false))]
 pub fn simulate<'py>(
     py: Python<'py>,
     scene: &str,

@@ -65,6 +65,7 @@ def same(a, b, path="$"):
 
 @pytest.mark.parametrize("args,kw", [
     ((CONTROL, "--kp", "-0.1"), dict(scene=CONTROL, kp=-0.1)),
+    ((CONTROL, "--kp", "0.1", "--stability"), dict(scene=CONTROL, kp=0.1, stability=True)),
     (("--alpha", "1.5", "--x0", "-1.5,0,0,0"), dict(alpha=1.5, x0=[-1.5, 0, 0, 0])),
     (("--friction", "stribeck", "--alpha", "1.3", "--kp", "1", "--periods", "60"),
      dict(friction="stribeck", alpha=1.3, kp=1, periods=60)),
@@ -78,6 +79,9 @@ def test_simulate_gives_the_commands_json(cli_json, args, kw):
     want.pop("wall_time_s")
     got.pop("wall_time_s")
     same(want, got)
+    # the same fields both ways: the stability analysis runs in both or in neither
+    assert set(want) == set(got)
+    assert ("floquet" in got) == ("--stability" in args)
     assert got["poincare"].shape == (want["measured_periods"], 3)
 
 
@@ -95,7 +99,7 @@ def test_the_time_history_is_the_commands_csv(cli, tmp_path):
     csv = tmp_path / "run.csv"
     cli("simulate", "--scene", CONTROL, "--periods", "20", "--csv", csv)
     want = np.loadtxt(csv, delimiter=",", skiprows=1)
-    h = capsule.simulate(CONTROL, periods=20, samples_per_period=100, stability=False)["history"]
+    h = capsule.simulate(CONTROL, periods=20, samples_per_period=100)["history"]
     got = np.column_stack([h[c] for c in capsule.HISTORY_COLUMNS])
     assert got.shape == want.shape == (20 * 100 + 1, 10)
     # the CSV prints shortest round-trip decimals: equal bit for bit
@@ -233,7 +237,7 @@ def test_continuation_gives_the_commands_branch(cli, tmp_path):
 
 
 def test_floquet_and_lyapunov_are_those_simulate_reports():
-    r = capsule.simulate(CONTROL, kp=0.1)
+    r = capsule.simulate(CONTROL, kp=0.1, stability=True)
     f = capsule.floquet(CONTROL, kp=0.1)
     assert np.array_equal(f["multipliers"], np.asarray(r["floquet"]["multipliers"]))
     assert f["largest_modulus"] < 1.0
@@ -249,7 +253,7 @@ def test_the_gil_is_released_while_rust_works():
     result = {}
 
     def work():
-        result["r"] = capsule.simulate(alpha=1.5, periods=30000, stability=False)
+        result["r"] = capsule.simulate(alpha=1.5, periods=30000)
         done.set()
 
     t = threading.Thread(target=work)

@@ -235,10 +235,68 @@ fn chaotic_scenes_have_a_positive_converging_largest_exponent() {
     }
 }
 
+/// `capsule simulate` with `extra` flags, its debug log on: the JSON, and how many stretches of
+/// trajectory the process linearized (the stability analyses' counter it logs).
+fn simulate_counting(extra: &str) -> (serde_json::Value, u64) {
+    let args = line(
+        "simulate --scene scenes/control_point.toml --kp 0.1 --periods 220 --json",
+        &[],
+    );
+    let out = crate::common::command("capsule")
+        .args(args)
+        .args(extra.split_whitespace())
+        .env("RUST_LOG", "debug")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+    let log = crate::common::stderr(&out);
+    // the log line says `linearizations=N`; colour codes (ESC [ ... m) removed first
+    let mut plain = String::new();
+    let mut rest = log.as_str();
+    while let Some(at) = rest.find('\u{1b}') {
+        plain.push_str(&rest[..at]);
+        rest = rest[at..].split_once('m').map_or("", |(_, after)| after);
+    }
+    plain.push_str(rest);
+    let count = plain
+        .split("linearizations=")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no linearization count in the log:\n{log}"));
+    (crate::common::json_of(&out), count)
+}
+
+#[test]
+fn stability_runs_only_when_asked() {
+    let (plain, none) = simulate_counting("");
+    assert_eq!(none, 0, "an unrequested stability analysis ran");
+    for field in ["floquet", "lyapunov", "stability_note"] {
+        assert!(
+            plain.get(field).is_none(),
+            "{field} without --stability: {plain}"
+        );
+    }
+    let (asked, some) = simulate_counting("--stability");
+    // one Floquet map and one linearized period per measured period for the Lyapunov spectrum
+    assert!(some > 20, "{some} linearizations with --stability");
+    assert!(
+        asked["floquet"].is_object() && asked["lyapunov"].is_object(),
+        "{asked}"
+    );
+    // the rest of the output is the same either way
+    let mut trimmed = asked.clone();
+    for field in ["floquet", "lyapunov", "stability_note", "wall_time_s"] {
+        trimmed.as_object_mut().map(|o| o.remove(field));
+    }
+    let mut plain = plain;
+    plain.as_object_mut().map(|o| o.remove("wall_time_s"));
+    assert_eq!(trimmed, plain);
+}
+
 #[test]
 fn simulate_and_sweep_report_the_stability() {
     let v = json(&line(
-        "simulate --scene scenes/control_point.toml --kp 0.1 --periods 220 --json",
+        "simulate --scene scenes/control_point.toml --kp 0.1 --periods 220 --json --stability",
         &[],
     ));
     let m = v["floquet"]["largest_modulus"].as_f64().unwrap_or(f64::NAN);
@@ -251,7 +309,8 @@ fn simulate_and_sweep_report_the_stability() {
     assert!(l < 0.0, "{v}");
     // a law with memory: no stability figures, and a note that says why
     let v = json(&line(
-        "simulate --scene scenes/fig02d_seven_parameter.toml --periods 12 --transient 10 --json",
+        "simulate --scene scenes/fig02d_seven_parameter.toml --periods 12 --transient 10 --json \
+         --stability",
         &[],
     ));
     assert!(v["lyapunov"].is_null(), "{v}");

@@ -156,14 +156,14 @@ def _spectrum(ly: Optional[Dict[str, Any]]) -> Optional[Dict[str, Any]]:
 def simulate(scene: SceneLike = None, *, samples_per_period: int = 0,
              pulse_kp: Optional[float] = None, pulse_at: Optional[int] = None,
              pulse_periods: int = 1, kp_after: Optional[float] = None,
-             stability: bool = True, **overrides: Any) -> Dict[str, Any]:
+             stability: bool = False, **overrides: Any) -> Dict[str, Any]:
     """One run of the scene: the fields of ``capsule simulate --json``.
 
     ``avg_progression``, ``period`` (or None), ``impacts_per_period``,
     ``backward_slips_per_period``, ``efficiency``, ``poincare`` (an ``(n, 3)`` array of
     ``[x1 - x2, y1 - y2, y1]`` at drive phase 0), ``final_state``, ``work``, ``scene``,
-    ``schedule``, ``floquet`` and ``lyapunov`` (None when not computable; ``stability_note``
-    says why; ``stability=False`` skips them), ``wall_time_s``. With ``samples_per_period > 0``
+    ``schedule``, ``wall_time_s``; with ``stability=True`` (``--stability``) also ``floquet``
+    and ``lyapunov`` (None when not computable; ``stability_note`` says why). With ``samples_per_period > 0``
     also ``history``: a dict of arrays, one per :data:`HISTORY_COLUMNS`. A gain pulse
     (``pulse_kp`` for ``pulse_periods`` periods from period ``pulse_at``, then ``kp_after``) as
     ``capsule simulate --pulse-kp``.

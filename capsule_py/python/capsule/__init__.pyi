@@ -32,7 +32,7 @@ class Scene:
 
 def simulate(scene: SceneLike = None, *, samples_per_period: int = 0,
              pulse_kp: Optional[float] = None, pulse_at: Optional[int] = None,
-             pulse_periods: int = 1, kp_after: Optional[float] = None, stability: bool = True,
+             pulse_periods: int = 1, kp_after: Optional[float] = None, stability: bool = False,
              **overrides: Any) -> Dict[str, Any]: ...
 def sweep(param: str, values: Sequence[float], scene: SceneLike = None, *, follow: bool = False,
           lyapunov: bool = False, **overrides: Any) -> Dict[str, Any]: ...
