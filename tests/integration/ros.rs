@@ -11,7 +11,6 @@ mod harness;
 mod colcon;
 mod device;
 mod example_controller;
-mod example_plant;
 mod fastdds;
 mod fault_matrix;
 mod faults;
