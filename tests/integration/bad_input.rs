@@ -355,6 +355,7 @@ fn runs_over_their_work_limits_are_refused_before_they_start() {
     let tmp = TempDir::new("bad_input_limits");
     let csv = tmp.file("big.csv");
     let csv_s = csv.display().to_string();
+    let sweep_out = tmp.file("sweep").display().to_string();
     let cases = [
         (
             line(
@@ -372,8 +373,8 @@ fn runs_over_their_work_limits_are_refused_before_they_start() {
         ),
         (
             line(
-                "sweep --param alpha --from 0.5 --to 1 --steps 10000000",
-                &[],
+                "sweep --param alpha --from 0.5 --to 1 --steps 10000000 --out",
+                &[&sweep_out],
             ),
             "--max-work",
         ),

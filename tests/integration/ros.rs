@@ -11,6 +11,7 @@ mod harness;
 mod colcon;
 mod device;
 mod example_controller;
+mod example_plant;
 mod fastdds;
 mod fault_matrix;
 mod faults;

@@ -1,0 +1,220 @@
+//! A custom plant source behind the plant node: the node (topics, command gate, watchdog,
+//! real-time and lock-step pacing, parameters, lifecycle, diagnostics, summary) runs any capsule
+//! that implements `capsule_nodes::hardware::CapsuleHardware`, in SI. Here a toy capsule of a
+//! few lines stands in for the exact simulator or a serial device: the inner mass on its spring
+//! and damper inside the shell, and a shell that sticks until the force on it passes a static
+//! friction threshold, then slides at a speed proportional to the excess.
+//!
+//!   cargo build -p capsule_nodes --bins --examples
+//!   target/debug/capsule_controller --scene scenes/control_point.toml --mode forward \
+//!       --discovery-range localhost &
+//!   target/debug/examples/custom_plant --pacing lockstep --until-s 2 --wait-subscribers 1 \
+//!       --discovery-range localhost
+//!
+//! It prints the plant's one-line JSON summary and how often the node read and wrote the toy.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use capsule_args::scene_file::SceneFile;
+use capsule_nodes::hardware::{CapsuleHardware, HardwareError, Reading, Sample};
+use capsule_nodes::plant::{self, Pacing, PlantCore, PlantOptions};
+use capsule_nodes::plant_params::{self, PlantFlags};
+use capsule_plant::scene::PhysicalScale;
+use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
+use clap::Parser;
+
+/// The toy capsule: state in SI, integrated in small steps over each sample period.
+struct ToyCapsule {
+    m1: f64,
+    k1: f64,
+    /// Damping of the mass on its spring [N s/m].
+    c1: f64,
+    /// Force the shell resists before it slides [N].
+    static_friction: f64,
+    /// Sliding: the shell's speed per newton above the threshold [m/(N s)].
+    mobility: f64,
+    dt: f64,
+    /// x1, y1, x2, y2: mass and shell positions [m] and velocities [m/s].
+    x: [f64; 4],
+    force: f64,
+    active: bool,
+    configured: bool,
+    first: bool,
+    /// Reads and writes the node made, shared with `main` for the report.
+    counts: Arc<[AtomicU64; 2]>,
+}
+
+impl ToyCapsule {
+    /// The force the spring and damper put on the shell [N].
+    fn on_shell(&self) -> f64 {
+        let [x1, y1, x2, y2] = self.x;
+        self.k1 * (x1 - x2) + self.c1 * (y1 - y2)
+    }
+
+    /// One small step of semi-implicit Euler.
+    fn step(&mut self, h: f64) {
+        let f = self.on_shell();
+        let excess = f.abs() - self.static_friction;
+        let y2 = if excess > 0.0 {
+            f.signum() * excess * self.mobility
+        } else {
+            0.0
+        };
+        let y1 = self.x[1] + h * (self.force - f) / self.m1;
+        self.x = [self.x[0] + h * y1, y1, self.x[2] + h * y2, y2];
+    }
+
+    fn sample(&self) -> Sample {
+        let f = self.on_shell();
+        Sample {
+            mass_position: self.x[0],
+            mass_velocity: self.x[1],
+            capsule_position: self.x[2],
+            capsule_velocity: self.x[3],
+            in_contact: false,
+            stuck: self.x[3] == 0.0,
+            friction_force: if self.x[3] == 0.0 {
+                f
+            } else {
+                f.signum() * self.static_friction
+            },
+            contact_force: 0.0,
+            actuator_force: self.force,
+            ..Sample::default()
+        }
+    }
+}
+
+impl CapsuleHardware for ToyCapsule {
+    fn label(&self) -> String {
+        "toy capsule (examples/custom_plant.rs)".into()
+    }
+    fn configure(&mut self) -> Result<(), HardwareError> {
+        (self.x, self.force, self.configured, self.first) = ([0.0; 4], 0.0, true, true);
+        Ok(())
+    }
+    fn activate(&mut self) -> Result<(), HardwareError> {
+        self.active = true;
+        Ok(())
+    }
+    fn deactivate(&mut self) -> Result<(), HardwareError> {
+        (self.active, self.force) = (false, 0.0);
+        Ok(())
+    }
+    fn cleanup(&mut self) -> Result<(), HardwareError> {
+        self.configured = false;
+        Ok(())
+    }
+    /// Paced by the node: each read integrates one sample period with the force held.
+    fn read(&mut self, _deadline: Instant) -> Result<Reading, HardwareError> {
+        if !self.configured {
+            return Err(HardwareError::State("read before configure".into()));
+        }
+        self.counts[0].fetch_add(1, Ordering::Relaxed);
+        if !std::mem::take(&mut self.first) {
+            let n = 20;
+            for _ in 0..n {
+                self.step(self.dt / f64::from(n));
+            }
+        }
+        Ok(Reading::Sample(self.sample()))
+    }
+    fn write(&mut self, force_n: f64) -> Result<(), HardwareError> {
+        self.counts[1].fetch_add(1, Ordering::Relaxed);
+        self.force = if self.active { force_n } else { 0.0 };
+        Ok(())
+    }
+}
+
+/// The plant node with a toy capsule inside.
+#[derive(Debug, Parser)]
+struct Cli {
+    /// Scene: its physical scale (m1, k1, P_f) and the node's rate and command timeout
+    #[arg(long, default_value = "scenes/control_point.toml")]
+    scene: std::path::PathBuf,
+    /// realtime or lockstep
+    #[arg(long, value_enum, default_value = "realtime")]
+    pacing: Pacing,
+    /// Stop at this time [s]
+    #[arg(long, default_value_t = 2.0)]
+    until_s: f64,
+    /// Publish the first sample once this many subscribers matched the state topic
+    #[arg(long, default_value_t = 0)]
+    wait_subscribers: usize,
+    /// The plant's settings table (--rate-hz, --command-timeout-s, ...), as the plant node's
+    #[command(flatten)]
+    settings: PlantFlags,
+    #[command(flatten)]
+    ros: RosArgs,
+}
+
+fn toy(scale: &PhysicalScale, rate_hz: f64, counts: Arc<[AtomicU64; 2]>) -> ToyCapsule {
+    let (m1, k1) = (scale.m1_kg, scale.k1_n_per_m);
+    ToyCapsule {
+        m1,
+        k1,
+        c1: 0.1 * (k1 * m1).sqrt(),
+        static_friction: 0.5 * scale.pf_n,
+        mobility: 0.05,
+        dt: 1.0 / rate_hz,
+        x: [0.0; 4],
+        force: 0.0,
+        active: false,
+        configured: false,
+        first: true,
+        counts,
+    }
+}
+
+fn main() -> std::process::ExitCode {
+    ros::init_logging();
+    let cli = Cli::parse();
+    let result = (|| -> Result<()> {
+        if !(cli.until_s > 0.0 && cli.until_s <= 1e6) {
+            anyhow::bail!("--until-s {}: must be in (0, 1e6]", cli.until_s);
+        }
+        let file = SceneFile::read(&cli.scene)?;
+        let scale = file.scene.physical;
+        // the ROS parameters the node serves (read-only here), by the plant's own precedence
+        let fixed = plant_params::Fixed {
+            scene: cli.scene.display().to_string(),
+            pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
+            scale: (scale.m1_kg, scale.k1_n_per_m, scale.pf_n),
+        };
+        let params =
+            plant_params::start_table(&cli.settings, &file, &fixed).map_err(anyhow::Error::msg)?;
+        let run = plant_params::overridable(&params, &fixed).map_err(anyhow::Error::msg)?;
+        let (rate, timeout) = (run.rate_hz, run.command_timeout_s);
+        let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_plant")?;
+        let counts: Arc<[AtomicU64; 2]> = Arc::default();
+        let core = PlantCore::new(toy(&scale, rate, counts.clone()), scale, rate, timeout);
+        let opts = PlantOptions {
+            pacing: cli.pacing,
+            until_s: Some(cli.until_s),
+            retransmit: Duration::from_millis(20),
+            startup_timeout: Duration::from_secs(30),
+            wait_subscribers: cli.wait_subscribers,
+            clock_every: 1,
+            record: None,
+            params,
+            joint_commands: false,
+            autostart: true,
+        };
+        let started = Instant::now();
+        let (stats, last) = ros::block_on(None, plant::run(settings, core, opts))?;
+        println!(
+            "{}",
+            plant::summary_json(&stats, &last, started.elapsed().as_secs_f64())
+        );
+        println!(
+            "toy capsule: {} reads, {} writes",
+            counts[0].load(Ordering::Relaxed),
+            counts[1].load(Ordering::Relaxed)
+        );
+        Ok(())
+    })();
+    ros::exit_code("custom_plant", result)
+}
