@@ -8,7 +8,7 @@
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
-#       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE]
+#       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE] [--managed]
 #
 # Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
 # --record-in-plant: the plant writes the same file itself instead (no recorder process; at
@@ -24,6 +24,9 @@
 # Each node gets its enclave /capsule/{plant,controller,recorder,foxglove}, the --with commands
 # /capsule/operator (ROS_SECURITY_ENCLAVE_OVERRIDE, unless set). docs/ros.md, Security.
 #
+# --managed: the plant starts unconfigured and waits for its lifecycle (`ros2 lifecycle set
+# /capsule_plant configure`, then `activate`; or `capsule_ros lifecycle-set`), as a managed node.
+#
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
 set -u
@@ -34,13 +37,13 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=()
+usage() { sed -n '2,31p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
   case "$1" in
-    --no-record|--record-in-plant|-h|--help) ;;
+    --no-record|--record-in-plant|--managed|-h|--help) ;;
     *) [ $# -ge 2 ] || die "$1 needs a value" ;;
   esac
   case "$1" in
@@ -55,6 +58,7 @@ while [ $# -gt 0 ]; do
     --record-dir) record_dir="$2"; shift 2 ;;
     --no-record) record=0; shift ;;
     --record-in-plant) in_plant=1; shift ;;
+    --managed) autostart=false; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
     --foxglove-port) fox_port="$2"; shift 2 ;;
@@ -91,7 +95,7 @@ fi
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
 if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-affinity "$cpus"); rec_args+=(--cpu-affinity "$cpus"); fi
 "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
-pl=(--scene "$scene" --pacing "$pacing" --autostart)
+pl=(--scene "$scene" --pacing "$pacing" --autostart "$autostart")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
 # the file name the check prints is the one the run writes (fixed here, not re-timed at start)

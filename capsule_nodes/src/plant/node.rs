@@ -48,8 +48,8 @@ pub async fn run<H: CapsuleHardware + 'static>(
 ) -> Result<(LoopStats, CapsuleState)> {
     let built = build(&settings, &core, &opts)?;
     wait_for_graph(&built, &settings, &opts).await?;
-    let (result, core, recording, conflicts) = run_loop(built, core, opts).await?;
-    finish(result, core, recording, &conflicts).await
+    let (ended, conflicts) = run_loop(built, core, opts).await?;
+    finish(ended, &conflicts).await
 }
 
 /// Build: the recording's file first (an unwritable place is an error before anything else
@@ -153,8 +153,14 @@ async fn wait_for_graph(built: &Built, settings: &RosOptions, opts: &PlantOption
     Ok(())
 }
 
-/// What the loop's thread gives back.
-type Ended<H> = (Result<()>, PlantCore<H>, Option<InPlantRecording>);
+/// What the loop's thread gives back: with the endpoints, which must outlive the grace after
+/// the last sample (a writer that goes with the thread takes its unsent samples with it).
+type Ended<H> = (
+    Result<()>,
+    PlantCore<H>,
+    Option<InPlantRecording>,
+    Endpoints,
+);
 
 /// Run the loop: on a thread of its own, started unconfigured; `--autostart` configures and
 /// activates it; a signal ends it.
@@ -162,12 +168,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
     built: Built,
     core: PlantCore<H>,
     opts: PlantOptions,
-) -> Result<(
-    Result<()>,
-    PlantCore<H>,
-    Option<InPlantRecording>,
-    Arc<AtomicU64>,
-)> {
+) -> Result<(Ended<H>, Arc<AtomicU64>)> {
     let Built {
         io,
         conflicts,
@@ -193,7 +194,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
     }
     let shutdown = capsule_ros_base::ros::shutdown_signal();
     tokio::pin!(shutdown);
-    let (result, core, recording) = tokio::select! {
+    let ended = tokio::select! {
         done = &mut ended => done.context("the sample loop's thread ended without a word")?,
         sig = &mut shutdown => {
             match sig {
@@ -204,7 +205,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
             ended.await.context("the sample loop's thread ended without a word")?
         }
     };
-    Ok((result, core, recording, conflicts))
+    Ok((ended, conflicts))
 }
 
 /// Starts the sample loop's thread (a runtime of its own: nothing it does waits on the node's).
@@ -227,7 +228,7 @@ fn spawn_loop<H: CapsuleHardware + 'static>(
                     rt.block_on(drive(&mut core, &io, &opts, &mut control, rec.as_mut()))
                 });
             let _ = core.cleanup();
-            let _ = tx.send((result, core, rec));
+            let _ = tx.send((result, core, rec, io));
         })
         .context("cannot start the sample loop's thread")?;
     Ok(rx)
@@ -276,13 +277,13 @@ async fn drive<H: CapsuleHardware>(
 
 /// Finish: the last sample's way out, the statistics, the recording.
 async fn finish<H: CapsuleHardware>(
-    result: Result<()>,
-    mut core: PlantCore<H>,
-    recording: Option<InPlantRecording>,
+    (result, mut core, recording, io): Ended<H>,
     conflicts: &AtomicU64,
 ) -> Result<(LoopStats, CapsuleState)> {
-    // DDS sends from its own thread: let the last sample leave before the participant goes
+    // DDS sends from its own thread: let the last sample leave (and be repaired) before its
+    // writer and the participant go
     tokio::time::sleep(MATCH_GRACE).await;
+    drop(io);
     core.stats.finish();
     core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
     let stats = core.stats.clone();
