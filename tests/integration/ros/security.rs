@@ -78,7 +78,7 @@ fn assert_secured_equals_plain(run: &Run) {
     let (plain, sec) = (last_sample(run, "plain"), last_sample(run, "secured"));
     assert_eq!(json_raw(plain, "seq"), Some("1500"), "{plain}");
     assert_ne!(json_raw(plain, "capsule_position"), Some("0.0"), "{plain}");
-    assert_eq!(plain, sec, "the secured run differs");
+    assert_eq!(plain, sec, "the secured run differs\n{}", run.all());
 }
 
 #[test]
