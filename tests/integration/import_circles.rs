@@ -426,8 +426,8 @@ fn circles(edges: &BTreeMap<(PathBuf, PathBuf), String>) -> Vec<BTreeSet<PathBuf
     s.out
 }
 
-/// Every crate root of the workspace: libraries, binaries, the integration tests.
-fn crate_roots(root: &Path) -> Vec<PathBuf> {
+/// The workspace's members (folders), from the root Cargo.toml.
+pub fn workspace_members(root: &Path) -> Vec<String> {
     let manifest = std::fs::read_to_string(root.join("Cargo.toml"))
         .unwrap_or_else(|e| panic!("cannot read Cargo.toml: {e}"));
     let members: Vec<String> = manifest
@@ -443,8 +443,13 @@ fn crate_roots(root: &Path) -> Vec<PathBuf> {
         members.len() > 5,
         "workspace members not found: {members:?}"
     );
+    members
+}
+
+/// Every crate root of the workspace: libraries, binaries, the integration tests.
+fn crate_roots(root: &Path) -> Vec<PathBuf> {
     let mut roots = vec![root.join("tests/integration/main.rs")];
-    for member in members {
+    for member in workspace_members(root) {
         let src = root.join(&member).join("src");
         for f in ["lib.rs", "main.rs"] {
             if src.join(f).is_file() {
