@@ -217,7 +217,7 @@ pub fn graph_topics(
             service_event_topic(controller_node),
             service_event_type(),
             type_names::SET_MODE_EVENT,
-            qos::service(),
+            qos::service_events(),
         ),
         (
             topics::views::DIAGNOSTICS.to_string(),
@@ -402,16 +402,16 @@ impl Readers {
         let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast {
             depth: opts.queue_depth,
         });
-        // the controller's status (10 Hz by default, 1 kHz at the fastest) and its service
-        // events: the same depth would be memory that fills over hours (20,000 statuses:
-        // 33 min, 10 MB)
+        // the controller's status (10 Hz by default, 1 kHz at the fastest) and diagnostics: the
+        // same depth would be memory that fills over hours (20,000 statuses: 33 min, 10 MB);
+        // the service events keep their own transient-local QoS (`qos::service_events`)
         let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
             depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
         });
         let force = subscribe::<ActuatorForce>(node, &topics[1], &reader_qos)?;
         let status = subscribe::<ControllerStatus>(node, &topics[2], &slow_qos)?;
         let clock = subscribe::<Clock>(node, &topics[3], &reader_qos)?;
-        let event = subscribe::<SetModeEvent>(node, &topics[4], &slow_qos)?;
+        let event = subscribe::<SetModeEvent>(node, &topics[4], &qos::service_events())?;
         let diagnostics = subscribe::<DiagnosticArray>(node, &topics[5], &slow_qos)?;
         if !graph
             .wait_publishers(force.guid(), 1, opts.wait_publishers)

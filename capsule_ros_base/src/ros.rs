@@ -550,6 +550,16 @@ pub mod qos {
     pub fn service() -> QosProfile {
         reliable(100, 10)
     }
+    /// The controller's service events (`set_mode/_service_event`): reliable, transient local,
+    /// keep last 64, writer and readers alike. rcl's are volatile; here a recorder whose
+    /// discovery of the event writer ends late (seconds with DDS Security) still gets the
+    /// requests made before, and volatile readers (rosbag2, rclcpp) match it all the same.
+    pub fn service_events() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 64 })
+    }
     /// Latched state (robot_description, the emergency stop): reliable, transient local, keep
     /// last 1, so a reader that joins later gets the last value.
     pub fn latched() -> QosProfile {

@@ -972,7 +972,7 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
         r#"
         $B/capsule_recorder --output "$D/again.mcap" --wait-publishers-s 20 &
         R=$!
-        $ROOT/target/debug/capsule replay "$D/original.mcap" --wait-subscribers 1 --rate 2 || exit 1
+        $B/capsule replay "$D/original.mcap" --wait-subscribers 1 --rate 2 || exit 1
         sleep 1
         kill -INT $R; wait $R; echo "recorder rc=$?""#,
     );
