@@ -100,12 +100,8 @@ pub fn closed_loop(scene: &Scene, case: &LoopCase) -> Result<LoopResult, SimErro
     closed_loop_observed(scene, case, &mut |_| {})
 }
 
-/// [`closed_loop`], handing every sample (transient included) to `observe`.
-pub fn closed_loop_observed(
-    scene: &Scene,
-    case: &LoopCase,
-    observe: &mut dyn FnMut(&LoopSample),
-) -> Result<LoopResult, SimError> {
+/// The real plant behind `case`'s device: the scene's capsule with `case`'s mismatch.
+fn real_plant(scene: &Scene, case: &LoopCase) -> Result<Prototype, SimError> {
     let nominal = scene.physical;
     let real = PhysicalScale {
         pf_n: nominal.pf_n * case.mismatch.friction,
@@ -117,7 +113,89 @@ pub fn closed_loop_observed(
     let mut model = scene.model();
     model.capsule.delta *= case.mismatch.stiffness / case.mismatch.friction;
     let sim = Simulator::new(model, scene.initial_state(), 0.0, scene.solver())?;
-    let mut proto = Prototype::new(sim, real, &case.device);
+    Ok(Prototype::new(sim, real, &case.device))
+}
+
+/// The velocity estimate's error against the true mass velocity when the sensor sampled (the
+/// filter's own error, the latency left out), non-dimensional.
+struct VelocityError {
+    /// The true mass velocity over the window: (time, velocity).
+    true_y1: VecDeque<(f64, f64)>,
+    /// The window's span, the sensor's latency and one sample: how long samples are kept.
+    span: f64,
+    late: f64,
+    h: f64,
+    /// Sum of squared errors and their count.
+    err2: f64,
+    errs: u64,
+}
+
+impl VelocityError {
+    fn new(span: f64, late: f64, h: f64) -> Self {
+        Self {
+            true_y1: VecDeque::new(),
+            span,
+            late,
+            h,
+            err2: 0.0,
+            errs: 0,
+        }
+    }
+
+    /// The true mass velocity at `tau`.
+    fn truth(&mut self, tau: f64, y1: f64) {
+        while self
+            .true_y1
+            .front()
+            .is_some_and(|(t, _)| *t < tau - self.span - self.late - self.h)
+        {
+            self.true_y1.pop_front();
+        }
+        self.true_y1.push_back((tau, y1));
+    }
+
+    /// The estimate `est` of the mass velocity at `tm`, the window's middle.
+    fn estimate(&mut self, tm: f64, est: f64) {
+        if let Some(y) = interpolate(&self.true_y1, tm - self.late) {
+            self.err2 += (est - y) * (est - y);
+            self.errs += 1;
+        }
+    }
+
+    /// The RMS error; NaN without a comparison.
+    fn rms(&self) -> f64 {
+        if self.errs > 0 {
+            (self.err2 / self.errs as f64).sqrt()
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// The orbit watches: on the true state at the simulator's tolerance, and on what the
+/// controller sees at `case`'s.
+fn watches(period: f64, case: &LoopCase) -> (OrbitWatch, OrbitWatch) {
+    let settings = SwitchConfig::DEFAULT;
+    (
+        OrbitWatch::new(period, &settings),
+        OrbitWatch::new(
+            period,
+            &SwitchConfig {
+                tol: case.orbit_tolerance,
+                ..settings
+            },
+        ),
+    )
+}
+
+/// [`closed_loop`], handing every sample (transient included) to `observe`.
+pub fn closed_loop_observed(
+    scene: &Scene,
+    case: &LoopCase,
+    observe: &mut dyn FnMut(&LoopSample),
+) -> Result<LoopResult, SimError> {
+    let nominal = scene.physical;
+    let mut proto = real_plant(scene, case)?;
     let law = AffineLaw::paper(scene.drive.alpha, scene.drive.omega, case.kp);
     let dt = 1.0 / case.rate_hz;
     // measured on the true state, in the scene's (nominal) units
@@ -126,24 +204,11 @@ pub fn closed_loop_observed(
     let start = f64::from(case.transient) * law.period() * nominal.time_s();
     let steps = (total / dt).ceil() as u64;
     let mut x1x2 = (0.0, 0.0);
-    let settings = SwitchConfig::DEFAULT;
-    let (mut watch, mut seen) = (
-        OrbitWatch::new(law.period(), &settings),
-        OrbitWatch::new(
-            law.period(),
-            &SwitchConfig {
-                tol: case.orbit_tolerance,
-                ..settings
-            },
-        ),
-    );
+    let (mut watch, mut seen) = watches(law.period(), case);
     let h = dt / nominal.time_s();
-    // the estimate is compared with the truth when the sensor sampled: the filter's own error
-    let late = case.device.latency_s / nominal.time_s();
     let mut fit = LineFit::new(f64::from(case.velocity_window.max(2) - 1) * h);
-    // the true mass velocity over the window, to compare with the estimate at its middle
-    let mut true_y1: VecDeque<(f64, f64)> = VecDeque::new();
-    let (mut err2, mut errs) = (0.0, 0u64);
+    // the estimate is compared with the truth when the sensor sampled: the filter's own error
+    let mut velocity = VelocityError::new(fit.span(), case.device.latency_s / nominal.time_s(), h);
     let (l, v) = (nominal.length_m(), nominal.velocity_m_per_s());
     for k in 0..steps {
         let t = k as f64 * dt;
@@ -162,30 +227,16 @@ pub fn closed_loop_observed(
             truth.v2_m_per_s / v,
         ];
         watch.sample(tau, true_state);
-        while true_y1
-            .front()
-            .is_some_and(|(t, _)| *t < tau - fit.span() - late - h)
-        {
-            true_y1.pop_front();
-        }
-        true_y1.push_back((tau, true_state[1]));
+        velocity.truth(tau, true_state[1]);
         if let Some((tm, est)) = fit.state(tau, x1x2.0, f64::NAN, x1x2.1, f64::NAN) {
             seen.sample(tm, est);
             if t >= start {
-                // the true velocity when the window's middle was sampled
-                if let Some(y) = interpolate(&true_y1, tm - late) {
-                    err2 += (est[1] - y) * (est[1] - y);
-                    errs += 1;
-                }
+                velocity.estimate(tm, est[1]);
             }
         }
         if t >= start {
-            meter.sample(
-                tau,
-                true_state[0],
-                true_state[2],
-                force_n / nominal.force_n(),
-            );
+            let f = force_n / nominal.force_n();
+            meter.sample(tau, true_state[0], true_state[2], f);
         }
         observe(&LoopSample {
             truth,
@@ -199,11 +250,7 @@ pub fn closed_loop_observed(
         efficiency: meter.efficiency(),
         period: watch.period(),
         seen_period: seen.period(),
-        velocity_error: if errs > 0 {
-            (err2 / errs as f64).sqrt()
-        } else {
-            f64::NAN
-        },
+        velocity_error: velocity.rms(),
     })
 }
 

@@ -15,7 +15,7 @@ use capsule_plant::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// Basins of attraction.
 #[derive(Debug, clap::Args)]
@@ -121,30 +121,6 @@ pub fn method_of(
     Ok(Method::KnownCells(c))
 }
 
-/// Set by Ctrl-C; work not started afterwards is skipped.
-static CANCEL: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_interrupt(_: libc::c_int) {
-    CANCEL.store(true, Ordering::Relaxed);
-    // a second Ctrl-C ends the process at once
-    // SAFETY: signal() is async-signal-safe.
-    unsafe {
-        libc::signal(libc::SIGINT, libc::SIG_DFL);
-    }
-}
-
-/// Make Ctrl-C set the returned flag instead of ending the process (once).
-pub fn cancel_on_ctrl_c() -> &'static AtomicBool {
-    // SAFETY: installs a handler that only stores to an atomic and resets the disposition.
-    unsafe {
-        libc::signal(
-            libc::SIGINT,
-            on_interrupt as extern "C" fn(libc::c_int) as libc::sighandler_t,
-        );
-    }
-    &CANCEL
-}
-
 /// `PREFIX.ext` (`Path::with_extension` would cut a prefix like `basins_kp0.05` at its dot).
 pub fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
     let mut s = prefix.as_os_str().to_owned();
@@ -243,6 +219,36 @@ pub fn compute_with(
         .collect()
 }
 
+/// The scenes to map: `scene`, or one per value of `--sweep PARAM --values A,B,...` (at most
+/// the 12 one figure holds), each checked.
+fn scenes_of(
+    scene: Scene,
+    sweep: Option<Param>,
+    values: Option<&str>,
+) -> Result<Vec<(Option<f64>, Scene)>> {
+    let (Some(param), Some(values)) = (sweep, values) else {
+        return Ok(vec![(None, scene)]);
+    };
+    let name = param.name();
+    let mut out = Vec::new();
+    for v in values.split(',').map(str::trim) {
+        let v: f64 = v
+            .parse()
+            .map_err(|_| anyhow::anyhow!("--values `{values}`: `{v}` is not a number"))?;
+        let s = param.apply(&scene, v);
+        s.validate()
+            .map_err(|e| anyhow::anyhow!("--sweep {name} = {v}: {e}"))?;
+        out.push((Some(v), s));
+    }
+    if out.len() > 12 {
+        bail!(
+            "--values: {} maps is more than the 12 one figure holds",
+            out.len()
+        );
+    }
+    Ok(out)
+}
+
 pub fn main(args: Args) -> Result<()> {
     let grid = grid_of(&args.grid, &args.x_range, &args.y_range, &args.plane)?;
     if !(args.known_tol >= 0.0 && args.known_tol.is_finite()) {
@@ -258,38 +264,23 @@ pub fn main(args: Args) -> Result<()> {
         args.cell_check,
         &grid,
     )?;
-    let scene = args.scene.scene()?;
-    let scenes: Vec<(Option<f64>, Scene)> = match (&args.sweep, &args.values) {
-        (Some(param), Some(values)) => {
-            let (param, name) = (*param, param.name());
-            let mut out = Vec::new();
-            for v in values.split(',').map(str::trim) {
-                let v: f64 = v
-                    .parse()
-                    .map_err(|_| anyhow::anyhow!("--values `{values}`: `{v}` is not a number"))?;
-                let s = param.apply(&scene, v);
-                s.validate()
-                    .map_err(|e| anyhow::anyhow!("--sweep {name} = {v}: {e}"))?;
-                out.push((Some(v), s));
-            }
-            if out.len() > 12 {
-                bail!(
-                    "--values: {} maps is more than the 12 one figure holds",
-                    out.len()
-                );
-            }
-            out
-        }
-        _ => vec![(None, scene.clone())],
-    };
+    let scenes = scenes_of(args.scene.scene()?, args.sweep, args.values.as_deref())?;
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
             .context("setting up the worker threads")?;
     }
-    let cancel = cancel_on_ctrl_c();
-    let maps = compute(&scenes, &grid, args.known_tol, &method, cancel);
+    // Ctrl-C: initial states not started afterwards are skipped (a second one ends the process)
+    crate::work::catch_ctrl_c();
+    let maps = compute(
+        &scenes,
+        &grid,
+        args.known_tol,
+        &method,
+        crate::work::interrupt_flag(),
+    );
+    crate::work::release_ctrl_c();
     let name = args.sweep.map_or("", Param::name);
     let written = match &args.out {
         Some(prefix) => Some(write_all(prefix, name, &maps)?),
@@ -334,7 +325,7 @@ pub fn main(args: Args) -> Result<()> {
         }
     }
     let pending: usize = maps.iter().map(|m| m.map.pending()).sum();
-    if cancel.load(Ordering::Relaxed) || pending > 0 {
+    if crate::work::interrupted() || pending > 0 {
         let kept = written.map_or("not written (no --out)".to_string(), |w| format!("in {w}"));
         bail!("interrupted: {pending} initial states not computed; the finished ones are {kept}");
     }

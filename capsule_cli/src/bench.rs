@@ -8,7 +8,7 @@
 use crate::svg;
 use crate::work;
 use anyhow::{Context, Result};
-use capsule_analysis::accuracy::{best_of, ladder, rate_ladder, Point};
+use capsule_analysis::accuracy::{best_of, ladder, rate_ladder, Point, RatePoint};
 use capsule_analysis::{sweep, Param};
 use capsule_args::ranges;
 use capsule_plant::scene::Scene;
@@ -49,9 +49,11 @@ pub struct Args {
     /// Grid side of the basin benchmark (basins), 2 to 2000.
     #[arg(long, default_value_t = 200, value_parser = ranges::count_usize(2, 2000))]
     basin_grid: usize,
-    /// Output prefix for the accuracy tables and plots (its directory must exist).
-    #[arg(long, value_name = "PREFIX", default_value = "docs/accuracy/accuracy")]
-    out: PathBuf,
+    /// Write the accuracy tables and plots as PREFIX.csv, PREFIX.json, PREFIX_*.svg/png (its
+    /// directory must exist); without it they go to stdout only (the docs' copy: `--out
+    /// docs/accuracy/accuracy`).
+    #[arg(long, value_name = "PREFIX")]
+    out: Option<PathBuf>,
 }
 
 /// Section 5 control point (Fig 14-15) with the given gain.
@@ -220,14 +222,21 @@ fn stability(args: &Args) -> Result<()> {
 }
 
 /// Work-precision per friction law and method, then the zero-order hold's error per control
-/// rate: a table on stdout, CSV, JSON and log-log plots under `--out`.
+/// rate: tables on stdout; with `--out`, CSV, JSON and log-log plots there.
 fn accuracy(args: &Args) -> Result<()> {
-    work::check_parent(&args.out)?;
+    if let Some(out) = &args.out {
+        work::check_parent(out)?;
+    }
     let scenes = accuracy_scenes();
     let all = accuracy_table(&scenes, args.repeat)?;
-    let (csv, json) = write_accuracy_tables(&args.out, &all)?;
-    plot_accuracy(&args.out, &scenes, &all)?;
-    let zpath = zero_order_hold(&args.out)?;
+    let zoh = zero_order_hold()?;
+    let Some(out) = &args.out else {
+        eprintln!("no files written (--out PREFIX writes the CSV, JSON and plots)");
+        return Ok(());
+    };
+    let (csv, json) = write_accuracy_tables(out, &all)?;
+    plot_accuracy(out, &scenes, &all)?;
+    let zpath = write_zero_order_hold(out, &zoh)?;
     println!(
         "wrote {}, {}, {}{}",
         csv.display(),
@@ -369,9 +378,8 @@ fn plot_accuracy(out: &std::path::Path, scenes: &[Scene], all: &[Point]) -> Resu
 }
 
 /// The sampled controller: the error against the continuous law per control rate (section 5,
-/// `k_p = 0.1`), printed, plotted (`PREFIX_zoh.svg`) and written (`PREFIX_zoh.json`); the
-/// plot's path.
-fn zero_order_hold(out: &std::path::Path) -> Result<PathBuf> {
+/// `k_p = 0.1`), printed.
+fn zero_order_hold() -> Result<Vec<RatePoint>> {
     let rates = [16, 32, 64, 128, 256, 512, 1024, 4096];
     let zoh = rate_ladder(&section5(0.1), &rates)?;
     println!();
@@ -384,6 +392,12 @@ fn zero_order_hold(out: &std::path::Path) -> Result<PathBuf> {
             r.samples_per_period, r.avg_progression, r.rel_error
         );
     }
+    Ok(zoh)
+}
+
+/// The zero-order hold's errors plotted (`PREFIX_zoh.svg`) and written (`PREFIX_zoh.json`);
+/// the plot's path.
+fn write_zero_order_hold(out: &std::path::Path, zoh: &[RatePoint]) -> Result<PathBuf> {
     let zpath = PathBuf::from(format!("{}_zoh.svg", out.display()));
     let series = [svg::Series {
         name: "zero-order hold".into(),
@@ -405,7 +419,7 @@ fn zero_order_hold(out: &std::path::Path) -> Result<PathBuf> {
     .with_context(|| format!("writing {}", zpath.display()))?;
     std::fs::write(
         PathBuf::from(format!("{}_zoh.json", out.display())),
-        serde_json::to_string_pretty(&zoh)?,
+        serde_json::to_string_pretty(zoh)?,
     )?;
     Ok(zpath)
 }
@@ -423,114 +437,43 @@ fn png_beside(svg: &std::path::Path) -> String {
     }
 }
 
-fn effects(args: &Args) -> Result<()> {
-    let cap = |beta| Capsule {
-        beta,
-        ..Capsule::SECTION3
+/// The effects benchmark's rows: a name, the contact spring's `beta`, the friction law, the
+/// feedback gain and the method, each row adding one effect.
+fn effect_rows() -> [(&'static str, f64, Friction, f64, Method); 9] {
+    use capsule_plant::friction::{SevenParameter, Stribeck, Viscous};
+    let seven = |tau_d, k_s| {
+        Friction::SevenParameter(SevenParameter {
+            mu_v: 0.1,
+            v_s: 0.1,
+            tau_d,
+            k_s,
+        })
     };
-    let stribeck = Friction::Stribeck(capsule_plant::friction::Stribeck { v_s: 0.1 });
+    let (coulomb, viscous) = (Friction::COULOMB, Friction::Viscous(Viscous { mu_v: 0.1 }));
+    let stribeck = Friction::Stribeck(Stribeck { v_s: 0.1 });
     // memory without pre-sliding: k_s = 0 (not a valid scene value, built here directly)
-    let memory = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
-        mu_v: 0.1,
-        v_s: 0.1,
-        tau_d: 0.05,
-        k_s: 0.0,
-    });
-    let memory_off = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
-        mu_v: 0.1,
-        v_s: 0.1,
-        tau_d: 0.0,
-        k_s: 0.0,
-    });
-    let full = Friction::SevenParameter(capsule_plant::friction::SevenParameter {
-        mu_v: 0.1,
-        v_s: 0.1,
-        tau_d: 0.05,
-        k_s: 4e4,
-    });
-    let rows: Vec<(&str, Model, f64, Method)> = vec![
-        (
-            "Coulomb, no contact spring",
-            Model {
-                capsule: cap(0.0),
-                friction: Friction::COULOMB,
-            },
-            0.0,
-            Method::Exact,
-        ),
-        (
-            "+ contact spring",
-            Model {
-                capsule: cap(15.0),
-                friction: Friction::COULOMB,
-            },
-            0.0,
-            Method::Exact,
-        ),
-        (
-            "+ viscous",
-            Model {
-                capsule: cap(15.0),
-                friction: Friction::Viscous(capsule_plant::friction::Viscous { mu_v: 0.1 }),
-            },
-            0.0,
-            Method::Exact,
-        ),
-        (
-            "Coulomb + contact, adaptive",
-            Model {
-                capsule: cap(15.0),
-                friction: Friction::COULOMB,
-            },
-            0.0,
-            Method::Adaptive,
-        ),
-        (
-            "Stribeck (adaptive)",
-            Model {
-                capsule: cap(15.0),
-                friction: stribeck,
-            },
-            0.0,
-            Method::Adaptive,
-        ),
+    let (memory_off, memory, full) = (seven(0.0, 0.0), seven(0.05, 0.0), seven(0.05, 4e4));
+    let (exact, adaptive) = (Method::Exact, Method::Adaptive);
+    [
+        ("Coulomb, no contact spring", 0.0, coulomb, 0.0, exact),
+        ("+ contact spring", 15.0, coulomb, 0.0, exact),
+        ("+ viscous", 15.0, viscous, 0.0, exact),
+        ("Coulomb + contact, adaptive", 15.0, coulomb, 0.0, adaptive),
+        ("Stribeck (adaptive)", 15.0, stribeck, 0.0, adaptive),
         (
             "seven-parameter, tau_d = 0, k_s = 0",
-            Model {
-                capsule: cap(15.0),
-                friction: memory_off,
-            },
+            15.0,
+            memory_off,
             0.0,
-            Method::Adaptive,
+            adaptive,
         ),
-        (
-            "+ memory (tau_d 0.05)",
-            Model {
-                capsule: cap(15.0),
-                friction: memory,
-            },
-            0.0,
-            Method::Adaptive,
-        ),
-        (
-            "+ pre-sliding (k_s 4e4)",
-            Model {
-                capsule: cap(15.0),
-                friction: full,
-            },
-            0.0,
-            Method::Adaptive,
-        ),
-        (
-            "+ feedback (k_p 0.1)",
-            Model {
-                capsule: cap(15.0),
-                friction: full,
-            },
-            0.1,
-            Method::Adaptive,
-        ),
-    ];
+        ("+ memory (tau_d 0.05)", 15.0, memory, 0.0, adaptive),
+        ("+ pre-sliding (k_s 4e4)", 15.0, full, 0.0, adaptive),
+        ("+ feedback (k_p 0.1)", 15.0, full, 0.1, adaptive),
+    ]
+}
+
+fn effects(args: &Args) -> Result<()> {
     println!(
         "cost per drive period, section-3 set, alpha 1.9, 300 periods, best of {}",
         args.repeat.max(1)
@@ -539,9 +482,13 @@ fn effects(args: &Args) -> Result<()> {
         "{:<38} {:>9} {:>12} {:>12} {:>10} {:>12}",
         "scene", "method", "us/period", "rhs/period", "events/p", "ns/rhs eval"
     );
-    for (name, model, kp, method) in rows {
+    for (name, beta, friction, kp, method) in effect_rows() {
+        let capsule = Capsule {
+            beta,
+            ..Capsule::SECTION3
+        };
         let mut s = Scene {
-            model,
+            model: Model { capsule, friction },
             ..Scene::default()
         };
         s.drive.alpha = 1.9;

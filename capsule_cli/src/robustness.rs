@@ -42,13 +42,10 @@ pub struct Args {
     /// The controller's orbit-watch tolerance for the period it sees (non-dim), 1e-6 to 0.2
     #[arg(long, default_value_t = SwitchConfig::DEFAULT.tol, value_parser = ranges::within(1e-6, 0.2))]
     orbit_tolerance: f64,
-    /// Output prefix: PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist)
-    #[arg(
-        long,
-        value_name = "PREFIX",
-        default_value = "docs/robustness/robustness"
-    )]
-    out: PathBuf,
+    /// Also write PREFIX.md, PREFIX.svg, PREFIX.png (its directory must exist); without it the
+    /// report goes to stdout only (the docs' copy: `--out docs/robustness/robustness`)
+    #[arg(long, value_name = "PREFIX")]
+    out: Option<PathBuf>,
 }
 
 /// Position noise on the grid, in % of the length unit `P_f / k1`.
@@ -93,7 +90,9 @@ pub fn main(args: Args) -> Result<()> {
         Some(p) => capsule_args::scene_file::SceneFile::read(p)?.scene,
         None => crate::bench::section5(0.0),
     };
-    crate::work::check_parent(&args.out)?;
+    if let Some(out) = &args.out {
+        crate::work::check_parent(out)?;
+    }
     let plan = Plan::new(&args, &scene);
     let n = plan.grid.len() + plan.row_cases.len() + plan.window_cases.len();
     eprintln!(
@@ -112,22 +111,30 @@ pub fn main(args: Args) -> Result<()> {
     };
     bar.finish_and_clear();
     let md = report(&args, &plan, &results, scene.physical.length_m() * 1e3);
-    let path = |ext: &str| {
-        let mut p = args.out.clone().into_os_string();
-        p.push(ext);
-        PathBuf::from(p)
-    };
-    std::fs::write(path(".md"), &md)
-        .with_context(|| format!("cannot write {}", path(".md").display()))?;
-    let doc = heat_maps(&results);
-    std::fs::write(path(".svg"), &doc)
-        .with_context(|| format!("cannot write {}", path(".svg").display()))?;
-    let png = svg::png(&doc, 1.5).map_err(|e| anyhow::anyhow!("PNG: {e}"))?;
-    std::fs::write(path(".png"), png)
-        .with_context(|| format!("cannot write {}", path(".png").display()))?;
+    if let Some(out) = &args.out {
+        write_files(out, &md, &results)?;
+    }
     print!("{md}");
-    eprintln!("wrote {}.md, .svg, .png", args.out.display());
+    match &args.out {
+        Some(out) => eprintln!("wrote {}.md, .svg, .png", out.display()),
+        None => eprintln!("no files written (--out PREFIX writes PREFIX.md, .svg, .png)"),
+    }
     Ok(())
+}
+
+/// Writes the report and its heat maps to `PREFIX.md`, `PREFIX.svg` and `PREFIX.png`.
+fn write_files(prefix: &std::path::Path, md: &str, results: &Results) -> Result<()> {
+    let write = |ext: &str, bytes: &[u8]| {
+        let path = crate::basins::with_ext(prefix, ext);
+        std::fs::write(&path, bytes).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("md", md.as_bytes())?;
+    let doc = heat_maps(results);
+    write("svg", doc.as_bytes())?;
+    write(
+        "png",
+        &svg::png(&doc, 1.5).map_err(|e| anyhow::anyhow!("PNG: {e}"))?,
+    )
 }
 
 /// The study's closed-loop runs: the noise x delay grid (mode, delay, noise), one row per

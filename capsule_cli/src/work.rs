@@ -97,18 +97,20 @@ pub fn check_parent(path: &Path) -> Result<(), Refused> {
 /// Set by a Ctrl-C caught after [`catch_ctrl_c`]: long runs check it between pieces of work.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// While set, Ctrl-C has its default action (it ends the process): before [`catch_ctrl_c`],
-/// after [`release_ctrl_c`], and once the work has noticed a first Ctrl-C.
+/// after [`release_ctrl_c`], and after a first Ctrl-C.
 static DEFAULT_ACTION: AtomicBool = AtomicBool::new(true);
 static HOOKED: Once = Once::new();
 
 /// From now on the first Ctrl-C sets [`interrupted`] instead of ending the process (a second
-/// one, after the work notices, ends it as usual).
+/// one ends it as usual).
 pub fn catch_ctrl_c() {
     HOOKED.call_once(|| {
         // signal-hook runs the actions in this order: the default action when it is armed,
-        // else the flag (both are atomic stores and loads, safe in a signal handler)
+        // else the flag, then arming the default action for the next one (atomic stores and
+        // loads, safe in a signal handler)
         let hooked = signal_hook::flag::register_conditional_default(SIGINT, &DEFAULT_ACTION)
-            .and_then(|_| signal_hook::flag::register(SIGINT, &INTERRUPTED));
+            .and_then(|_| signal_hook::flag::register(SIGINT, &INTERRUPTED))
+            .and_then(|_| signal_hook::flag::register(SIGINT, &DEFAULT_ACTION));
         if let Err(e) = hooked {
             tracing::warn!("Ctrl-C keeps its default action (ends the run at once): {e}");
         }
@@ -121,12 +123,12 @@ pub fn release_ctrl_c() {
     DEFAULT_ACTION.store(true, Ordering::SeqCst);
 }
 
-/// Whether Ctrl-C was pressed since [`catch_ctrl_c`]; restores the default action, so that a
-/// second Ctrl-C ends the process at once.
+/// Whether Ctrl-C was pressed since [`catch_ctrl_c`].
 pub fn interrupted() -> bool {
-    let hit = INTERRUPTED.load(Ordering::SeqCst);
-    if hit {
-        DEFAULT_ACTION.store(true, Ordering::SeqCst);
-    }
-    hit
+    INTERRUPTED.load(Ordering::SeqCst)
+}
+
+/// The flag behind [`interrupted`], for work that checks an `AtomicBool` itself (the basins).
+pub fn interrupt_flag() -> &'static AtomicBool {
+    &INTERRUPTED
 }

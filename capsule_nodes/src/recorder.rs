@@ -31,6 +31,7 @@ use ros2_client::{MessageInfo, MessageTypeName};
 use serde::Serialize;
 use tracing::{info, warn};
 
+use capsule_ros_base::graph::Graph;
 use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
@@ -367,104 +368,121 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
     }
 }
 
-/// Runs the recorder until SIGINT / SIGTERM (or `idle_stop`), then finishes the file.
-pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<RecorderReport> {
-    // the file first: an unwritable place is an error before anything else starts
-    let mut sink = GraphRecording::create(
-        &opts.output,
-        opts.scene.clone(),
-        &settings,
-        &opts.controller_node,
-        opts.flush_period,
-        opts.bag,
-    )?;
-    let context = settings.context()?;
-    let (mut node, graph) = settings.loop_node(&context)?;
-    let mut topics = Vec::new();
-    for (name, dds_type, _, q) in graph_topics(&opts.controller_node) {
-        let topic = node
-            .create_topic(&settings.ros_name(&name)?, dds_type, &q)
-            .with_context(|| format!("topic {}", settings.resolve_name(&name)))?;
-        topics.push(topic);
-    }
-    // Reader queues deep enough that a slow disk moment does not drop samples, and no deeper:
-    // DDS holds them in memory all run (DEFAULT_QUEUE_DEPTH). Reliable readers: with
-    // best-effort ones RustDDS's writers sent only part of the samples at 10 kHz (a third of
-    // /clock went missing before it reached the kernel), although they spare the
-    // acknowledgement each reliable reader sends back per sample.
-    let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast {
-        depth: opts.queue_depth,
-    });
-    // the controller's status (10 Hz by default, 1 kHz at the fastest) and its service events:
-    // the same depth would be memory that fills over hours (20,000 statuses: 33 min, 10 MB)
-    let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
-        depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
-    });
-    let force_sub = subscribe::<ActuatorForce>(&mut node, &topics[1], &reader_qos)?;
-    let status_sub = subscribe::<ControllerStatus>(&mut node, &topics[2], &slow_qos)?;
-    let clock_sub = subscribe::<Clock>(&mut node, &topics[3], &reader_qos)?;
-    let event_sub = subscribe::<SetModeEvent>(&mut node, &topics[4], &qos::service_events())?;
-    let diagnostics_sub = subscribe::<DiagnosticArray>(&mut node, &topics[5], &slow_qos)?;
-    if !graph
-        .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)
-        .await
-    {
-        warn!(
-            "no force publisher after {:?}: recording without waiting for the controller",
-            opts.wait_publishers
-        );
-    }
-    let state_sub = subscribe::<CapsuleState>(&mut node, &topics[0], &reader_qos)?;
-    info!(
-        "{}: recording {} to {}",
-        settings.describe(),
-        sink.per_topic().into_keys().collect::<Vec<_>>().join(", "),
-        opts.output.display()
-    );
+/// The recorder's readers, one per topic of the graph.
+struct Readers {
+    state: ros2_client::Subscription<CapsuleState>,
+    force: ros2_client::Subscription<ActuatorForce>,
+    status: ros2_client::Subscription<ControllerStatus>,
+    clock: ros2_client::Subscription<Clock>,
+    event: ros2_client::Subscription<SetModeEvent>,
+    diagnostics: ros2_client::Subscription<DiagnosticArray>,
+}
 
-    // Poll every reader on a short timer and drain what it holds, instead of one wake-up per
-    // sample: at 10 kHz x 3 topics that is 500 wake-ups/s instead of 30 000. Log times come
-    // from DDS reception, so batching does not blur them.
-    let mut poll = tokio::time::interval(opts.poll_period);
-    poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = capsule_ros_base::ros::shutdown_signal();
-    tokio::pin!(shutdown);
-    let mut last_msg = tokio::time::Instant::now();
-    let mut got_any = false;
-    // (diagnostics are recorded but not counted: a controller left running publishes them
-    // every second, and the graph is idle all the same)
-    let drain = |sink: &mut GraphRecording| -> Result<usize> {
-        drain_into(&diagnostics_sub, sink, Channel::Diagnostics)?;
-        Ok(drain_into(&state_sub, sink, Channel::State)?
-            + drain_into(&force_sub, sink, Channel::Force)?
-            + drain_into(&status_sub, sink, Channel::Status)?
-            + drain_into(&clock_sub, sink, Channel::Clock)?
-            + drain_into(&event_sub, sink, Channel::ServiceEvent)?)
-    };
+impl Readers {
+    /// Subscribes to every topic of the graph: to the state last, once the controller's force
+    /// publisher has matched (or `opts.wait_publishers` has passed).
+    async fn subscribe(
+        settings: &RosOptions,
+        node: &mut ros2_client::Node,
+        graph: &Graph,
+        opts: &RecorderOptions,
+    ) -> Result<Self> {
+        let mut topics = Vec::new();
+        for (name, dds_type, _, q) in graph_topics(&opts.controller_node) {
+            let topic = node
+                .create_topic(&settings.ros_name(&name)?, dds_type, &q)
+                .with_context(|| format!("topic {}", settings.resolve_name(&name)))?;
+            topics.push(topic);
+        }
+        // Reader queues deep enough that a slow disk moment does not drop samples, and no
+        // deeper: DDS holds them in memory all run (DEFAULT_QUEUE_DEPTH). Reliable readers:
+        // with best-effort ones RustDDS's writers sent only part of the samples at 10 kHz (a
+        // third of /clock went missing before it reached the kernel), although they spare the
+        // acknowledgement each reliable reader sends back per sample.
+        let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast {
+            depth: opts.queue_depth,
+        });
+        // the controller's status (10 Hz by default, 1 kHz at the fastest) and diagnostics: the
+        // same depth would be memory that fills over hours (20,000 statuses: 33 min, 10 MB);
+        // the service events keep their own transient-local QoS (`qos::service_events`)
+        let slow_qos = qos::data().history(ros2_client::qos::History::KeepLast {
+            depth: opts.queue_depth.min(SLOW_QUEUE_DEPTH),
+        });
+        let force = subscribe::<ActuatorForce>(node, &topics[1], &reader_qos)?;
+        let status = subscribe::<ControllerStatus>(node, &topics[2], &slow_qos)?;
+        let clock = subscribe::<Clock>(node, &topics[3], &reader_qos)?;
+        let event = subscribe::<SetModeEvent>(node, &topics[4], &qos::service_events())?;
+        let diagnostics = subscribe::<DiagnosticArray>(node, &topics[5], &slow_qos)?;
+        if !graph
+            .wait_publishers(force.guid(), 1, opts.wait_publishers)
+            .await
+        {
+            warn!(
+                "no force publisher after {:?}: recording without waiting for the controller",
+                opts.wait_publishers
+            );
+        }
+        let state = subscribe::<CapsuleState>(node, &topics[0], &reader_qos)?;
+        Ok(Self {
+            state,
+            force,
+            status,
+            clock,
+            event,
+            diagnostics,
+        })
+    }
 
-    let result: Result<()> = async {
+    /// Takes what every reader holds into `sink`; how many samples (diagnostics are recorded
+    /// but not counted: a controller left running publishes them every second, and the graph
+    /// is idle all the same).
+    fn drain(&self, sink: &mut GraphRecording) -> Result<usize> {
+        drain_into(&self.diagnostics, sink, Channel::Diagnostics)?;
+        Ok(drain_into(&self.state, sink, Channel::State)?
+            + drain_into(&self.force, sink, Channel::Force)?
+            + drain_into(&self.status, sink, Channel::Status)?
+            + drain_into(&self.clock, sink, Channel::Clock)?
+            + drain_into(&self.event, sink, Channel::ServiceEvent)?)
+    }
+
+    /// Samples still in flight when the graph stops (the plant's last one): keeps draining
+    /// until the readers stay empty for 100 ms (at most 0.5 s).
+    async fn drain_in_flight(&self, sink: &mut GraphRecording) -> Result<()> {
+        let until = tokio::time::Instant::now() + Duration::from_millis(500);
+        let mut quiet = tokio::time::Instant::now();
+        loop {
+            if self.drain(sink)? > 0 {
+                quiet = tokio::time::Instant::now();
+            }
+            let now = tokio::time::Instant::now();
+            if now >= until || now - quiet >= Duration::from_millis(100) {
+                return Ok(());
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
+    /// Records until SIGINT / SIGTERM, or `opts.idle_stop` without a message.
+    ///
+    /// Polls every reader on a short timer and drains what it holds, instead of one wake-up per
+    /// sample: at 10 kHz x 3 topics that is 500 wake-ups/s instead of 30 000. Log times come
+    /// from DDS reception, so batching does not blur them.
+    async fn record(&self, sink: &mut GraphRecording, opts: &RecorderOptions) -> Result<()> {
+        let mut poll = tokio::time::interval(opts.poll_period);
+        poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let shutdown = capsule_ros_base::ros::shutdown_signal();
+        tokio::pin!(shutdown);
+        let mut last_msg = tokio::time::Instant::now();
+        let mut got_any = false;
         loop {
             tokio::select! {
                 sig = &mut shutdown => {
-                    // samples still in flight when the graph stops (the plant's last one):
-                    // keep draining until the readers stay empty for 100 ms (at most 0.5 s)
-                    let until = tokio::time::Instant::now() + Duration::from_millis(500);
-                    let mut quiet = tokio::time::Instant::now();
-                    loop {
-                        if drain(&mut sink)? > 0 {
-                            quiet = tokio::time::Instant::now();
-                        }
-                        let now = tokio::time::Instant::now();
-                        if now >= until || now - quiet >= Duration::from_millis(100) {
-                            break;
-                        }
-                        tokio::time::sleep(Duration::from_millis(5)).await;
-                    }
+                    self.drain_in_flight(sink).await?;
                     info!("{}: finishing {}", sig?, opts.output.display());
                     return Ok(());
                 }
                 _ = poll.tick() => {
-                    if drain(&mut sink)? > 0 {
+                    if self.drain(sink)? > 0 {
                         got_any = true;
                         last_msg = tokio::time::Instant::now();
                     }
@@ -479,8 +497,29 @@ pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<Recorder
             }
         }
     }
-    .await;
-    match result {
+}
+
+/// Runs the recorder until SIGINT / SIGTERM (or `idle_stop`), then finishes the file.
+pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<RecorderReport> {
+    // the file first: an unwritable place is an error before anything else starts
+    let mut sink = GraphRecording::create(
+        &opts.output,
+        opts.scene.clone(),
+        &settings,
+        &opts.controller_node,
+        opts.flush_period,
+        opts.bag,
+    )?;
+    let context = settings.context()?;
+    let (mut node, graph) = settings.loop_node(&context)?;
+    let readers = Readers::subscribe(&settings, &mut node, &graph, &opts).await?;
+    info!(
+        "{}: recording {} to {}",
+        settings.describe(),
+        sink.per_topic().into_keys().collect::<Vec<_>>().join(", "),
+        opts.output.display()
+    );
+    match readers.record(&mut sink, &opts).await {
         Ok(()) => sink.finish(),
         // keep what is on disk readable by `capsule record recover`
         Err(e) => Err(sink.abandon(e)),

@@ -529,19 +529,34 @@ fn interrupted(args: &[&str]) -> std::process::Output {
     child.wait_with_output().unwrap_or_else(|e| panic!("{e}"))
 }
 
-#[test]
-fn an_interrupted_sweep_writes_what_finished_and_exits_non_zero() {
-    let tmp = TempDir::new("bad_input_interrupted_sweep");
-    let out = tmp.file("interrupted");
-    let o = interrupted(&line(
-        "sweep --param alpha --from 0.5 --to 1.5 --steps 20000 --periods 30 --threads 1 --out",
-        &[&out.display().to_string()],
-    ));
-    let err = stderr(&o);
+/// An interrupted run: exit status 1, `words` on stderr, and more than `lines` lines in `csv`.
+fn assert_interrupted(o: &std::process::Output, words: &str, csv: &std::path::Path, lines: usize) {
+    let err = stderr(o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("interrupted:"), "{err}");
-    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
-    assert!(csv.lines().count() > 1, "nothing written: {err}");
+    assert!(err.contains(words), "{err}");
+    let text = std::fs::read_to_string(csv).unwrap_or_default();
+    assert!(text.lines().count() > lines, "nothing written: {err}");
+}
+
+#[test]
+fn an_interrupted_sweep_or_basin_map_writes_what_finished_and_exits_non_zero() {
+    let tmp = TempDir::new("bad_input_interrupted_sweep");
+    let prefix = tmp.arg("interrupted");
+    // long enough on one thread (basins: 250,000 initial states) that the signal finds it running
+    for (command, words) in [
+        (
+            "sweep --param alpha --from 0.5 --to 1.5 --steps 20000 --periods 30 --threads 1",
+            "interrupted:",
+        ),
+        (
+            "basins --alpha 1.5 --grid 500,500 --basin-method per-state --threads 1",
+            "initial states not computed; the finished ones are in",
+        ),
+    ] {
+        let o = interrupted(&line(command, &["--out", &prefix]));
+        assert_interrupted(&o, words, &tmp.file("interrupted.csv"), 1);
+        let _ = std::fs::remove_file(tmp.file("interrupted.csv"));
+    }
 }
 
 #[test]
@@ -558,14 +573,8 @@ fn an_interrupted_continuation_writes_the_branch_so_far_and_exits_non_zero() {
             &out.display().to_string(),
         ],
     ));
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains(": interrupted; the branch so far is written"),
-        "{err}"
-    );
-    let csv = std::fs::read_to_string(out.with_extension("csv")).unwrap_or_default();
-    assert!(csv.lines().count() > 2, "nothing written: {err}");
+    let words = ": interrupted; the branch so far is written";
+    assert_interrupted(&o, words, &out.with_extension("csv"), 2);
     let json = std::fs::read_to_string(out.with_extension("json")).unwrap_or_default();
     assert!(
         json.contains("interrupted") && json.contains("\"closed\": false"),

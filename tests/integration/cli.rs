@@ -1,7 +1,7 @@
 //! The `capsule` command as a user runs it (needs `cargo build -p capsule_cli` first, as the
 //! README's test command does; `CAPSULE_BIN` names another directory of binaries).
 
-use crate::common::{assert_ok, assert_refused, capsule, json, line, TempDir};
+use crate::common::{assert_ok, assert_refused, capsule, command, files_in, json, line, TempDir};
 
 #[test]
 fn simulate_json_reports_what_the_issue_lists() {
@@ -183,4 +183,31 @@ fn simulate_device_runs_the_law_through_the_scenes_device() {
     ));
     assert_refused(&refused, 2, "cannot be used with", "--device --record");
     assert!(!dir.file("x.mcap").exists());
+}
+
+#[test]
+fn robustness_writes_files_only_where_asked() {
+    // a docs/robustness/ of its own beside the run: where the command wrote by default before
+    let dir = TempDir::new("cli_robustness");
+    let docs = dir.join("docs/robustness");
+    std::fs::create_dir_all(&docs).unwrap_or_else(|e| panic!("{}: {e}", docs.display()));
+    let quick = line("robustness --periods 1 --transient 0", &[]);
+    let o = command("capsule")
+        .args(&quick)
+        .current_dir(&*dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+    assert_ok(&o);
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        report.contains("# What the swap to a real capsule costs"),
+        "{report}"
+    );
+    assert!(files_in(&docs).is_empty(), "{:?}", files_in(&docs));
+    let prefix = dir.arg("r");
+    assert_ok(&capsule(&[quick.as_slice(), &["--out", &prefix]].concat()));
+    for ext in ["md", "svg", "png"] {
+        let f = dir.file(&format!("r.{ext}"));
+        assert!(f.is_file(), "{} missing", f.display());
+    }
 }

@@ -8,6 +8,7 @@ mod cli;
 mod common;
 mod docs_links;
 mod examples;
+mod function_length;
 mod hard_cases;
 mod import_circles;
 mod paper;
