@@ -776,7 +776,11 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 6 {} \
             --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json"
         rc=$?; wait; exit $rc"#,
-            if in_plant { "--record-in-plant" } else { "" }
+            if in_plant {
+                "--separate --record-in-plant"
+            } else {
+                "--separate"
+            }
         ),
     );
     assert_eq!(code, Some(0), "{all}");

@@ -91,7 +91,11 @@ impl Wall {
     /// When DDS received a message (now, if it does not say).
     pub(super) fn at(self, info: &ros2_client::MessageInfo) -> f64 {
         info.received_timestamp()
-            .map_or_else(|| self.now(), |t| (t.to_nanos() - self.0) as f64 * 1e-9)
+            .map_or_else(|| self.now(), |t| self.at_ns(t.to_nanos()))
+    }
+    /// Seconds since the start at `ns` of [`capsule_record::writer::now_ns`]'s clock.
+    pub(super) fn at_ns(self, ns: impl TryInto<i64>) -> f64 {
+        (ns.try_into().unwrap_or(i64::MAX) - self.0) as f64 * 1e-9
     }
 }
 
@@ -133,7 +137,7 @@ pub(super) struct CommandLogs {
 pub(super) fn take_command<H: CapsuleHardware>(
     core: &mut PlantCore<H>,
     cmd: &capsule_msgs::ActuatorForce,
-    info: &ros2_client::MessageInfo,
+    info: Option<&ros2_client::MessageInfo>,
     at: f64,
     logs: &mut CommandLogs,
     rec: Option<&mut InPlantRecording>,
@@ -157,10 +161,14 @@ pub(super) fn take_commands<H: CapsuleHardware>(
     logs: &mut CommandLogs,
     mut rec: Option<&mut InPlantRecording>,
 ) -> Result<()> {
-    loop {
-        match io.force_sub.take() {
+    while let Some((cmd, ns)) = io.next_answer() {
+        take_command(core, &cmd, None, wall.at_ns(ns), logs, rec.as_deref_mut())?;
+    }
+    while let Some(sub) = io.force_sub() {
+        match sub.take() {
             Ok(Some((cmd, info))) => {
-                take_command(core, &cmd, &info, wall.at(&info), logs, rec.as_deref_mut())?;
+                let at = wall.at(&info);
+                take_command(core, &cmd, Some(&info), at, logs, rec.as_deref_mut())?;
             }
             Ok(None) => break,
             // the rest waits for the next sample: never spin on a reader that keeps failing
@@ -228,7 +236,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
 ) -> Result<Exit> {
     let start = Instant::now();
     let steady = move || start.elapsed().as_secs_f64();
-    let commands = io.force_sub.async_stream();
+    let commands = commands_of(io);
     tokio::pin!(commands);
     let woken = control.woken.clone();
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
@@ -246,9 +254,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
                 let _ = io.clock_pub.async_publish(c).await;
             }
             let copy = io.views.per_sample.is_some().then(|| state.clone());
-            if let Err(e) = io.state_pub.async_publish(state).await {
-                warn!("state not sent: {e:?}");
-            }
+            io.send_state_async(state).await;
             if let (Some(d), Some(r)) = (io.views_of(copy, &core.stats), rec.as_deref_mut()) {
                 r.diagnostics(&d)?;
             }
@@ -264,6 +270,14 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
         if let Some(exit) = control.poll(core) {
             return Ok(exit);
         }
+        // in-process, the answer to the sample just sent is here already
+        while let Some((cmd, _)) = io.next_answer() {
+            let mut answers = Answers {
+                ever_commanded: &mut ever_commanded,
+                refused_logged: &mut refused_logged,
+            };
+            answers.take(core, &cmd, None, steady(), rec.as_deref_mut())?;
+        }
         if core.answered() {
             core.step().context("the plant's hardware")?;
             need_publish = true;
@@ -278,14 +292,8 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
             }
             msg = commands.select_next_some() => match msg {
                 Ok((cmd, info)) => {
-                    if let Some(r) = rec.as_deref_mut() {
-                        r.received(&cmd, &info)?;
-                    }
-                    match core.on_command(&cmd, steady(), true) {
-                        CommandOutcome::Accepted => ever_commanded = true,
-                        CommandOutcome::Duplicate => {}
-                        refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
-                    }
+                    let mut answers = Answers { ever_commanded: &mut ever_commanded, refused_logged: &mut refused_logged };
+                    answers.take(core, &cmd, Some(&info), steady(), rec.as_deref_mut())?;
                 }
                 Err(e) => log_undecodable(&mut undecodable, &e),
             },
@@ -305,11 +313,49 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
                         r.published(&state, None)?;
                         r.poll()?;
                     }
-                    if let Err(e) = io.state_pub.async_publish(state).await {
-                        warn!("state not re-sent: {e:?}");
-                    }
+                    io.send_state_async(state).await;
                 }
             }
         }
+    }
+}
+
+/// The commands DDS delivers (none in-process: the answers come with each sample sent).
+pub(super) fn commands_of(
+    io: &Endpoints,
+) -> impl futures::stream::FusedStream<
+    Item = ros2_client::ReadResult<(capsule_msgs::ActuatorForce, ros2_client::MessageInfo)>,
+> + '_ {
+    // fused: `select_next_some` refuses a stream that says it has ended, as `Pending` does
+    match io.force_sub() {
+        Some(sub) => sub.async_stream().left_stream(),
+        None => futures::stream::pending().fuse().right_stream(),
+    }
+}
+
+/// Lock-step: what a command answering a sample does (recorded when recording).
+struct Answers<'a> {
+    ever_commanded: &'a mut bool,
+    refused_logged: &'a mut Throttle,
+}
+
+impl Answers<'_> {
+    fn take<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        cmd: &capsule_msgs::ActuatorForce,
+        info: Option<&ros2_client::MessageInfo>,
+        now: f64,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<()> {
+        if let Some(r) = rec {
+            r.received(cmd, info)?;
+        }
+        match core.on_command(cmd, now, true) {
+            CommandOutcome::Accepted => *self.ever_commanded = true,
+            CommandOutcome::Duplicate => {}
+            refused => log_refused(refused, cmd, self.refused_logged, core.rejected()),
+        }
+        Ok(())
     }
 }

@@ -21,6 +21,7 @@ pub fn bin_dir() -> PathBuf {
         "capsule_controller",
         "capsule_ros",
         "capsule_foxglove",
+        "capsule_container",
     ]
     .iter()
     .map(|b| dir.join(b))
