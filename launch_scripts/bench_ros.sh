@@ -7,7 +7,8 @@
 # Use release binaries: cargo build --release -p capsule_nodes; CAPSULE_BIN defaults to
 # target/release. Cases:
 #   rt1k   real time 1 kHz, plant + controller, 60 s ($RT1K_S): loop latency p50/p99/max
-#          (state published -> its command received by the plant), unanswered samples,
+#          (state published -> its command received by the plant), lateness p99/max (a sample
+#          out after its due time start + k / rate), unanswered samples,
 #          datagrams the kernel dropped, CPU per node (steady state: user + system time from
 #          2 s in to 0.5 s before the end, % of one core) and the host's steal time
 #   rt10k  the same at 10 kHz for 5 s
@@ -87,7 +88,9 @@ except Exception:
 ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
 print(f"{name}: samples {j['samples']} ({j['before_first_answer']} before the first answer), lost {j['unanswered']}, "
       f"answered late {j['late_answers']}, latency p50 {ms(j['latency_p50_s'])} "
-      f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
+      f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, "
+      + (f"lateness p99 {ms(j['lateness_p99_s'])} max {ms(j['lateness_max_s'])}, " if j.get('lateness_p99_s') is not None else "")
+      + f"wall {j['wall_s']:.2f} s, "
       f"{j['samples']/j['wall_s']:.0f} steps/s"
       + (f" ({j['samples']/j['loop_s']:.0f} in the loop's {j['loop_s']:.2f} s)" if j.get('loop_s') else "")
       + f"; {cpu}; {udp} datagrams"

@@ -110,9 +110,34 @@ impl CopyCounts {
 /// and a thread that publishes what it holds every [`COPIES_PERIOD`] (polled, so a push
 /// never wakes it: no wake-up per sample on the loop's CPU).
 pub struct DdsCopies<M> {
-    tx: SyncSender<M>,
+    /// The queue (`None` once dropped: the thread publishes the rest and ends).
+    tx: Option<SyncSender<M>>,
+    /// Says when the thread has ended (in a mutex: the controller's copies are shared).
+    ended: std::sync::Mutex<Receiver<()>>,
     counts: Arc<CopyCounts>,
     topic: String,
+}
+
+/// How long the end of a run waits for the copies still queued to go out.
+const COPIES_END_WAIT: Duration = Duration::from_secs(2);
+
+impl<M> Drop for DdsCopies<M> {
+    /// Closes the queue and waits (at most [`COPIES_END_WAIT`]) until the thread has published
+    /// what it held, so that the counts are final.
+    fn drop(&mut self) {
+        self.tx.take();
+        let ended = self
+            .ended
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if ended.recv_timeout(COPIES_END_WAIT).is_err() {
+            warn!(
+                "DDS copies of {}: the publisher thread had not ended {COPIES_END_WAIT:?} after the run ({})",
+                self.topic,
+                self.counts.describe()
+            );
+        }
+    }
 }
 
 /// How often a [`DdsCopies`] publisher thread takes what its queue holds.
@@ -125,14 +150,19 @@ impl<M: Serialize + Send + 'static> DdsCopies<M> {
     /// while `graph` says a reader matched it.
     pub fn start(topic: &str, publisher: Publisher<M>, graph: Graph) -> Result<DdsCopies<M>> {
         let (tx, rx) = sync_channel(COPIES_CAPACITY);
+        let (done, ended) = std::sync::mpsc::channel();
         let counts = Arc::new(CopyCounts::default());
         let c = counts.clone();
         std::thread::Builder::new()
             .name("dds_copies".into())
-            .spawn(move || publish_copies(rx, &publisher, &graph, &c))
+            .spawn(move || {
+                publish_copies(rx, &publisher, &graph, &c);
+                let _ = done.send(());
+            })
             .with_context(|| format!("cannot start the DDS publisher thread of {topic}"))?;
         Ok(DdsCopies {
-            tx,
+            tx: Some(tx),
+            ended: std::sync::Mutex::new(ended),
             counts,
             topic: topic.to_string(),
         })
@@ -141,7 +171,11 @@ impl<M: Serialize + Send + 'static> DdsCopies<M> {
     /// Queues a copy; dropped and counted if the queue is full (logged at the first drop and
     /// then at powers of two).
     pub fn push(&self, msg: M) {
-        match self.tx.try_send(msg) {
+        let sent = match &self.tx {
+            Some(tx) => tx.try_send(msg),
+            None => Err(TrySendError::Disconnected(msg)),
+        };
+        match sent {
             Ok(()) => {}
             Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
                 let n = self.counts.dropped.fetch_add(1, Ordering::Relaxed) + 1;

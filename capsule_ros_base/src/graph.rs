@@ -127,8 +127,10 @@ pub struct Graph {
 /// The graphs followed, one per participant: a participant's status events come through one
 /// channel, so a second follower would take half of them from the first (nodes composed in
 /// one process share the participant, and so its graph).
-static FOLLOWED: Mutex<Vec<(GUID, std::sync::Weak<Mutex<Matches>>, watch::Receiver<u64>)>> =
-    Mutex::new(Vec::new());
+static FOLLOWED: Mutex<Vec<Followed>> = Mutex::new(Vec::new());
+
+/// A participant followed: its GUID, its matches (while the follower lives), its changes.
+type Followed = (GUID, std::sync::Weak<Mutex<Matches>>, watch::Receiver<u64>);
 
 impl Graph {
     /// Starts following `participant`'s discovery events (call before creating endpoints), or

@@ -65,8 +65,7 @@ pub async fn run_in<H: CapsuleHardware + 'static>(
     let copies = built.io.copies();
     let (result, mut core, recording, conflicts) = run_loop(built, core, opts).await?;
     if let Some(c) = copies {
-        // what the publisher thread has not taken yet is in the queue: give it a period
-        std::thread::sleep(crate::intra_process::COPIES_PERIOD * 2);
+        // final: the loop's thread has dropped the endpoints, which waits for the copies
         let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
         core.stats.dds_copies = Some(super::DdsCopyStats {
             published: load(&c.published),
@@ -258,6 +257,8 @@ fn spawn_loop<H: CapsuleHardware + 'static>(
                 .and_then(|rt| {
                     rt.block_on(drive(&mut core, &io, &opts, &mut control, rec.as_mut()))
                 });
+            // before the result goes back: in-process, this waits for the DDS copies to go out
+            drop(io);
             let _ = core.cleanup();
             let _ = tx.send((result, core, rec));
         })

@@ -203,6 +203,10 @@ pub(super) fn realtime_loop<H: CapsuleHardware>(
     let wall = Wall::start();
     let mut logs = CommandLogs::default();
     loop {
+        // how late this sample goes out (its due time: start + k / rate)
+        let due = start + period.mul_f64((core.seq() - first) as f64);
+        let late = Instant::now().saturating_duration_since(due);
+        core.stats.lateness.record(late.as_secs_f64());
         if publish_now(core, io, opts, wall, rec.as_deref_mut())? {
             return Ok(Exit::Over);
         }
@@ -278,7 +282,10 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
             };
             answers.take(core, &cmd, None, steady(), rec.as_deref_mut())?;
         }
-        if core.answered() {
+        // only an active plant steps: sim time stands still while inactive (before the
+        // activation that follows configure, too), so the run does not depend on how long
+        // the lifecycle took
+        if core.answered() && core.active() {
             core.step().context("the plant's hardware")?;
             need_publish = true;
             continue;
@@ -300,7 +307,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
             _ = resend.tick() => {
                 let waited = steady() - wait_started;
                 let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
-                if waited > limit {
+                if waited > limit && core.active() {
                     if core.force_stale() || !ever_commanded {
                         warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
                     }

@@ -13,6 +13,8 @@ use capsule_ros_base::latency::LatencyHistogram;
 pub struct LoopStats {
     /// Latencies from publishing a sample to receiving its first answer (constant memory).
     pub latencies: LatencyHistogram,
+    /// Real time: how late each sample went out after its due time (`start + k / rate`).
+    pub lateness: LatencyHistogram,
     /// Samples published.
     pub published: u64,
     /// Samples published before the first answer (discovery, controller start-up).
@@ -127,6 +129,8 @@ pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> Stri
         latency_p50_s: p50,
         latency_p99_s: p99,
         latency_max_s: max,
+        lateness_p99_s: stats.lateness.quantile(0.99),
+        lateness_max_s: stats.lateness.max(),
         wall_s,
         loop_s: stats.published_span.map(|(first, last)| last - first),
         rejected_commands: last.rejected_commands,
@@ -167,6 +171,9 @@ struct Summary {
     latency_p50_s: Option<f64>,
     latency_p99_s: Option<f64>,
     latency_max_s: Option<f64>,
+    /// Real time: how late samples went out after their due time (`null` in lock-step).
+    lateness_p99_s: Option<f64>,
+    lateness_max_s: Option<f64>,
     wall_s: f64,
     /// From the first sample out to the last (the loop alone: no start-up, no shutdown).
     loop_s: Option<f64>,
