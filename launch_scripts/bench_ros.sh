@@ -11,13 +11,15 @@
 #          out after its due time start + k / rate), unanswered samples,
 #          datagrams the kernel dropped, CPU per node (steady state: user + system time from
 #          2 s in to 0.5 s before the end, % of one core) and the host's steal time
-#   rt10k  the same at 10 kHz for 5 s
+#   rt10k  the same at 10 kHz for 5 s ($RT10K_S)
 #   lock   lock-step closed loop: steps per second of wall time
 #   lock-rec  the same, every sample recorded (the plant's in-process recording)
 #   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
 #   c-*    the same cases with plant and controller composed in one process (capsule_container,
 #          in-process state and force; pinned with taskset -c for -cpu1); CPU is the process's
 # BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
+# BENCH_RT="chrt -f 50" runs every node with that prefix (real-time scheduling: a host busy with
+# other work then delays the loop by microseconds, not milliseconds; docs/perf/composition.md).
 # BENCH_SECURE=KEYSTORE runs every case secured (SROS2, Enforce; plant and controller with their
 # enclaves of launch_scripts/capsule_keystore.sh create KEYSTORE): docs/perf/security.md.
 set -u
@@ -25,7 +27,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
 scene="${1:-$root/scenes/control_point.toml}"
 export CAPSULE_BIN="${CAPSULE_BIN:-$root/target/release}"
-export SCENE="$scene"
+export SCENE="$scene" BENCH_RT="${BENCH_RT:-}"
 
 case_script='
 set -u
@@ -36,10 +38,10 @@ if [ -n "${BENCH_SECURE:-}" ]; then
   export ROS_SECURITY_KEYSTORE="$BENCH_SECURE" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce
 fi
 rm -f /tmp/bench_rec.mcap
-$B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
+${BENCH_RT:-} $B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
 C=$!
 sleep 0.5
-$B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --enclave /capsule/plant --summary-json /tmp/bench_$$.json 2>/dev/null &
+${BENCH_RT:-} $B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --enclave /capsule/plant --summary-json /tmp/bench_$$.json 2>/dev/null &
 P=$!
 # CPU over the steady state: from 2 s in (discovery done) to 0.5 s before the end
 sleep 2
@@ -62,7 +64,7 @@ B=$CAPSULE_BIN
 cpu() { awk "{print \$14 + \$15}" /proc/$1/stat 2>/dev/null || echo -1; }
 steal() { awk "/^cpu / {print \$9}" /proc/stat; }
 rm -f /tmp/bench_rec.mcap
-$PIN $B/capsule_container --scene "$SCENE" --mode forward $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+${BENCH_RT:-} $PIN $B/capsule_container --scene "$SCENE" --mode forward $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
 P=$!
 sleep 2
 t0=$(date +%s.%N); p0=$(cpu $P); s0=$(steal)
@@ -122,11 +124,11 @@ if [ -n "${BENCH_SECURE:-}" ]; then
   [ -d "$BENCH_SECURE/enclaves" ] || { echo "bench_ros: BENCH_SECURE '$BENCH_SECURE': not a keystore (launch_scripts/capsule_keystore.sh create DIR)" >&2; exit 2; }
   BENCH_SECURE="$(cd "$BENCH_SECURE" && pwd)"; export BENCH_SECURE
 fi
-echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)"
+echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)${BENCH_RT:+, nodes run with $BENCH_RT}, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"
-run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
-run_case rt10k-cpu1 5 "--pacing realtime --rate-hz 10000 --until-s 5" "--cpu-affinity $cpu"
+run_case rt10k ${RT10K_S:-5} "--pacing realtime --rate-hz 10000 --until-s ${RT10K_S:-5}"
+run_case rt10k-cpu1 ${RT10K_S:-5} "--pacing realtime --rate-hz 10000 --until-s ${RT10K_S:-5}" "--cpu-affinity $cpu"
 run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"
 run_case lock-cpu1 8 "--pacing lockstep --until-s 10 --wait-subscribers 1" "--cpu-affinity $cpu"
 rec="--record-output /tmp/bench_rec.mcap"
@@ -136,8 +138,8 @@ run_case lock-rec-cpu1 8 "--pacing lockstep --until-s 10 --wait-subscribers 1 $r
 # before the CPU window opens)
 run_composed c-rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_composed c-rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "taskset -c $cpu"
-run_composed c-rt10k 5 "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s 5"
-run_composed c-rt10k-cpu1 5 "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s 5" "taskset -c $cpu"
+run_composed c-rt10k ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}"
+run_composed c-rt10k-cpu1 ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}" "taskset -c $cpu"
 run_composed c-lock 8 "--pacing lockstep --until-s 300"
 run_composed c-lock-cpu1 8 "--pacing lockstep --until-s 300" "taskset -c $cpu"
 run_composed c-lock-rec 8 "--pacing lockstep --until-s 300 $rec"

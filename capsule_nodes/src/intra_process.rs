@@ -61,6 +61,11 @@ impl Link {
         Ok(())
     }
 
+    /// Whether a controller is attached.
+    pub fn is_attached(&self) -> bool {
+        self.controller.get().is_some()
+    }
+
     /// The controller's answer to `state` from the plant `plant`; `None` while no controller
     /// is attached, when it does not answer, and after it panicked (named in the log once: the
     /// plant then applies zero force after its command timeout).
@@ -122,7 +127,7 @@ pub struct DdsCopies<M> {
 const COPIES_END_WAIT: Duration = Duration::from_secs(2);
 
 impl<M> Drop for DdsCopies<M> {
-    /// Closes the queue and waits (at most [`COPIES_END_WAIT`]) until the thread has published
+    /// Closes the queue and waits (at most 2 s) until the thread has published
     /// what it held, so that the counts are final.
     fn drop(&mut self) {
         self.tx.take();

@@ -189,6 +189,20 @@ async fn run(composed: Composed) -> Result<()> {
         Transport::InProcess(link.clone()),
         end,
     );
+    tokio::pin!(ctl);
+    // the controller first, as the launcher starts it first: the plant's first sample finds it
+    let attached = async {
+        while !link.is_attached() {
+            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+        }
+    };
+    tokio::select! {
+        c = &mut ctl => {
+            c.context("capsule_controller")?;
+            return Ok(());
+        }
+        () = attached => {}
+    }
     let plant = plant::run_in(
         Some(&context),
         psettings,
@@ -196,7 +210,7 @@ async fn run(composed: Composed) -> Result<()> {
         popts,
         Transport::InProcess(link),
     );
-    tokio::pin!(ctl, plant);
+    tokio::pin!(plant);
     let (stats, last) = tokio::select! {
         p = &mut plant => {
             plant_done.notify_one();
