@@ -24,7 +24,7 @@ use tracing::warn;
 use super::endpoints::{log_undecodable, Endpoints};
 use super::loop_control::{apply, Exit, LoopControl};
 use super::pacing::{
-    commands_of, publish_now, take_command, take_joint_commands, CommandLogs, Wall,
+    commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs, Wall,
 };
 use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
@@ -166,10 +166,7 @@ impl Paced<'_> {
         rec: Option<&mut InPlantRecording>,
     ) -> Result<()> {
         let outcome = if self.lockstep {
-            if let Some(r) = rec {
-                r.received(cmd, info)?;
-            }
-            core.on_command(cmd, at, true)
+            take_answer(core, cmd, info, at, rec)?
         } else {
             take_command(core, cmd, info, at, &mut self.logs, rec)?
         };

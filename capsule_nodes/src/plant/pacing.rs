@@ -280,7 +280,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
                 ever_commanded: &mut ever_commanded,
                 refused_logged: &mut refused_logged,
             };
-            answers.take(core, &cmd, None, steady(), rec.as_deref_mut())?;
+            answers.take(core, (&cmd, None), steady(), rec.as_deref_mut())?;
         }
         // only an active plant steps: sim time stands still while inactive (before the
         // activation that follows configure, too), so the run does not depend on how long
@@ -300,7 +300,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
             msg = commands.select_next_some() => match msg {
                 Ok((cmd, info)) => {
                     let mut answers = Answers { ever_commanded: &mut ever_commanded, refused_logged: &mut refused_logged };
-                    answers.take(core, &cmd, Some(&info), steady(), rec.as_deref_mut())?;
+                    answers.take(core, (&cmd, Some(&info)), steady(), rec.as_deref_mut())?;
                 }
                 Err(e) => log_undecodable(&mut undecodable, &e),
             },
@@ -340,6 +340,21 @@ pub(super) fn commands_of(
     }
 }
 
+/// Lock-step: takes a command received at `at` as the answer to the current sample (recorded
+/// when recording; `info`: as DDS delivered it, `None`: in-process).
+pub(super) fn take_answer<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    cmd: &capsule_msgs::ActuatorForce,
+    info: Option<&ros2_client::MessageInfo>,
+    at: f64,
+    rec: Option<&mut InPlantRecording>,
+) -> Result<CommandOutcome> {
+    if let Some(r) = rec {
+        r.received(cmd, info)?;
+    }
+    Ok(core.on_command(cmd, at, true))
+}
+
 /// Lock-step: what a command answering a sample does (recorded when recording).
 struct Answers<'a> {
     ever_commanded: &'a mut bool,
@@ -347,18 +362,19 @@ struct Answers<'a> {
 }
 
 impl Answers<'_> {
+    /// Takes `received` (the command, and as DDS delivered it or `None` in-process) at `now`.
     fn take<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
-        cmd: &capsule_msgs::ActuatorForce,
-        info: Option<&ros2_client::MessageInfo>,
+        received: (
+            &capsule_msgs::ActuatorForce,
+            Option<&ros2_client::MessageInfo>,
+        ),
         now: f64,
         rec: Option<&mut InPlantRecording>,
     ) -> Result<()> {
-        if let Some(r) = rec {
-            r.received(cmd, info)?;
-        }
-        match core.on_command(cmd, now, true) {
+        let (cmd, info) = received;
+        match take_answer(core, cmd, info, now, rec)? {
             CommandOutcome::Accepted => *self.ever_commanded = true,
             CommandOutcome::Duplicate => {}
             refused => log_refused(refused, cmd, self.refused_logged, core.rejected()),

@@ -4,17 +4,9 @@
 
 use serde_json::Value;
 
-use super::harness::{assert_contains, json_raw, netns, netns_with_peer, Run};
-
-/// The summary's `"last": {...}` of the line tagged `tag`.
-#[track_caller]
-fn last(run: &Run, tag: &str) -> String {
-    let line = run.line(tag);
-    line[line
-        .find("\"last\"")
-        .unwrap_or_else(|| panic!("no last sample in {line}\n{}", run.all()))..]
-        .to_string()
-}
+use super::harness::{
+    assert_contains, assert_moved_to_seq_1500, json_raw, last_sample, netns, netns_with_peer,
+};
 
 /// The rows of `topic` (as tests/peers/mcap_decode.py gives them), the first of each key
 /// (`key_col`): a lock-step plant re-sends an unanswered sample, and a re-sent one is the same.
@@ -65,13 +57,8 @@ fn lockstep_composed_and_separate_give_the_same_run_bit_for_bit() {
         echo "COMDEC $(cat $TMP/com.dec)""#;
     let run = netns(240, script);
     run.assert_ok();
-    let (sep, com) = (last(&run, "SEP "), last(&run, "COM "));
-    assert_eq!(json_raw(&sep, "seq"), Some("1500"), "{sep}");
-    assert_ne!(
-        json_raw(&sep, "capsule_position"),
-        Some("0.0"),
-        "the capsule never moved: {sep}"
-    );
+    let (sep, com) = (last_sample(&run, "SEP "), last_sample(&run, "COM "));
+    assert_moved_to_seq_1500(&sep);
     assert_eq!(sep, com, "composed and separate lock-step runs differ");
     // the whole run: every state and every command, as the two recordings hold them
     let decoded = |tag: &str| -> Value {
