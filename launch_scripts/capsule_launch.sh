@@ -10,7 +10,7 @@
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--separate [--record-in-plant] [--recorder-arg ARG]...]
-#       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE]
+#       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE] [--managed]
 #
 # Every run is recorded to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs: composed, by
 # the plant in-process (every sample); with --separate by capsule_recorder, or with
@@ -27,6 +27,9 @@
 # Each node gets its enclave /capsule/{plant,controller,recorder,foxglove}, the --with commands
 # /capsule/operator (ROS_SECURITY_ENCLAVE_OVERRIDE, unless set). docs/ros.md, Security.
 #
+# --managed: the plant starts unconfigured and waits for its lifecycle (`ros2 lifecycle set
+# /capsule_plant configure`, then `activate`; or `capsule_ros lifecycle-set`), as a managed node.
+#
 # DDS stays on loopback unless the caller says otherwise: ROS_AUTOMATIC_DISCOVERY_RANGE defaults to
 # LOCALHOST here. Binaries come from $CAPSULE_BIN (default: target/debug next to this script).
 set -u
@@ -37,13 +40,13 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,31p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() separate=0
+usage() { sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true separate=0
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
   case "$1" in
-    --no-record|--record-in-plant|--separate|-h|--help) ;;
+    --no-record|--record-in-plant|--separate|--managed|-h|--help) ;;
     *) [ $# -ge 2 ] || die "$1 needs a value" ;;
   esac
   case "$1" in
@@ -59,6 +62,7 @@ while [ $# -gt 0 ]; do
     --no-record) record=0; shift ;;
     --record-in-plant) in_plant=1; shift ;;
     --separate) separate=1; shift ;;
+    --managed) autostart=false; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
     --foxglove-port) fox_port="$2"; shift 2 ;;
@@ -105,7 +109,7 @@ if [ "$separate" = 0 ]; then
   [ -n "$until_s" ] && co+=(--until-s "$until_s")
   [ -n "$mode" ] && co+=(--mode "$mode")
   [ -n "$cpus" ] && co+=(--cpu-affinity "$cpus")
-  for a in --autostart ${plant_args[@]+"${plant_args[@]}"}; do co+=(--plant-arg "$a"); done
+  for a in --autostart "$autostart" ${plant_args[@]+"${plant_args[@]}"}; do co+=(--plant-arg "$a"); done
   for a in ${ctl_args[@]+"${ctl_args[@]}"}; do co+=(--controller-arg "$a"); done
   # lock-step: the extras' DDS readers matched before the first sample (the controller is in-process)
   [ "$pacing" = lockstep ] && [ ${#withs[@]} -gt 0 ] && co+=(--plant-arg --wait-subscribers --plant-arg "${#withs[@]}")
@@ -121,7 +125,7 @@ fi
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
 if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-affinity "$cpus"); rec_args+=(--cpu-affinity "$cpus"); fi
 [ "$separate" = 1 ] && { "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2; }
-pl=(--scene "$scene" --pacing "$pacing" --autostart)
+pl=(--scene "$scene" --pacing "$pacing" --autostart "$autostart")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
 # the file name the check prints is the one the run writes (fixed here, not re-timed at start)

@@ -4,6 +4,7 @@
 use capsule_msgs::names::topics;
 use std::time::Duration;
 
+use capsule_msgs::std_types::{ChangeStateRequest, ChangeStateResponse, LifecycleTransition};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
 use ros2_client::{service::Client, Node};
@@ -44,33 +45,89 @@ impl ModeClient {
     }
 
     /// Calls the service, re-sending every 500 ms until a response comes or `timeout` passes
-    /// (a first request can be lost while the reply path is still matching). Waits at most 2 s
-    /// for the service to be matched first; a match event can be missed, so it does not rely on it.
+    /// (see [`call_with_retries`]).
     pub async fn call(
         &self,
         node: &Node,
         req: SetModeRequest,
         timeout: Duration,
     ) -> Result<SetModeResponse> {
-        let deadline = tokio::time::Instant::now() + timeout;
-        let _ = tokio::time::timeout(
-            timeout.min(Duration::from_secs(2)),
-            self.client.wait_for_service(node),
-        )
-        .await;
-        let retry = Duration::from_millis(500);
-        loop {
-            let id = self
-                .client
-                .async_send_request(Wire(req.clone()))
-                .await
-                .context("set_mode request not sent")?;
-            match tokio::time::timeout(retry, self.client.async_receive_response(id)).await {
-                Ok(Ok(Wire(resp))) => return Ok(resp),
-                Ok(Err(e)) => bail!("set_mode response unreadable: {e:?}"),
-                Err(_) if tokio::time::Instant::now() < deadline => continue,
-                Err(_) => bail!("no set_mode response within {timeout:?}"),
-            }
+        call_with_retries(&self.client, node, req, timeout, "set_mode").await
+    }
+}
+
+/// A managed node's `change_state` client (what `ros2 lifecycle set NODE TRANSITION` calls).
+pub struct LifecycleClient {
+    client: Client<Wire<ChangeStateRequest>, Wire<ChangeStateResponse>>,
+}
+
+impl LifecycleClient {
+    /// Creates the client on `node` for `managed_node`'s `change_state` (e.g. `/capsule_plant`).
+    pub fn new(node: &mut Node, settings: &RosOptions, managed_node: &str) -> Result<Self> {
+        let (service, full) = topics::lifecycle::CHANGE_STATE;
+        let (package, ty) = capsule_msgs::names::type_names::split(full);
+        let name = format!(
+            "{}/{}",
+            managed_node.trim_end_matches('/'),
+            service.trim_start_matches("~/")
+        );
+        let client = node
+            .create_client::<Wire<ChangeStateRequest>, Wire<ChangeStateResponse>>(
+                settings.mapping.into(),
+                &settings.ros_name(&name)?,
+                &ros2_client::ServiceTypeName::new(package, ty),
+                qos::service(),
+                qos::service(),
+            )
+            .with_context(|| format!("{name} client"))?;
+        Ok(LifecycleClient { client })
+    }
+
+    /// Asks for the transition labelled `transition` (`configure`, `activate`, ...); true when
+    /// it was taken and succeeded.
+    pub async fn set(&self, node: &Node, transition: &str, timeout: Duration) -> Result<bool> {
+        let req = ChangeStateRequest {
+            transition: LifecycleTransition {
+                id: 0,
+                label: transition.into(),
+            },
+        };
+        let resp = call_with_retries(&self.client, node, req, timeout, "change_state").await?;
+        Ok(resp.success)
+    }
+}
+
+/// Calls `client`'s service, re-sending every 500 ms until a response comes or `timeout` passes
+/// (a first request can be lost while the reply path is still matching). Waits at most 2 s
+/// for the service to be matched first; a match event can be missed, so it does not rely on it.
+async fn call_with_retries<Q, A>(
+    client: &Client<Wire<Q>, Wire<A>>,
+    node: &Node,
+    req: Q,
+    timeout: Duration,
+    what: &str,
+) -> Result<A>
+where
+    Q: Clone + serde::Serialize + serde::de::DeserializeOwned + 'static,
+    A: serde::Serialize + serde::de::DeserializeOwned + 'static,
+{
+    let deadline = tokio::time::Instant::now() + timeout;
+    let _ = tokio::time::timeout(
+        timeout.min(Duration::from_secs(2)),
+        client.wait_for_service(node),
+    )
+    .await;
+    let retry = Duration::from_millis(500);
+    loop {
+        let id = client
+            .async_send_request(Wire(req.clone()))
+            .await
+            .with_context(|| format!("{what} request not sent"))?;
+        match tokio::time::timeout(retry, client.async_receive_response(id)).await {
+            Ok(Ok(Wire(resp))) => return Ok(resp),
+            Ok(Err(e)) => bail!("{what} response unreadable: {e:?}"),
+            Err(_) if tokio::time::Instant::now() < deadline => continue,
+            Err(_) => bail!("no {what} response within {timeout:?}"),
         }
     }
 }

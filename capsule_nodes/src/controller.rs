@@ -187,7 +187,7 @@ impl Outputs {
             node,
             &crate::recorder::service_event_topic("~"),
             crate::recorder::service_event_type(),
-            &qos::service(),
+            &qos::service_events(),
         )?;
         // a second plant is told from the samples themselves (plant_identity): a SIGKILLed
         // plant stays in discovery until its lease ends, and its restarted successor would

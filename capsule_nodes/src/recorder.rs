@@ -216,7 +216,7 @@ pub fn graph_topics(
             service_event_topic(controller_node),
             service_event_type(),
             type_names::SET_MODE_EVENT,
-            qos::service(),
+            qos::service_events(),
         ),
         (
             topics::views::DIAGNOSTICS.to_string(),
@@ -403,7 +403,7 @@ pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<Recorder
     let force_sub = subscribe::<ActuatorForce>(&mut node, &topics[1], &reader_qos)?;
     let status_sub = subscribe::<ControllerStatus>(&mut node, &topics[2], &slow_qos)?;
     let clock_sub = subscribe::<Clock>(&mut node, &topics[3], &reader_qos)?;
-    let event_sub = subscribe::<SetModeEvent>(&mut node, &topics[4], &slow_qos)?;
+    let event_sub = subscribe::<SetModeEvent>(&mut node, &topics[4], &qos::service_events())?;
     let diagnostics_sub = subscribe::<DiagnosticArray>(&mut node, &topics[5], &slow_qos)?;
     if !graph
         .wait_publishers(force_sub.guid(), 1, opts.wait_publishers)

@@ -8,6 +8,7 @@
 //!   ros2-client's spinner)
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
+//! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
 //! - [`latency`]: loop latency percentiles in constant memory
 //! - [`throttle`]: rate-limited logging of per-sample events
@@ -23,6 +24,7 @@ pub mod graph;
 pub mod latency;
 pub mod param_services;
 pub mod params;
+pub mod ports;
 pub mod ros;
 pub mod ros_args;
 pub mod security;

@@ -301,8 +301,30 @@ impl RosOptions {
         Context::from_domain_participant(participant).context("cannot create the ROS 2 context")
     }
 
-    /// The DDS participant, with the builtin security plugins configured from `enclave`.
+    /// The DDS participant, with the builtin security plugins configured from `enclave`, on a
+    /// participant id whose user-traffic port it holds (see [`crate::ports`]): when another
+    /// process took that port, the id's discovery port is held while the participant is built
+    /// again, so RustDDS takes the next id.
     fn participant(&self, enclave: Option<&std::path::Path>) -> Result<rustdds::DomainParticipant> {
+        let mut held = Vec::new();
+        loop {
+            let participant = self.build_participant(enclave)?;
+            let id = participant.participant_id();
+            let port = crate::ports::user_port(self.domain_id, id);
+            if crate::ports::holds_udp_port(port) != Some(false) || held.len() >= MAX_PORT_RETRIES {
+                return Ok(participant);
+            }
+            tracing::debug!("participant id {id}: another process took its user port {port}; building it again on the next id");
+            drop(participant);
+            held.push(hold_port(crate::ports::discovery_port(self.domain_id, id)));
+        }
+    }
+
+    /// The DDS participant as RustDDS builds it.
+    fn build_participant(
+        &self,
+        enclave: Option<&std::path::Path>,
+    ) -> Result<rustdds::DomainParticipant> {
         let mut builder = rustdds::DomainParticipantBuilder::new(self.domain_id);
         if self.range == DiscoveryRange::Localhost {
             builder = builder.with_only_networks([Ipv4Addr::LOCALHOST]);
@@ -476,6 +498,22 @@ pub mod types {
     }
 }
 
+/// How many participant ids [`RosOptions::context`] skips when another process holds their
+/// user-traffic port before it keeps what it got.
+const MAX_PORT_RETRIES: usize = 8;
+
+/// Binds `port` (so a participant built meanwhile takes the next id), retrying for up to 0.5 s
+/// while a participant just dropped still releases it; `None` if it cannot.
+fn hold_port(port: u16) -> Option<std::net::UdpSocket> {
+    for _ in 0..50 {
+        if let Ok(socket) = std::net::UdpSocket::bind((std::net::Ipv4Addr::UNSPECIFIED, port)) {
+            return Some(socket);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    None
+}
+
 /// QoS of the capsule topics.
 pub mod qos {
     use super::*;
@@ -511,6 +549,16 @@ pub mod qos {
     /// Services: reliable, volatile, keep last 10 (rmw's services default).
     pub fn service() -> QosProfile {
         reliable(100, 10)
+    }
+    /// The controller's service events (`set_mode/_service_event`): reliable, transient local,
+    /// keep last 64, writer and readers alike. rcl's are volatile; here a recorder whose
+    /// discovery of the event writer ends late (seconds with DDS Security) still gets the
+    /// requests made before, and volatile readers (rosbag2, rclcpp) match it all the same.
+    pub fn service_events() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 64 })
     }
     /// Latched state (robot_description, the emergency stop): reliable, transient local, keep
     /// last 1, so a reader that joins later gets the last value.

@@ -750,21 +750,21 @@ fn json_u64(text: &str, key: &str) -> Option<u64> {
 }
 
 #[test]
-#[ignore = "fails intermittently since the 2026-11-27 merges (the recorder misses the last states or a set_mode event; the in-plant file once did not replay exactly): see that session's closing note; run with --ignored"]
 fn launcher_records_every_published_message_and_the_mode_changes() {
     launcher_run_is_recorded("launch_run", false);
 }
 
 #[test]
-#[ignore = "fails intermittently since the 2026-11-27 merges (the recorder misses the last states or a set_mode event; the in-plant file once did not replay exactly): see that session's closing note; run with --ignored"]
 fn in_plant_recording_holds_the_same_run() {
     launcher_run_is_recorded("launch_run_in_plant", true);
 }
 
 /// A lock-step launcher run with two mode requests, recorded by the recorder node or (with
-/// `in_plant`) by the plant itself: the same file either way. The switch is scheduled (at 4.5 s
-/// of sim time, requested early): `--check-controller` replays a scheduled switch exactly, an
-/// immediate one only to within a sample of where the recording saw the request.
+/// `in_plant`) by the plant itself, composed with the controller: the same file either way. The switch is scheduled (at 4.5 s
+/// of sim time): `--check-controller` replays a scheduled switch exactly, an immediate one only
+/// to within a sample of where the recording saw the request. So the requests are made while
+/// the managed plant waits unconfigured, and it is activated after them: a lock-step run is
+/// fast enough to pass 4.5 s of sim time before a request made during it arrives.
 fn launcher_run_is_recorded(name: &str, in_plant: bool) {
     let dir = TempDir::new(&format!("record_{name}"));
     let (code, all) = netns(
@@ -772,15 +772,14 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         &dir,
         &format!(
             r#"
-        ( sleep 1; $B/capsule_ros set-mode backward --at-s 4.5; $B/capsule_ros set-mode custom --gain 99 ) &
+        ( sleep 1; $B/capsule_ros set-mode backward --at-s 4.5; $B/capsule_ros set-mode custom --gain 99
+          $B/capsule_ros lifecycle-set /capsule_plant configure && $B/capsule_ros lifecycle-set /capsule_plant activate ) &
         $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --pacing lockstep --until-s 6 {} \
-            --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json"
+            --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json" \
+            --managed
         rc=$?; wait; exit $rc"#,
-            if in_plant {
-                "--separate --record-in-plant"
-            } else {
-                "--separate"
-            }
+            // in the plant: composed (the launcher's default), which records in-process
+            if in_plant { "" } else { "--separate" }
         ),
     );
     assert_eq!(code, Some(0), "{all}");
@@ -879,11 +878,9 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
             "set_mode BACKWARD (default gain): accepted -> BACKWARD k_p -0.2",
         ],
     );
-    // refused, the mode unchanged: FORWARD, or BACKWARD if the run (faster without a recorder
-    // process) had passed the scheduled switch at 4.5 s when the request came
+    // refused, the mode unchanged: FORWARD (the run had not started, BACKWARD is only scheduled)
     assert!(
-        info.contains("set_mode CUSTOM (gain 99): refused -> FORWARD k_p 0.2")
-            || info.contains("set_mode CUSTOM (gain 99): refused -> BACKWARD k_p -0.2"),
+        info.contains("set_mode CUSTOM (gain 99): refused -> FORWARD k_p 0.2"),
         "{info}"
     );
     // the lock-step recording re-drives the controller library to identical commands
@@ -976,7 +973,7 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
         r#"
         $B/capsule_recorder --output "$D/again.mcap" --wait-publishers-s 20 &
         R=$!
-        $ROOT/target/debug/capsule replay "$D/original.mcap" --wait-subscribers 1 --rate 2 || exit 1
+        $B/capsule replay "$D/original.mcap" --wait-subscribers 1 --rate 2 || exit 1
         sleep 1
         kill -INT $R; wait $R; echo "recorder rc=$?""#,
     );

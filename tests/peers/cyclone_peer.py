@@ -65,6 +65,7 @@ from dataclasses import dataclass
 
 from cyclonedds.core import Qos, Policy
 from cyclonedds.domain import DomainParticipant
+from cyclonedds.internal import InvalidSample
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import int32, int64, uint8, uint32, uint64, float64, sequence
 import cyclonedds.idl.annotations as annotate
@@ -147,6 +148,12 @@ STANDARD = {
 
 # capsule_msgs' own interfaces: the files the Rust crate embeds (one source of truth)
 CAPSULE_MSGS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "capsule_msgs")
+
+
+def valid(samples):
+    """The samples that carry data: a take also returns InvalidSample entries (a writer went
+    away or disposed), which have no fields."""
+    return [x for x in samples if not isinstance(x, InvalidSample)]
 
 
 def idl_type(full_name, fields, known, header=None):
@@ -261,7 +268,7 @@ def wait_for(r, done, timeout, poll, n=64):
     got = []
     deadline = time.time() + timeout
     while time.time() < deadline:
-        got.extend(r.take(N=n))
+        got.extend(valid(r.take(N=n)))
         if done(got):
             break
         time.sleep(poll)
@@ -344,7 +351,7 @@ class Pump:
         end = time.time() + seconds
         seen = []
         while time.time() < end:
-            for s in self.reader.take(N=64):
+            for s in valid(self.reader.take(N=64)):
                 self.latest = s
                 seen.append(s)
             self.also()
@@ -442,7 +449,7 @@ def cmd_joint_command(args):
     dp = participant()
     js_reader = reader(dp, "joint_states", T.JointState)
     joint_states = []
-    pump = Pump(dp, also=lambda: joint_states.extend(js_reader.take(N=64)))
+    pump = Pump(dp, also=lambda: joint_states.extend(valid(js_reader.take(N=64))))
     w = writer(dp, "capsule/joint_commands", T.JointState)
 
     def send(names, efforts):
@@ -504,7 +511,7 @@ class ServiceClient:
             self.writer.write(self.req(client_guid=self.guid, sequence=self.seq, **fields))
             end = min(deadline, time.time() + 0.5)
             while time.time() < end:
-                for r in self.reader.take(N=16):
+                for r in valid(self.reader.take(N=16)):
                     if r.client_guid == self.guid and r.sequence == self.seq:
                         return r
                 time.sleep(0.005)
@@ -551,7 +558,7 @@ def cmd_inject(args):
                 received < args.min_states and time.time() < start + args.timeout):
             if cmd is None or time.time() - last_take >= 0.0005:  # a take costs more than a write
                 last_take = time.time()
-                for s in states.take(N=64):
+                for s in valid(states.take(N=64)):
                     gaps += max(0, s.seq - latest.seq - 1)
                     received += 1
                     max_applied = max(max_applied, abs(s.actuator_force))
@@ -577,7 +584,7 @@ def cmd_inject(args):
             refused_before = start_refused
             resend_at = time.time() + 0.5
             while latest.rejected_commands <= refused_before and time.time() < start + args.timeout:
-                for s in states.take(N=64):
+                for s in valid(states.take(N=64)):
                     received += 1
                     latest = s
                 if time.time() >= resend_at:
@@ -640,7 +647,7 @@ def take_events(r, node, wait, until=None, timeout=5.0):
     out = []
     while time.time() < start + wait or (until is not None and not any(until in e for e in out)
                                          and time.time() < start + timeout):
-        for e in r.take(N=64):
+        for e in valid(r.take(N=64)):
             if e.node == node:
                 out.append({p.name: pyvalue(p.value) for p in e.changed_parameters})
         time.sleep(0.01)
@@ -726,7 +733,7 @@ def cmd_views(args):
 
     def take():
         for k, r in readers.items():
-            got[k].extend(r.take(N=256))
+            got[k].extend(valid(r.take(N=256)))
         return bool(got["state"])
 
     # counted from the first state sample
@@ -810,7 +817,7 @@ def cmd_estop(args):
         got = []
         end = time.time() + seconds
         while time.time() < end:
-            got.extend(abs(st.actuator_force) for st in states.take(N=256))
+            got.extend(abs(st.actuator_force) for st in valid(states.take(N=256)))
             time.sleep(0.005)
         return got
 
@@ -822,7 +829,7 @@ def cmd_estop(args):
     latched = None
     end = time.time() + args.timeout
     while latched is None and time.time() < end:
-        for st in late.take(N=4):
+        for st in valid(late.take(N=4)):
             latched = st.data
         time.sleep(0.01)
     released = svc.call(data=False)
@@ -870,12 +877,12 @@ def cmd_lifecycle(args):
         r = change.call(transition=T.Transition(id=ids.get(label, 0), label=label))
         answered_s = time.time() - t0
         after = get.call(**empty).current_state.label
-        states.take(N=4096)
+        valid(states.take(N=4096))
         seen = []
         end = time.time() + args.settle + args.window
         while time.time() < end:
             now = time.time()
-            seen.extend((now, abs(st.actuator_force)) for st in states.take(N=256))
+            seen.extend((now, abs(st.actuator_force)) for st in valid(states.take(N=256)))
             time.sleep(0.005)
         late = [f for t, f in seen if t >= t0 + args.settle]
         steps.append({"transition": label, "success": r.success, "before": before,
@@ -884,7 +891,7 @@ def cmd_lifecycle(args):
     got = []
     end = time.time() + 0.5
     while time.time() < end:
-        got.extend(events.take(N=64))
+        got.extend(valid(events.take(N=64)))
         time.sleep(0.01)
     print(json.dumps({
         "steps": steps,
@@ -921,7 +928,7 @@ def cmd_diagnostics(args):
     got = []
 
     def take():
-        got.extend(r.take(N=64))
+        got.extend(valid(r.take(N=64)))
         return bool(got)
 
     read_window(take, args.seconds, args.timeout, 0.02)

@@ -194,7 +194,7 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
         let q = if m.type_name == type_names::CLOCK {
             qos::clock()
         } else if m.type_name == type_names::SET_MODE_EVENT {
-            qos::service()
+            qos::service_events()
         } else {
             qos::data()
         };

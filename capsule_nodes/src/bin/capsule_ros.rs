@@ -6,7 +6,7 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
-use capsule_nodes::client::{state_subscription, ModeClient, SegmentMeter};
+use capsule_nodes::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,
@@ -45,6 +45,18 @@ enum Cmd {
         timeout_s: f64,
         #[command(flatten)]
         pulse: PulseArgs,
+    },
+    /// Ask a managed node for a lifecycle transition and print whether it was taken, as
+    /// `ros2 lifecycle set NODE TRANSITION`; exit status 3 when refused or failed
+    LifecycleSet {
+        /// The managed node, e.g. /capsule_plant
+        node: String,
+        /// configure, activate, deactivate, cleanup, shutdown
+        #[arg(value_parser = ["configure", "activate", "deactivate", "cleanup", "shutdown"])]
+        transition: String,
+        /// Give up after this long [s], (0, 1e6]
+        #[arg(long, default_value_t = 10.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
+        timeout_s: f64,
     },
     /// Attractor switch, watched: wait until the plant's state shows a periodic orbit, request
     /// SWITCH_ATTRACTOR, follow the controller's status to the end of the switch, watch the
@@ -130,6 +142,11 @@ fn parse_mode(s: &str) -> Result<u8> {
 async fn run(cli: Cli) -> Result<()> {
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
     match cli.cmd {
+        Cmd::LifecycleSet {
+            node,
+            transition,
+            timeout_s,
+        } => lifecycle_set(&settings, &node, &transition, timeout_s).await,
         Cmd::SetMode {
             mode,
             gain,
@@ -221,6 +238,34 @@ async fn set_mode(
         .await?;
     print_answer(&resp);
     if !resp.accepted {
+        std::process::exit(3);
+    }
+    Ok(())
+}
+
+/// The `lifecycle-set` subcommand: one transition asked for, the answer printed; exit status 3
+/// when it was refused or failed.
+async fn lifecycle_set(
+    settings: &RosOptions,
+    managed: &str,
+    transition: &str,
+    timeout_s: f64,
+) -> Result<()> {
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let client = LifecycleClient::new(&mut node, settings, managed)?;
+    let taken = client
+        .set(&node, transition, Duration::from_secs_f64(timeout_s))
+        .await?;
+    println!(
+        "{managed} {transition}: {}",
+        if taken {
+            "Transitioning successful"
+        } else {
+            "Transitioning failed"
+        }
+    );
+    if !taken {
         std::process::exit(3);
     }
     Ok(())

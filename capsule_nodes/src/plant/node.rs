@@ -24,7 +24,7 @@ use super::paced::paced_loop;
 use super::pacing::{lockstep_loop, realtime_loop};
 use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
-use crate::intra_process::Transport;
+use crate::intra_process::{CopyCounts, Transport};
 
 /// What the built node holds while it runs.
 struct Built {
@@ -63,18 +63,8 @@ pub async fn run_in<H: CapsuleHardware + 'static>(
     let built = build(context, &settings, &core, &opts, transport)?;
     wait_for_graph(&built, &settings, &opts).await?;
     let copies = built.io.copies();
-    let (result, mut core, recording, conflicts) = run_loop(built, core, opts).await?;
-    if let Some(c) = copies {
-        // final: the loop's thread has dropped the endpoints, which waits for the copies
-        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
-        core.stats.dds_copies = Some(super::DdsCopyStats {
-            published: load(&c.published),
-            unread: load(&c.unread),
-            dropped: load(&c.dropped),
-        });
-        info!("state's DDS copies: {}", c.describe());
-    }
-    finish(result, core, recording, &conflicts).await
+    let (ended, conflicts) = run_loop(built, core, opts).await?;
+    finish(ended, &conflicts, copies).await
 }
 
 /// Build: the recording's file first (an unwritable place is an error before anything else
@@ -184,8 +174,14 @@ async fn wait_for_graph(built: &Built, settings: &RosOptions, opts: &PlantOption
     Ok(())
 }
 
-/// What the loop's thread gives back.
-type Ended<H> = (Result<()>, PlantCore<H>, Option<InPlantRecording>);
+/// What the loop's thread gives back: with the endpoints, which must outlive the grace after
+/// the last sample (a writer that goes with the thread takes its unsent samples with it).
+type Ended<H> = (
+    Result<()>,
+    PlantCore<H>,
+    Option<InPlantRecording>,
+    Endpoints,
+);
 
 /// Run the loop: on a thread of its own, started unconfigured; `--autostart` configures and
 /// activates it; a signal ends it.
@@ -193,12 +189,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
     built: Built,
     core: PlantCore<H>,
     opts: PlantOptions,
-) -> Result<(
-    Result<()>,
-    PlantCore<H>,
-    Option<InPlantRecording>,
-    Arc<AtomicU64>,
-)> {
+) -> Result<(Ended<H>, Arc<AtomicU64>)> {
     let Built {
         io,
         conflicts,
@@ -224,7 +215,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
     }
     let shutdown = capsule_ros_base::ros::shutdown_signal();
     tokio::pin!(shutdown);
-    let (result, core, recording) = tokio::select! {
+    let ended = tokio::select! {
         done = &mut ended => done.context("the sample loop's thread ended without a word")?,
         sig = &mut shutdown => {
             match sig {
@@ -235,7 +226,7 @@ async fn run_loop<H: CapsuleHardware + 'static>(
             ended.await.context("the sample loop's thread ended without a word")?
         }
     };
-    Ok((result, core, recording, conflicts))
+    Ok((ended, conflicts))
 }
 
 /// Starts the sample loop's thread (a runtime of its own: nothing it does waits on the node's).
@@ -257,10 +248,8 @@ fn spawn_loop<H: CapsuleHardware + 'static>(
                 .and_then(|rt| {
                     rt.block_on(drive(&mut core, &io, &opts, &mut control, rec.as_mut()))
                 });
-            // before the result goes back: in-process, this waits for the DDS copies to go out
-            drop(io);
             let _ = core.cleanup();
-            let _ = tx.send((result, core, rec));
+            let _ = tx.send((result, core, rec, io));
         })
         .context("cannot start the sample loop's thread")?;
     Ok(rx)
@@ -309,13 +298,24 @@ async fn drive<H: CapsuleHardware>(
 
 /// Finish: the last sample's way out, the statistics, the recording.
 async fn finish<H: CapsuleHardware>(
-    result: Result<()>,
-    mut core: PlantCore<H>,
-    recording: Option<InPlantRecording>,
+    (result, mut core, recording, io): Ended<H>,
     conflicts: &AtomicU64,
+    copies: Option<Arc<CopyCounts>>,
 ) -> Result<(LoopStats, CapsuleState)> {
-    // DDS sends from its own thread: let the last sample leave before the participant goes
+    // DDS sends from its own thread: let the last sample leave (and be repaired) before its
+    // writer and the participant go
     tokio::time::sleep(MATCH_GRACE).await;
+    // in-process, this waits for the DDS copies to go out: their counts are final after it
+    drop(io);
+    if let Some(c) = copies {
+        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
+        core.stats.dds_copies = Some(super::DdsCopyStats {
+            published: load(&c.published),
+            unread: load(&c.unread),
+            dropped: load(&c.dropped),
+        });
+        info!("state's DDS copies: {}", c.describe());
+    }
     core.stats.finish();
     core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
     let stats = core.stats.clone();

@@ -117,7 +117,7 @@ impl InPlantRecording {
         Ok(InPlantRecording {
             rec,
             status_sub: subscribe(node, &status_topic, &deep)?,
-            event_sub: subscribe(node, &event_topic, &deep)?,
+            event_sub: subscribe(node, &event_topic, &qos::service_events())?,
             last_poll: Instant::now(),
         })
     }
