@@ -153,6 +153,7 @@ fn the_container_refuses_bad_input_before_any_work() {
         $B/capsule_container --scene "$SCENE" --controller-arg --domain-id --controller-arg 7; echo "domain rc=$?"
         $B/capsule_container --scene "$SCENE" --controller-arg --node-name --controller-arg capsule_plant; echo "name rc=$?"
         $B/capsule_container --scene "$TMP/none.toml"; echo "scene rc=$?"
+        $B/capsule_container --scene "$SCENE" --record-output "$TMP/no/such/dir/run.mcap"; echo "record rc=$?"
         $B/capsule_container --scene "$SCENE" --pacing lockstep --check; echo "check rc=$?""#,
     );
     run.assert_stdout(&[
@@ -162,6 +163,7 @@ fn the_container_refuses_bad_input_before_any_work() {
         "domain rc=2",
         "name rc=2",
         "scene rc=2",
+        "record rc=2",
         "check rc=0",
         "capsule_container: ok: plant node /capsule_plant",
         "controller node /capsule_controller",
@@ -175,5 +177,6 @@ fn the_container_refuses_bad_input_before_any_work() {
         "share one DDS participant",
         "need names of their own",
         "none.toml",
+        "capsule_plant: cannot record to",
     ]);
 }
