@@ -45,7 +45,7 @@ impl ModeClient {
     }
 
     /// Calls the service, re-sending every 500 ms until a response comes or `timeout` passes
-    /// (see [`call_with_retries`]).
+    /// (see `call_with_retries`).
     pub async fn call(
         &self,
         node: &Node,
