@@ -11,7 +11,8 @@
 #   - tests/peers/cyclone_peer.py: PyPI `cyclonedds` (ships its C library)
 #   - tests/peers/foxglove_ws_client.py: PyPI `websockets`, a WebSocket client that is not ours
 #   - tests/integration/ros/security.rs: tcpdump (captures the namespace's loopback, searched for
-#     plaintext); the keystore's openssl command comes with .ci/build-setup.sh
+#     plaintext); the keystore's openssl command comes with .ci/build-setup.sh;
+#     tests/peers/sros2_keystore.py (a keystore by sros2's method): PyPI `cryptography`
 #   - tests/integration/ros/colcon.rs: colcon with colcon-cargo, colcon-ros-cargo and the crawl and
 #     selection extensions, and cargo-ament-build (PyPI ships the Rust tool as a wheel)
 # Needs root (network namespaces). Run before `cargo test --workspace`, after
@@ -76,6 +77,9 @@ check_all() {
   if have_cmd python3; then
     have_py python3 cyclonedds || missing+=("module cyclonedds|cyclonedds==11.0.1|pip")
     have_py python3 websockets || missing+=("module websockets|websockets==15.0.1|pip")
+    # the keystore made as `ros2 security` makes one (tests/peers/sros2_keystore.py)
+    have_py python3 cryptography.hazmat.primitives.serialization.pkcs7 \
+      || missing+=("module cryptography|cryptography==48.0.0|pip")
     # colcon and its cargo extensions (tests/integration/ros/colcon.rs)
     local colcon_pkgs="colcon-core==0.21.3 colcon-cargo==0.2.0 colcon-ros-cargo==0.2.0 colcon-package-information==0.4.1 colcon-package-selection==0.2.10 colcon-recursive-crawl==0.2.3"
     for m in colcon_core colcon_cargo colcon_ros_cargo colcon_package_information colcon_package_selection colcon_recursive_crawl; do

@@ -3,10 +3,12 @@
 //! the nodes secured through the ROS_SECURITY_* variables and `--enclave`, real peers on both
 //! sides of the fence: the Fast DDS C++ peer secured with its own enclave, the Cyclone DDS Python
 //! peer and the Fast DDS peer unsecured, with another CA's certificate, with permissions that do
-//! not allow the force. Packets are captured on the namespace's loopback with tcpdump.
+//! not allow the force. Packets are captured on the namespace's loopback with tcpdump. A keystore
+//! made by the method of `ros2 security` (tests/peers/sros2_keystore.py: Python's cryptography,
+//! as the sros2 package; sros2 itself is not installable here) secures the same graph.
 
 use super::harness::{
-    assert_at_least, assert_contains, json_number, json_raw, netns_with_fastdds_peer,
+    assert_at_least, assert_contains, json_number, json_raw, netns, netns_with_fastdds_peer,
     netns_with_peer, Run,
 };
 
@@ -16,6 +18,20 @@ const SECURE: &str = r#"
 keystore() { bash "$ROOT/launch_scripts/capsule_keystore.sh" create "$1" >/dev/null || exit 1; }
 secure() { export ROS_SECURITY_KEYSTORE="$1" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce; }
 unsecure() { unset ROS_SECURITY_KEYSTORE ROS_SECURITY_ENABLE ROS_SECURITY_STRATEGY ROS_SECURITY_ENCLAVE_OVERRIDE; }
+# sros2_ks VERB ARGS...: tests/peers/sros2_keystore.py, a keystore by sros2's method; $POLICY is
+# the capsule policy in sros2's format
+sros2_ks() { python3 "$ROOT/tests/peers/sros2_keystore.py" "$@" >/dev/null || exit 1; }
+POLICY="$ROOT/launch_scripts/keystore/policy.xml"
+# fastdds_peer_reads_and_sets_mode: a real-time plant and a controller with their enclaves, and
+# the Fast DDS peer with the enclave /lab/fastdds_peer reads 200 states and calls set_mode
+fastdds_peer_reads_and_sets_mode() {
+    start_plant --until-s 40 --enclave /capsule/plant
+    start_controller --mode forward --enclave /capsule/controller
+    export ROS_SECURITY_ENCLAVE_OVERRIDE=/lab/fastdds_peer
+    fpeer state --samples 200 --timeout 30 || exit 1
+    fpeer set-mode 2 0.1 --timeout 30 || exit 1
+    stop $C $P
+}
 # each_way CMD: runs CMD with $tag=plain, then secured with a fresh keystore and $tag=secured
 each_way() {
     keystore "$TMP/ks"
@@ -37,6 +53,32 @@ fn last_sample<'a>(run: &'a Run, tag: &str) -> &'a str {
         .find("\"last\"")
         .unwrap_or_else(|| panic!("no last sample in {line}\n{}", run.all()));
     &line[at..]
+}
+
+/// What `fastdds_peer_reads_and_sets_mode` must have printed: the peer secured with its enclave
+/// read the 1 kHz state, and set_mode BACKWARD with gain 0.1 was accepted.
+#[track_caller]
+fn assert_fastdds_peer_read_and_set_mode(run: &Run) {
+    run.assert_stderr(&["fastdds_peer: secured with the enclave /lab/fastdds_peer"]);
+    let state = run.json_with("rate_hz");
+    assert_eq!(
+        json_number(state, "rate_hz").map(|r| r.round()),
+        Some(1000.0),
+        "{state}"
+    );
+    let answer = run.line("{\"accepted\"");
+    assert_contains(answer, &["\"accepted\": true", "\"mode\": 2"]);
+    assert_eq!(json_number(answer, "gain"), Some(-0.1), "{answer}");
+}
+
+/// The lock-step runs tagged `plain` and `secured` ended on the same last sample, bit for bit,
+/// at seq 1500, after the capsule moved.
+#[track_caller]
+fn assert_secured_equals_plain(run: &Run) {
+    let (plain, sec) = (last_sample(run, "plain"), last_sample(run, "secured"));
+    assert_eq!(json_raw(plain, "seq"), Some("1500"), "{plain}");
+    assert_ne!(json_raw(plain, "capsule_position"), Some("0.0"), "{plain}");
+    assert_eq!(plain, sec, "the secured run differs\n{}", run.all());
 }
 
 #[test]
@@ -113,10 +155,7 @@ fn secured_lockstep_run_is_bit_identical_to_the_unsecured_one() {
         each_way once"#,
     );
     run.assert_ok();
-    let (plain, sec) = (last_sample(&run, "plain"), last_sample(&run, "secured"));
-    assert_eq!(json_raw(plain, "seq"), Some("1500"), "{plain}");
-    assert_ne!(json_raw(plain, "capsule_position"), Some("0.0"), "{plain}");
-    assert_eq!(plain, sec, "the secured run differs");
+    assert_secured_equals_plain(&run);
 }
 
 #[test]
@@ -128,24 +167,10 @@ fn fastdds_peer_with_its_own_enclave_reads_the_state_and_calls_set_mode() {
         keystore "$TMP/ks"
         bash "$ROOT/launch_scripts/capsule_keystore.sh" create_enclave "$TMP/ks" /lab/fastdds_peer operator >/dev/null || exit 1
         secure "$TMP/ks"
-        start_plant --until-s 40 --enclave /capsule/plant
-        start_controller --mode forward --enclave /capsule/controller
-        export ROS_SECURITY_ENCLAVE_OVERRIDE=/lab/fastdds_peer
-        fpeer state --samples 200 --timeout 30 || exit 1
-        fpeer set-mode 2 0.1 --timeout 30 || exit 1
-        stop $C $P"#,
+        fastdds_peer_reads_and_sets_mode"#,
     );
     run.assert_ok();
-    run.assert_stderr(&["fastdds_peer: secured with the enclave /lab/fastdds_peer"]);
-    let state = run.json_with("rate_hz");
-    assert_eq!(
-        json_number(state, "rate_hz").map(|r| r.round()),
-        Some(1000.0),
-        "{state}"
-    );
-    let answer = run.line("{\"accepted\"");
-    assert_contains(answer, &["\"accepted\": true", "\"mode\": 2"]);
-    assert_eq!(json_number(answer, "gain"), Some(-0.1), "{answer}");
+    assert_fastdds_peer_read_and_set_mode(&run);
 }
 
 #[test]
@@ -285,4 +310,174 @@ fn secured_samples_on_loopback_carry_no_plaintext() {
         run.all()
     );
     run.assert_stdout(&["capsule_recorder: wrote"]);
+}
+
+#[test]
+fn sros2_method_keystore_secures_the_graph_and_the_fastdds_peer() {
+    // the capsule enclaves with permissions from the sros2-format policy; the Fast DDS peer's
+    // enclave as `ros2 security create_enclave` leaves it: sros2's default permissions (every
+    // topic, service and action of the domain)
+    let run = secured(
+        netns_with_fastdds_peer,
+        300,
+        r#"
+        sros2_ks create "$TMP/ks" "$POLICY"
+        sros2_ks create_enclave "$TMP/ks" /lab/fastdds_peer
+        once() {
+          start_controller --mode forward --enclave /capsule/controller
+          $B/capsule_recorder --output "$TMP/$tag.mcap" --enclave /capsule/recorder >/dev/null & R=$!
+          $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 1.5 --wait-subscribers 2 \
+              --command-timeout-s 10 --enclave /capsule/plant --summary-json "$TMP/$tag.json" || exit 1
+          stop $C $R || exit 1
+          echo "$tag $(cat $TMP/$tag.json)"
+          python3 "$ROOT/tests/peers/mcap_decode.py" "$TMP/$tag.mcap" --reader mcap > "$TMP/$tag.rec.json" || exit 1
+          python3 - "$TMP/$tag.rec.json" $tag <<'EOF'
+import json, sys
+t = json.load(open(sys.argv[1]))["mcap"]["topics"]
+seqs = sorted(set(r[0] for r in t["/capsule/state"]["rows"]))
+forces = sorted(set(r[0] for r in t["/capsule/actuator_force"]["rows"]))
+print("RECORDED", sys.argv[2], json.dumps({"first": seqs[0], "last": seqs[-1],
+      "contiguous": seqs == list(range(seqs[0], seqs[-1] + 1)), "answered": forces == seqs}))
+EOF
+        }
+        for tag in plain secured; do
+          [ $tag = secured ] && secure "$TMP/ks"
+          once
+        done
+        # real time: the Fast DDS peer with its own enclave reads the state and calls set_mode
+        fastdds_peer_reads_and_sets_mode"#,
+    );
+    run.assert_ok();
+    // lock-step: the secured run's last sample is the unsecured one's, bit for bit
+    assert_secured_equals_plain(&run);
+    // the secured recorder read every state and every answer (as the unsecured one)
+    for tag in ["plain", "secured"] {
+        let rec = run.after(&format!("RECORDED {tag} "));
+        assert_eq!(json_number(rec, "first"), Some(0.0), "{tag}: {rec}");
+        assert_eq!(json_number(rec, "last"), Some(1500.0), "{tag}: {rec}");
+        assert_contains(rec, &["\"contiguous\": true", "\"answered\": true"]);
+    }
+    // the Fast DDS peer, secured with the sros2-method enclave, read the state and set the mode
+    assert_fastdds_peer_read_and_set_mode(&run);
+}
+
+#[test]
+fn sros2_method_keystore_broken_files_are_refused_under_enforce() {
+    let run = secured(
+        netns_with_fastdds_peer,
+        120,
+        r#"
+        sros2_ks create "$TMP/ks" "$POLICY"
+        sros2_ks create "$TMP/other" "$POLICY"
+        secure "$TMP/ks"
+        E="$TMP/ks/enclaves/capsule"
+        $B/capsule_plant --scene "$SCENE" --until-s 0.2 --enclave /capsule/plant 2>/dev/null
+        echo "INTACT $?"
+        # an identity certificate of another keystore's CA
+        cp "$TMP/other/enclaves/capsule/plant/cert.pem" "$E/plant/cert.pem"
+        timeout 20 $B/capsule_plant --scene "$SCENE" --until-s 0.2 --enclave /capsule/plant 2>"$TMP/ca.log"
+        echo "OTHER_CA_CERT $?"; cat "$TMP/ca.log" >&2
+        # another enclave's key
+        cp "$E/recorder/key.pem" "$E/controller/key.pem"
+        timeout 20 $B/capsule_controller --scene "$SCENE" --enclave /capsule/controller 2>"$TMP/key.log"
+        echo "WRONG_KEY $?"; cat "$TMP/key.log" >&2
+        # permissions signed by the right CA, but granted to another subject
+        cp "$E/replay/permissions.p7s" "$E/recorder/permissions.p7s"
+        timeout 20 $B/capsule_recorder --output "$TMP/x.mcap" --enclave /capsule/recorder 2>"$TMP/subject.log"
+        echo "OTHER_SUBJECT $?"; cat "$TMP/subject.log" >&2"#,
+    );
+    run.assert_ok();
+    // intact, the plant runs secured; each broken file stops its node at start (2, not
+    // timeout's 124) and the message names the file or the mismatch
+    for (tag, code) in [
+        ("INTACT", "0"),
+        ("OTHER_CA_CERT", "2"),
+        ("WRONG_KEY", "2"),
+        ("OTHER_SUBJECT", "2"),
+    ] {
+        assert_eq!(run.after(&format!("{tag} ")), code, "{tag}\n{}", run.all());
+    }
+    run.assert_stderr(&[
+        "enclave /capsule/plant: cert.pem: not signed by identity_ca.cert.pem",
+        "enclave /capsule/controller: key.pem: not the key of cert.pem",
+        "The subject name 'CN=/capsule/recorder' from the ID certificate not found in the permissions document",
+    ]);
+}
+
+#[test]
+fn sros2_policy_grants_what_the_keystore_script_grants() {
+    // launch_scripts/keystore/policy.xml through sros2's method against policy.txt through
+    // capsule_keystore.sh: the same DDS names for every enclave (a pattern under rq/ or rr/
+    // ending in * compared with its Request or Reply suffix: sros2 always writes one)
+    let run = secured(
+        netns,
+        60,
+        r#"
+        sros2_ks create "$TMP/sks" "$POLICY"
+        keystore "$TMP/oks"
+        python3 - "$TMP/oks" "$TMP/sks" <<'EOF'
+import json, pathlib, sys, xml.etree.ElementTree as ET
+def grants(ks):
+    out = {}
+    for p in sorted(pathlib.Path(ks, "enclaves").glob("capsule/*/permissions.xml")):
+        g = ET.parse(p).getroot().find("permissions/grant")
+        names = set()
+        for rule in g.findall("allow_rule"):
+            for access in ("publish", "subscribe"):
+                for t in rule.findall(access + "/topics/topic"):
+                    n = t.text.strip()
+                    if n.endswith("*"):
+                        n += {"rq/": "Request", "rr/": "Reply"}.get(n[:3], "")
+                    names.add(access + " " + n)
+        out[g.get("name")] = {"subject": g.findtext("subject_name"),
+                              "default": g.findtext("default"), "names": names,
+                              "deny_rules": len(g.findall("deny_rule"))}
+    return out
+ours, sros2 = grants(sys.argv[1]), grants(sys.argv[2])
+differ = {e: sorted(ours.get(e, {"names": set()})["names"] ^ sros2.get(e, {"names": set()})["names"])
+          for e in set(ours) | set(sros2)}
+print("POLICY", json.dumps({"ours": len(ours), "sros2": len(sros2),
+      "names": sum(len(v["names"]) for v in sros2.values()),
+      "differ": {e: d for e, d in differ.items() if d},
+      "same_subjects": all(ours[e]["subject"] == sros2[e]["subject"] == "CN=" + e
+                           and sros2[e]["default"] == "DENY" and sros2[e]["deny_rules"] == 0
+                           for e in ours if e in sros2)}))
+EOF
+        # sros2's layout and formats
+        d="$TMP/sks/enclaves/capsule/plant"
+        echo "LINKS $(readlink "$d/identity_ca.cert.pem") $(readlink "$d/governance.p7s")"
+        echo "KEY $(head -n 1 "$d/key.pem")"
+        openssl x509 -in "$d/cert.pem" -noout -subject -issuer -ext basicConstraints | tr '\n' ' ' | sed 's/^/CERT /'; echo
+        openssl smime -verify -in "$d/permissions.p7s" -CAfile "$d/permissions_ca.cert.pem" -out /dev/null 2>&1 | sed 's/^/SMIME /'
+        # bad input: a keystore is not overwritten, an enclave must be in the policy
+        python3 "$ROOT/tests/peers/sros2_keystore.py" create "$TMP/sks" "$POLICY"; echo "AGAIN $?"
+        python3 "$ROOT/tests/peers/sros2_keystore.py" create_enclave "$TMP/sks" /lab/x >/dev/null
+        python3 "$ROOT/tests/peers/sros2_keystore.py" create_permission "$TMP/sks" /lab/x "$POLICY"; echo "NOT_IN_POLICY $?""#,
+    );
+    run.assert_ok();
+    let policy = run.after("POLICY ");
+    assert_eq!(json_number(policy, "ours"), Some(6.0), "{policy}");
+    assert_eq!(json_number(policy, "sros2"), Some(6.0), "{policy}");
+    assert_at_least(policy, "names", 60.0);
+    assert_contains(policy, &["\"differ\": {}", "\"same_subjects\": true"]);
+    assert_eq!(
+        run.after("LINKS "),
+        "../../../public/identity_ca.cert.pem ../../governance.p7s"
+    );
+    assert_eq!(run.after("KEY "), "-----BEGIN PRIVATE KEY-----");
+    assert_contains(
+        run.after("CERT "),
+        &[
+            "subject=CN = /capsule/plant",
+            "issuer=CN = sros2CA",
+            "CA:FALSE",
+        ],
+    );
+    assert_eq!(run.after("SMIME "), "Verification successful");
+    assert_eq!(run.after("AGAIN "), "2");
+    assert_eq!(run.after("NOT_IN_POLICY "), "2");
+    run.assert_stderr(&[
+        "already holds a keystore: not overwritten",
+        "no <enclave path=\"/lab/x\">",
+    ]);
 }
