@@ -7,13 +7,19 @@
 # Use release binaries: cargo build --release -p capsule_nodes; CAPSULE_BIN defaults to
 # target/release. Cases:
 #   rt1k   real time 1 kHz, plant + controller, 60 s ($RT1K_S): loop latency p50/p99/max
-#          (state published -> its command received by the plant), unanswered samples,
+#          (state published -> its command received by the plant), lateness p99/max (a sample
+#          out after its due time start + k / rate), unanswered samples,
 #          datagrams the kernel dropped, CPU per node (steady state: user + system time from
 #          2 s in to 0.5 s before the end, % of one core) and the host's steal time
-#   rt10k  the same at 10 kHz for 5 s
+#   rt10k  the same at 10 kHz for 5 s ($RT10K_S)
 #   lock   lock-step closed loop: steps per second of wall time
+#   lock-rec  the same, every sample recorded (the plant's in-process recording)
 #   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
+#   c-*    the same cases with plant and controller composed in one process (capsule_container,
+#          in-process state and force; pinned with taskset -c for -cpu1); CPU is the process's
 # BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
+# BENCH_RT="chrt -f 50" runs every node with that prefix (real-time scheduling: a host busy with
+# other work then delays the loop by microseconds, not milliseconds; docs/perf/composition.md).
 # BENCH_SECURE=KEYSTORE runs every case secured (SROS2, Enforce; plant and controller with their
 # enclaves of launch_scripts/capsule_keystore.sh create KEYSTORE): docs/perf/security.md.
 set -u
@@ -21,7 +27,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
 scene="${1:-$root/scenes/control_point.toml}"
 export CAPSULE_BIN="${CAPSULE_BIN:-$root/target/release}"
-export SCENE="$scene"
+export SCENE="$scene" BENCH_RT="${BENCH_RT:-}"
 
 case_script='
 set -u
@@ -31,10 +37,11 @@ steal() { awk "/^cpu / {print \$9}" /proc/stat; }  # ticks the hypervisor gave t
 if [ -n "${BENCH_SECURE:-}" ]; then
   export ROS_SECURITY_KEYSTORE="$BENCH_SECURE" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce
 fi
-$B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
+rm -f /tmp/bench_rec.mcap
+${BENCH_RT:-} $B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
 C=$!
 sleep 0.5
-$B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --enclave /capsule/plant --summary-json /tmp/bench_$$.json 2>/dev/null &
+${BENCH_RT:-} $B/capsule_plant --scene "$SCENE" $PLANT_ARGS $NODE_ARGS --enclave /capsule/plant --summary-json /tmp/bench_$$.json 2>/dev/null &
 P=$!
 # CPU over the steady state: from 2 s in (discovery done) to 0.5 s before the end
 sleep 2
@@ -48,7 +55,27 @@ echo "SUMMARY $(cat /tmp/bench_$$.json)"
 # datagrams the kernel dropped in this namespace (full receive buffers, errors)
 awk "/^Udp:/ { if (!h) { for (i = 1; i <= NF; i++) f[\$i] = i; h = 1 } else print \"UDP dropped \" \$f[\"RcvbufErrors\"] + \$f[\"InErrors\"] }" /proc/net/snmp
 [ "$p1" -lt 0 ] || awk -v p0=$p0 -v p1=$p1 -v c0=$c0 -v c1=$c1 -v s0=$s0 -v s1=$s1 -v t0=$t0 -v t1=$t1 -v hz=$hz -v n=$(nproc) "BEGIN{printf \"CPU plant %.1f%% controller %.1f%% of one core (host steal %.1f%% of the CPUs)\\n\", 100*(p1-p0)/hz/(t1-t0), 100*(c1-c0)/hz/(t1-t0), 100*(s1-s0)/hz/(t1-t0)/n}"
-rm -f /tmp/bench_$$.json
+rm -f /tmp/bench_$$.json /tmp/bench_rec.mcap
+'
+# the same, composed: one process ($PIN: taskset -c CPU, or nothing)
+composed_script='
+set -u
+B=$CAPSULE_BIN
+cpu() { awk "{print \$14 + \$15}" /proc/$1/stat 2>/dev/null || echo -1; }
+steal() { awk "/^cpu / {print \$9}" /proc/stat; }
+rm -f /tmp/bench_rec.mcap
+${BENCH_RT:-} $PIN $B/capsule_container --scene "$SCENE" --mode forward $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+P=$!
+sleep 2
+t0=$(date +%s.%N); p0=$(cpu $P); s0=$(steal)
+sleep $(awk "BEGIN{print $SECS - 2.5}")
+p1=$(cpu $P); t1=$(date +%s.%N); s1=$(steal)
+wait $P
+hz=$(getconf CLK_TCK)
+echo "SUMMARY $(cat /tmp/bench_$$.json)"
+awk "/^Udp:/ { if (!h) { for (i = 1; i <= NF; i++) f[\$i] = i; h = 1 } else print \"UDP dropped \" \$f[\"RcvbufErrors\"] + \$f[\"InErrors\"] }" /proc/net/snmp
+[ "$p1" -lt 0 ] || awk -v p0=$p0 -v p1=$p1 -v s0=$s0 -v s1=$s1 -v t0=$t0 -v t1=$t1 -v hz=$hz -v n=$(nproc) "BEGIN{printf \"CPU container %.1f%% of one core (host steal %.1f%% of the CPUs)\\n\", 100*(p1-p0)/hz/(t1-t0), 100*(s1-s0)/hz/(t1-t0)/n}"
+rm -f /tmp/bench_$$.json /tmp/bench_rec.mcap
 '
 report() { # name, output
   local name="$1" out="$2" json
@@ -63,8 +90,13 @@ except Exception:
 ms = lambda v: "n/a" if v is None else f"{1e3*v:.3f} ms"
 print(f"{name}: samples {j['samples']} ({j['before_first_answer']} before the first answer), lost {j['unanswered']}, "
       f"answered late {j['late_answers']}, latency p50 {ms(j['latency_p50_s'])} "
-      f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, wall {j['wall_s']:.2f} s, "
-      f"{j['samples']/j['wall_s']:.0f} steps/s; {cpu}; {udp} datagrams")
+      f"p99 {ms(j['latency_p99_s'])} max {ms(j['latency_max_s'])}, "
+      + (f"lateness p99 {ms(j['lateness_p99_s'])} max {ms(j['lateness_max_s'])}, " if j.get('lateness_p99_s') is not None else "")
+      + f"wall {j['wall_s']:.2f} s, "
+      f"{j['samples']/j['wall_s']:.0f} steps/s"
+      + (f" ({j['samples']/j['loop_s']:.0f} in the loop's {j['loop_s']:.2f} s)" if j.get('loop_s') else "")
+      + f"; {cpu}; {udp} datagrams"
+      + (f"; DDS copies {j['dds_copies']}" if 'dds_copies' in j else ""))
 PY
 }
 
@@ -74,21 +106,41 @@ run_case() { # name seconds plant-args [node-args]
   out=$(SECS="$2" PLANT_ARGS="$3" NODE_ARGS="${4:-}" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$case_script")
   report "$1" "$out"
 }
+run_composed() { # name seconds container-args [pin]
+  local out
+  case " ${BENCH_CASES:-$1} " in *" $1 "*) ;; *) return 0 ;; esac
+  out=$(SECS="$2" PLANT_ARGS="$3" PIN="${4:-}" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$composed_script")
+  report "$1" "$out"
+}
 cpu=$(awk '/Cpus_allowed_list/ {print $2}' /proc/self/status | tr ',' '\n' | tail -1 | sed 's/.*-//')
 
 for c in ${BENCH_CASES:-}; do
-  case "$c" in rt1k|rt1k-cpu1|rt10k|rt10k-cpu1|lock|lock-cpu1) ;;
-    *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt1k-cpu1 rt10k rt10k-cpu1 lock lock-cpu1)" >&2; exit 2 ;;
+  case "$c" in rt1k|rt1k-cpu1|rt10k|rt10k-cpu1|lock|lock-cpu1|lock-rec|lock-rec-cpu1) ;;
+    c-rt1k|c-rt1k-cpu1|c-rt10k|c-rt10k-cpu1|c-lock|c-lock-cpu1|c-lock-rec|c-lock-rec-cpu1) ;;
+    *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt10k lock lock-rec, each also -cpu1 and c-)" >&2; exit 2 ;;
   esac
 done
 if [ -n "${BENCH_SECURE:-}" ]; then
   [ -d "$BENCH_SECURE/enclaves" ] || { echo "bench_ros: BENCH_SECURE '$BENCH_SECURE': not a keystore (launch_scripts/capsule_keystore.sh create DIR)" >&2; exit 2; }
   BENCH_SECURE="$(cd "$BENCH_SECURE" && pwd)"; export BENCH_SECURE
 fi
-echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)"
+echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)${BENCH_RT:+, nodes run with $BENCH_RT}, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"
-run_case rt10k 5 "--pacing realtime --rate-hz 10000 --until-s 5"
-run_case rt10k-cpu1 5 "--pacing realtime --rate-hz 10000 --until-s 5" "--cpu-affinity $cpu"
+run_case rt10k ${RT10K_S:-5} "--pacing realtime --rate-hz 10000 --until-s ${RT10K_S:-5}"
+run_case rt10k-cpu1 ${RT10K_S:-5} "--pacing realtime --rate-hz 10000 --until-s ${RT10K_S:-5}" "--cpu-affinity $cpu"
 run_case lock 8 "--pacing lockstep --until-s 10 --wait-subscribers 1"
 run_case lock-cpu1 8 "--pacing lockstep --until-s 10 --wait-subscribers 1" "--cpu-affinity $cpu"
+rec="--record-output /tmp/bench_rec.mcap"
+run_case lock-rec 8 "--pacing lockstep --until-s 10 --wait-subscribers 1 $rec"
+run_case lock-rec-cpu1 8 "--pacing lockstep --until-s 10 --wait-subscribers 1 $rec" "--cpu-affinity $cpu"
+# composed: the lock-step runs 300 s of sim time (at tens of thousands of steps/s, 10 s would end
+# before the CPU window opens)
+run_composed c-rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
+run_composed c-rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "taskset -c $cpu"
+run_composed c-rt10k ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}"
+run_composed c-rt10k-cpu1 ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}" "taskset -c $cpu"
+run_composed c-lock 8 "--pacing lockstep --until-s 300"
+run_composed c-lock-cpu1 8 "--pacing lockstep --until-s 300" "taskset -c $cpu"
+run_composed c-lock-rec 8 "--pacing lockstep --until-s 300 $rec"
+run_composed c-lock-rec-cpu1 8 "--pacing lockstep --until-s 300 $rec" "taskset -c $cpu"

@@ -1,18 +1,21 @@
 #!/usr/bin/env bash
-# Start the capsule graph for a scene: controller, any extra processes (--with), then the plant.
-# Forwards Ctrl-C / SIGTERM to every process, waits for a clean shutdown, and exits non-zero if
-# any process failed. A failed process stops the graph, except the recorder: control goes on
-# without it (said loudly; `capsule record recover` completes its file). When the plant ends by
-# itself (--until-s), the extras get --extra-wait-s to finish, then the controller is stopped.
+# Start the capsule graph for a scene: any extra processes (--with), then plant and controller
+# composed in one process (capsule_container: in-process state and force, DDS copies for the
+# rest of the graph); with --separate, controller, recorder, extras, then the plant, each a
+# process. Forwards Ctrl-C / SIGTERM to every process, waits for a clean shutdown, and exits
+# non-zero if any process failed. A failed process stops the graph, except the recorder: control
+# goes on without it (said loudly; `capsule record recover` completes its file). When the plant
+# ends by itself (--until-s), the extras get --extra-wait-s to finish, then the rest is stopped.
 #
 #   launch_scripts/capsule_launch.sh --scene scenes/control_point.toml --pacing lockstep \
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
-#       [--record-dir DIR | --no-record] [--record-in-plant] [--recorder-arg ARG]...
+#       [--record-dir DIR | --no-record] [--separate [--record-in-plant] [--recorder-arg ARG]...]
 #       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE] [--managed]
 #
-# Every run is recorded (capsule_recorder) to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs.
-# --record-in-plant: the plant writes the same file itself instead (no recorder process; at
-# 10 kHz that costs 1-2 % of a core instead of half a core, see docs/recording.md).
+# Every run is recorded to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs: composed, by
+# the plant in-process (every sample); with --separate by capsule_recorder, or with
+# --record-in-plant by the plant itself (at 10 kHz 1-2 % of a core instead of half a core,
+# docs/recording.md). --secure runs the nodes separate (each its own enclave).
 # --cpu-affinity LIST (e.g. 0): every node's threads on these CPUs; plant and controller on one
 # CPU wake each other without inter-processor interrupts (less CPU, lower latency: docs/ros.md).
 # --foxglove-port PORT: also serve the graph live to Foxglove (capsule_foxglove, 127.0.0.1 only;
@@ -37,13 +40,13 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,31p' "$0" | sed 's/^# \{0,1\}//'; }
-record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true
+usage() { sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; }
+record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true separate=0
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
   case "$1" in
-    --no-record|--record-in-plant|--managed|-h|--help) ;;
+    --no-record|--record-in-plant|--separate|--managed|-h|--help) ;;
     *) [ $# -ge 2 ] || die "$1 needs a value" ;;
   esac
   case "$1" in
@@ -58,6 +61,7 @@ while [ $# -gt 0 ]; do
     --record-dir) record_dir="$2"; shift 2 ;;
     --no-record) record=0; shift ;;
     --record-in-plant) in_plant=1; shift ;;
+    --separate) separate=1; shift ;;
     --managed) autostart=false; shift ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
@@ -76,7 +80,15 @@ done
 case "$pacing" in realtime|lockstep) ;; *) die "--pacing '$pacing': realtime or lockstep" ;; esac
 [ -z "$until_s" ] || [[ "$until_s" =~ ^[0-9]+(\.[0-9]*)?([eE][-+]?[0-9]+)?$ ]] || die "--until-s '$until_s': a positive number of seconds"
 [[ "$extra_wait" =~ ^[0-9]{1,7}$ ]] || die "--extra-wait-s '$extra_wait': a whole number of seconds (0 to 9999999)"
-for b in capsule_plant capsule_controller; do
+if [ "$separate" = 0 ] && [ "${ROS_SECURITY_ENABLE:-}" = true ]; then
+  echo "capsule_launch: secured: plant and controller run as separate processes, each with its own enclave" >&2
+  separate=1
+fi
+if [ "$separate" = 0 ]; then
+  [ "$in_plant" = 0 ] || die "--record-in-plant goes with --separate (composed, the plant always records in-process)"
+  [ ${#rec_args[@]} -eq 0 ] || die "--recorder-arg goes with --separate (composed, no recorder process: the plant records in-process)"
+fi
+for b in capsule_plant capsule_controller $([ "$separate" = 0 ] && echo capsule_container); do
   [ -x "$bin/$b" ] || { echo "capsule_launch: $bin/$b not built (cargo build --workspace)" >&2; exit 2; }
 done
 
@@ -92,15 +104,35 @@ else
 fi
 
 # refuse bad scenes and flags before anything starts (no half-started graph)
+if [ "$separate" = 0 ]; then
+  co=(--scene "$scene" --pacing "$pacing")
+  [ -n "$until_s" ] && co+=(--until-s "$until_s")
+  [ -n "$mode" ] && co+=(--mode "$mode")
+  [ -n "$cpus" ] && co+=(--cpu-affinity "$cpus")
+  for a in --autostart "$autostart" ${plant_args[@]+"${plant_args[@]}"}; do co+=(--plant-arg "$a"); done
+  for a in ${ctl_args[@]+"${ctl_args[@]}"}; do co+=(--controller-arg "$a"); done
+  # lock-step: the extras' DDS readers matched before the first sample (the controller is in-process)
+  [ "$pacing" = lockstep ] && [ ${#withs[@]} -gt 0 ] && co+=(--plant-arg --wait-subscribers --plant-arg "${#withs[@]}")
+  if [ "$record" = 1 ]; then
+    mkdir -p "$record_dir" || die "cannot create --record-dir '$record_dir'"
+    out=$("$bin/capsule_container" "${co[@]}" --record-dir "$record_dir" --check) || exit 2
+    out="${out#*would record to }"
+    co+=(--record-output "${out%%; controller *}")
+  else
+    "$bin/capsule_container" "${co[@]}" --check >/dev/null || exit 2
+  fi
+fi
 [ -n "$mode" ] && ctl_args+=(--mode "$mode")
 if [ -n "$cpus" ]; then ctl_args+=(--cpu-affinity "$cpus"); plant_args+=(--cpu-affinity "$cpus"); rec_args+=(--cpu-affinity "$cpus"); fi
-"$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2
+[ "$separate" = 1 ] && { "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"} --check || exit 2; }
 pl=(--scene "$scene" --pacing "$pacing" --autostart "$autostart")
 [ -n "$until_s" ] && pl+=(--until-s "$until_s")
 # recording: the plant also waits for the recorder (so it records sample 0)
 # the file name the check prints is the one the run writes (fixed here, not re-timed at start)
 if [ "$record" = 1 ]; then mkdir -p "$record_dir" || die "cannot create --record-dir '$record_dir'"; fi
-if [ "$record" = 1 ] && [ "$in_plant" = 1 ]; then
+if [ "$separate" = 0 ]; then
+  :
+elif [ "$record" = 1 ] && [ "$in_plant" = 1 ]; then
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
   out=$("$bin/capsule_plant" "${pl[@]}" --record-dir "$record_dir" ${plant_args[@]+"${plant_args[@]}"} --check) || exit 2
   pl+=(--record-output "${out##*would record to }")
@@ -115,7 +147,7 @@ elif [ "$record" = 1 ]; then
 else
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
 fi
-"$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2
+[ "$separate" = 1 ] && { "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2; }
 if [ -n "$fox_port" ]; then
   [ -x "$bin/capsule_foxglove" ] || { echo "capsule_launch: $bin/capsule_foxglove not built (cargo build --workspace)" >&2; exit 2; }
   fox=("$bin/capsule_foxglove" --port "$fox_port" ${fox_args[@]+"${fox_args[@]}"})
@@ -142,11 +174,15 @@ start() { # name cmd...
   pids+=("$!"); names+=("$name")
 }
 
-start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
-[ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
+[ "$separate" = 1 ] && start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
+[ "$separate" = 1 ] && [ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
 [ -n "$fox_port" ] && start foxglove "${fox[@]}"
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" ${extra_enclave[@]+"${extra_enclave[@]}"} bash -c "$w"; done
-start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
+if [ "$separate" = 1 ]; then
+  start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}
+else
+  start "container (plant + controller)" "$bin/capsule_container" "${co[@]}"
+fi
 
 declare -A status=() said=()
 wait_pid() { # index -> sets status

@@ -5,9 +5,11 @@
 # and then OFF (drive only) through /capsule_controller/set_mode, each switch scheduled at a sim
 # time so the run is reproducible; each segment's mean progression per drive period is printed.
 #
-#   launch_scripts/demo.sh [--secure KEYSTORE] [SCENE] [PERIODS_PER_SEGMENT]
+#   launch_scripts/demo.sh [--separate] [--secure KEYSTORE] [SCENE] [PERIODS_PER_SEGMENT]
 #                                          (defaults: scenes/control_point.toml 60)
 #
+# Plant and controller run composed in one process (capsule_container, in-process state and
+# force); --separate runs each as its own process, as before (capsule_launch.sh --separate).
 # --secure KEYSTORE: every node secured with its SROS2 enclave (capsule_launch.sh --secure; make
 # the keystore with launch_scripts/capsule_keystore.sh create KEYSTORE).
 # The run is recorded to runs/demo-<UTC time>/capsule_<scene>_<time>.mcap and summarised with
@@ -19,7 +21,8 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$here/.."
 usage() { sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
 case "${1:-}" in -h|--help) usage; exit 0 ;; esac
-secure=()
+secure=() separate=()
+if [ "${1:-}" = --separate ]; then separate=(--separate); shift; fi
 if [ "${1:-}" = --secure ]; then
   [ $# -ge 2 ] || { echo "demo: --secure needs a KEYSTORE" >&2; usage >&2; exit 2; }
   secure=(--secure "$2"); shift 2
@@ -47,9 +50,9 @@ export ROS_LOCALHOST_ONLY="${ROS_LOCALHOST_ONLY:-1}"
 until_s=$("$bin/capsule_ros" period --scene "$scene" --periods $(( 3 * periods ))) || exit 2
 
 record_dir="${CAPSULE_RECORD_DIR:-runs}/demo-$(date -u +%Y%m%dT%H%M%SZ)"
-echo "demo: $scene, lock-step, ${periods} drive periods per segment (first ${settle} not measured), until t = ${until_s} s"
+echo "demo: $scene, lock-step$([ ${#separate[@]} -gt 0 ] && echo ', separate processes' || echo ', composed'), ${periods} drive periods per segment (first ${settle} not measured), until t = ${until_s} s"
 "$here/capsule_launch.sh" --scene "$scene" --pacing lockstep --until-s "$until_s" --mode forward \
-  --record-dir "$record_dir" ${secure[@]+"${secure[@]}"} \
+  --record-dir "$record_dir" ${secure[@]+"${secure[@]}"} ${separate[@]+"${separate[@]}"} \
   --with "'$bin/capsule_ros' demo --scene '$scene' --segments forward:$periods,backward:$periods,off:$periods --settle-periods $settle"
 rc=$?
 recording=$(ls "$record_dir"/*.mcap 2>/dev/null | head -n 1)

@@ -3,8 +3,11 @@
 //! ([`crate::controller_core`]); what the loop does with each input apart from DDS is
 //! `Handlers`' (the core, the parameter sync, which plant it serves, the logs); the inputs
 //! (`Inputs`: state samples, mode requests, accepted parameter sets) and the outputs
-//! (`Outputs`: commands, status, service events, diagnostics) are the DDS side, kept apart
-//! so that state and commands could come from another transport.
+//! (`Outputs`: commands, status, service events, diagnostics) are the DDS side. State and
+//! commands come and go over DDS or, composed with the plant in one process, over the
+//! in-process link ([`crate::intra_process`]): there the plant's loop calls the same
+//! `Handlers::on_state` on its own thread, and the commands' DDS copies leave from a publisher
+//! thread. [`run_in`] takes the transport from outside.
 //!
 //! Status messages are stamped with the node's ROS time (sim time under `use_sim_time`); the
 //! stale-state watchdog runs on a steady clock, because sim time stops when the plant does.
@@ -20,12 +23,14 @@ use capsule_record::types::{ServiceEventInfo, SetModeEvent};
 use capsule_ros_base::error::{Context as _, Result};
 use futures::StreamExt;
 use ros2_client::{Gid, Node, Publisher, RmwRequestId, Server, Subscription};
+use std::sync::{Arc, Mutex, MutexGuard};
 use tracing::{info, warn};
 
 use crate::{
     controller_core::ControllerCore,
     controller_diagnostics::ControllerDiag,
     controller_params::{self, LiveSync},
+    intra_process::{Answer, CopyCounts, DdsCopies, Transport},
     plant_identity::{PlantIdentity, Source},
     views::Diagnostics,
 };
@@ -50,14 +55,28 @@ pub struct ControllerOptions {
     pub diagnostics: bool,
 }
 
-/// Runs the controller node until SIGINT/SIGTERM: build, then the loop.
+/// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM: build,
+/// then the loop.
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
     let context = settings.context()?;
-    let (mut node, graph) = settings.loop_node(&context)?;
+    let end = capsule_ros_base::ros::shutdown();
+    run_in(&context, settings, opts, Transport::Dds, end).await
+}
+
+/// [`run`] in the participant of `context` (a composed process's), with state and force over
+/// `transport`, until `end` resolves (its error is the run's).
+pub async fn run_in(
+    context: &ros2_client::Context,
+    settings: RosOptions,
+    opts: ControllerOptions,
+    transport: Transport,
+    end: impl std::future::Future<Output = Result<()>>,
+) -> Result<()> {
+    let (mut node, graph) = settings.loop_node(context)?;
     let clock = RosClock::new(&settings, &mut node)?;
-    let mut outputs = Outputs::build(&settings, &mut node, graph, opts.diagnostics)?;
+    let mut outputs = Outputs::build(&settings, &mut node, graph.clone(), opts.diagnostics)?;
     let (handle, applied) = capsule_ros_base::param_services::serve(
-        &context,
+        context,
         &mut node,
         &settings,
         opts.params,
@@ -67,26 +86,52 @@ pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
             move || clock.now()
         },
     )?;
-    let inputs = Inputs::build(&settings, &mut node, applied)?;
-    let mut handlers = Handlers::new(opts.core, handle, clock, &settings);
-    info!(
-        "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
-        settings.describe(),
-        settings.resolve_name(topics::STATE),
-        settings.resolve_name(topics::FORCE),
-        settings.resolve_name(topics::STATUS),
-        settings.resolve_name(topics::SET_MODE),
-        handlers.core.mode(),
-        handlers.core.law().kp
-    );
-    let stopped = run_loop(inputs, &mut outputs, &mut handlers, opts.status_period).await;
+    let in_process = matches!(transport, Transport::InProcess(_));
+    let mut inputs = Inputs::build(&settings, &mut node, applied, in_process)?;
+    let handlers = Arc::new(Mutex::new(Handlers::new(
+        opts.core, handle, clock, &settings,
+    )));
+    let mut copies = None;
+    if let Transport::InProcess(link) = transport {
+        let (answer, counts) = outputs.in_process(&settings, graph, &handlers)?;
+        link.attach(answer)?;
+        copies = Some(counts);
+    }
+    {
+        let h = lock(&handlers);
+        info!(
+            "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
+            settings.describe(),
+            settings.resolve_name(topics::STATE),
+            settings.resolve_name(topics::FORCE),
+            settings.resolve_name(topics::STATUS),
+            settings.resolve_name(topics::SET_MODE),
+            h.core.mode(),
+            h.core.law().kp
+        );
+    }
+    if let Some(rx) = outputs.switch_status.take() {
+        inputs.switch_status = Some(rx);
+    }
+    let stopped = run_loop(inputs, &mut outputs, &handlers, opts.status_period, end).await;
+    if let Some(c) = copies {
+        info!("force's DDS copies: {}", c.describe());
+    }
     drop(node);
     stopped
 }
 
+/// The handlers, also after a panic elsewhere (the link names it and answers nothing more).
+fn lock(h: &Mutex<Handlers>) -> MutexGuard<'_, Handlers> {
+    h.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 /// Where the controller's inputs come from.
 struct Inputs {
-    states: Subscription<CapsuleState>,
+    /// State over DDS (`None` in-process: the plant's loop calls the handler).
+    states: Option<Subscription<CapsuleState>>,
+    /// In-process: the statuses of attractor-switch events, to publish.
+    switch_status: Option<tokio::sync::mpsc::UnboundedReceiver<ControllerStatus>>,
     /// The mode service (its responses go back through it).
     server: Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
     /// Remote parameter sets the parameter services' task accepted.
@@ -98,10 +143,14 @@ impl Inputs {
         settings: &RosOptions,
         node: &mut Node,
         applied: tokio::sync::mpsc::UnboundedReceiver<ParamTable>,
+        in_process: bool,
     ) -> Result<Inputs> {
         let state_topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
         Ok(Inputs {
-            states: subscribe::<CapsuleState>(node, &state_topic, &qos::data_reader())?,
+            states: (!in_process)
+                .then(|| subscribe::<CapsuleState>(node, &state_topic, &qos::data_reader()))
+                .transpose()?,
+            switch_status: None,
             server: settings.server::<SetModeRequest, SetModeResponse>(
                 node,
                 topics::SET_MODE,
@@ -114,7 +163,10 @@ impl Inputs {
 
 /// Where the controller's outputs go.
 struct Outputs {
-    force: Publisher<ActuatorForce>,
+    /// Commands over DDS (`None` in-process: its copies go out from their own thread).
+    force: Option<Publisher<ActuatorForce>>,
+    /// In-process: the receiving end of the switch statuses, until the inputs take it.
+    switch_status: Option<tokio::sync::mpsc::UnboundedReceiver<ControllerStatus>>,
     status: Publisher<ControllerStatus>,
     /// set_mode service events, as ROS 2 service introspection publishes them.
     events: Publisher<SetModeEvent>,
@@ -158,9 +210,11 @@ impl Outputs {
             ],
         );
         Ok(Outputs {
-            force: node
-                .create_publisher(&force_topic, None)
-                .context("force publisher")?,
+            force: Some(
+                node.create_publisher(&force_topic, None)
+                    .context("force publisher")?,
+            ),
+            switch_status: None,
             status: node
                 .create_publisher(&status_topic, None)
                 .context("status publisher")?,
@@ -173,13 +227,43 @@ impl Outputs {
         })
     }
 
+    /// In-process: the state handler the plant's loop calls (the command back, its DDS copy
+    /// queued, a switch event's status to the node's loop), and the copies' counts.
+    fn in_process(
+        &mut self,
+        settings: &RosOptions,
+        graph: capsule_ros_base::graph::Graph,
+        handlers: &Arc<Mutex<Handlers>>,
+    ) -> Result<(Box<Answer>, Arc<CopyCounts>)> {
+        let publisher = self
+            .force
+            .take()
+            .context("the force publisher, taken twice")?;
+        let copies = DdsCopies::start(&settings.resolve_name(topics::FORCE), publisher, graph)?;
+        let counts = copies.counts();
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        self.switch_status = Some(rx);
+        let h = handlers.clone();
+        let answer = move |state: &CapsuleState, plant: Gid| {
+            let (cmd, status) = lock(&h).on_state(state, plant)?;
+            copies.push(cmd.clone());
+            if let Some(st) = status {
+                let _ = tx.send(st);
+            }
+            Some(cmd)
+        };
+        Ok((Box::new(answer), counts))
+    }
+
     /// Sends the command for a state sample, and the status after an attractor-switch event.
-    async fn answer_state(&self, h: &mut Handlers, state: &CapsuleState, publisher: Gid) {
-        let Some((cmd, status)) = h.on_state(state, publisher) else {
+    async fn answer_state(&self, h: &Mutex<Handlers>, state: &CapsuleState, publisher: Gid) {
+        let Some((cmd, status)) = lock(h).on_state(state, publisher) else {
             return;
         };
-        if let Err(e) = self.force.async_publish(cmd).await {
-            warn!("force command not sent: {e:?}");
+        if let Some(force) = &self.force {
+            if let Err(e) = force.async_publish(cmd).await {
+                warn!("force command not sent: {e:?}");
+            }
         }
         if let Some(st) = status {
             if let Err(e) = self.status.async_publish(st).await {
@@ -191,12 +275,12 @@ impl Outputs {
     /// Answers a set_mode request, with the request and the response as service events.
     async fn answer_request(
         &self,
-        h: &mut Handlers,
+        h: &Mutex<Handlers>,
         server: &Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
         id: RmwRequestId,
         req: SetModeRequest,
     ) {
-        let clock = h.clock.clone();
+        let clock = lock(h).clock.clone();
         let event =
             |kind, request: Vec<SetModeRequest>, response: Vec<SetModeResponse>| SetModeEvent {
                 info: ServiceEventInfo {
@@ -216,7 +300,7 @@ impl Outputs {
         if let Err(e) = self.events.async_publish(received).await {
             warn!("service event not sent: {e:?}");
         }
-        let resp = h.on_request(&req);
+        let resp = lock(h).on_request(&req);
         let sent = event(ServiceEventInfo::RESPONSE_SENT, vec![], vec![resp.clone()]);
         if let Err(e) = self.events.async_publish(sent).await {
             warn!("service event not sent: {e:?}");
@@ -224,55 +308,81 @@ impl Outputs {
         if let Err(e) = server.async_send_response(id, Wire(resp)).await {
             warn!("set_mode response not sent: {e:?}");
         }
-        h.params.push(&h.core);
-        let _ = self.status.async_publish(h.status()).await;
+        let status = {
+            let mut guard = lock(h);
+            let g = &mut *guard;
+            g.params.push(&g.core);
+            g.status()
+        };
+        let _ = self.status.async_publish(status).await;
     }
 
     /// The status period: the watchdog, the status, and the diagnostics when due.
-    async fn tick(&mut self, h: &mut Handlers) {
-        let st = h.on_tick();
+    async fn tick(&mut self, h: &Mutex<Handlers>) {
+        let st = lock(h).on_tick();
         if let Err(e) = self.status.async_publish(st).await {
             warn!("status not sent: {e:?}");
         }
         if let Some(d) = self.diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
-            let _ = d.publish(h.diag.status(&h.node_name, &h.core));
+            let diag = {
+                let mut guard = lock(h);
+                let g = &mut *guard;
+                g.diag.status(&g.node_name, &g.core)
+            };
+            let _ = d.publish(diag);
         }
     }
 }
 
-/// The loop: each input to its handler, until SIGINT/SIGTERM.
+/// The loop: each input to its handler, until `end`.
 async fn run_loop(
     inputs: Inputs,
     out: &mut Outputs,
-    h: &mut Handlers,
+    h: &Mutex<Handlers>,
     status_period: Duration,
+    end: impl std::future::Future<Output = Result<()>>,
 ) -> Result<()> {
     let Inputs {
         states,
+        switch_status,
         server,
         mut applied,
     } = inputs;
-    let states = states.async_stream();
+    // in-process, no state comes here (the plant's loop calls the handler)
+    let states = match &states {
+        Some(sub) => sub.async_stream().left_stream(),
+        None => futures::stream::pending().fuse().right_stream(),
+    };
     tokio::pin!(states);
+    let mut switch_status = switch_status;
     let mut requests = server.receive_request_stream();
     let mut tick = tokio::time::interval(status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let shutdown = capsule_ros_base::ros::shutdown();
-    tokio::pin!(shutdown);
+    tokio::pin!(end);
     loop {
         tokio::select! {
-            stopped = &mut shutdown => break stopped?,
+            stopped = &mut end => break stopped?,
             msg = states.select_next_some() => match msg {
                 Ok((state, info)) => out.answer_state(h, &state, info.publisher_gid()).await,
                 Err(e) => warn!("bad state sample: {e:?}"),
             },
+            Some(st) = async { switch_status.as_mut()?.recv().await } => {
+                if let Err(e) = out.status.async_publish(st).await {
+                    warn!("status not sent: {e:?}");
+                }
+            }
             req = requests.select_next_some() => match req {
                 Ok((id, Wire(req))) => out.answer_request(h, &server, id, req).await,
                 Err(e) => warn!("bad set_mode request: {e:?}"),
             },
             Some(table) = applied.recv() => {
-                h.params.applied(&table, &mut h.core);
-                let _ = out.status.async_publish(h.status()).await;
+                let status = {
+                    let mut guard = lock(h);
+                    let g = &mut *guard;
+                    g.params.applied(&table, &mut g.core);
+                    g.status()
+                };
+                let _ = out.status.async_publish(status).await;
             }
             _ = tick.tick() => out.tick(h).await,
         }

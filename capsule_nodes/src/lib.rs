@@ -34,6 +34,7 @@ pub mod device_driver;
 pub mod emergency_stop;
 pub mod foxglove_bridge;
 pub mod hardware;
+pub mod intra_process;
 pub mod joint_commands;
 pub mod node_settings;
 pub mod plant;

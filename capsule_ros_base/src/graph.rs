@@ -124,14 +124,34 @@ pub struct Graph {
     changed: watch::Receiver<u64>,
 }
 
+/// The graphs followed, one per participant: a participant's status events come through one
+/// channel, so a second follower would take half of them from the first (nodes composed in
+/// one process share the participant, and so its graph).
+static FOLLOWED: Mutex<Vec<Followed>> = Mutex::new(Vec::new());
+
+/// A participant followed: its GUID, its matches (while the follower lives), its changes.
+type Followed = (GUID, std::sync::Weak<Mutex<Matches>>, watch::Receiver<u64>);
+
 impl Graph {
-    /// Starts following `participant`'s discovery events (call before creating endpoints).
+    /// Starts following `participant`'s discovery events (call before creating endpoints), or
+    /// the graph already followed for it.
     pub fn follow(participant: DomainParticipant) -> Graph {
+        let guid = participant.guid();
+        let mut followed = FOLLOWED.lock().unwrap_or_else(PoisonError::into_inner);
+        followed.retain(|(_, m, _)| m.strong_count() > 0);
+        if let Some((matches, changed)) = followed
+            .iter()
+            .filter(|(g, _, _)| *g == guid)
+            .find_map(|(_, m, c)| Some((m.upgrade()?, c.clone())))
+        {
+            return Graph { matches, changed };
+        }
         let matches = Arc::new(Mutex::new(Matches {
-            own: Some(participant.guid()),
+            own: Some(guid),
             ..Matches::default()
         }));
         let (tx, changed) = watch::channel(0u64);
+        followed.push((guid, Arc::downgrade(&matches), changed.clone()));
         let m = Arc::clone(&matches);
         tokio::spawn(async move {
             let listener = participant.status_listener();

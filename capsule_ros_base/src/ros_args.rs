@@ -109,6 +109,27 @@ pub fn parse_node_cli<C: clap::Parser>(
     Ok((cli, overrides))
 }
 
+/// [`parse_node_cli`] of a command line given as `argv` (its first item the program's name),
+/// as a composed process parses the arguments it gives each of its nodes: clap's errors are
+/// returned (naming `default_node`), not printed and exited on.
+pub fn parse_node_cli_from<C: clap::Parser>(
+    argv: impl IntoIterator<Item = OsString>,
+    default_node: &str,
+    ros: fn(&mut C) -> &mut RosArgs,
+) -> Result<(C, Vec<Override>)> {
+    let (argv, ros_cli) = split(argv)?;
+    let mut cli = C::try_parse_from(argv).map_err(|e| {
+        let text = e.to_string();
+        let first = text.lines().next().unwrap_or_default();
+        invalid!(
+            "{default_node}'s arguments: {}",
+            first.trim_start_matches("error: ")
+        )
+    })?;
+    let overrides = ros_cli.apply_to(ros(&mut cli), default_node)?;
+    Ok((cli, overrides))
+}
+
 /// [`parse_node_cli`] for a node or tool that has no ROS parameters: names, remaps and the
 /// enclave are taken, a parameter (`-p`, `--params-file`) is an error naming it.
 pub fn parse_cli_without_params<C: clap::Parser>(

@@ -760,7 +760,7 @@ fn in_plant_recording_holds_the_same_run() {
 }
 
 /// A lock-step launcher run with two mode requests, recorded by the recorder node or (with
-/// `in_plant`) by the plant itself: the same file either way. The switch is scheduled (at 4.5 s
+/// `in_plant`) by the plant itself, composed with the controller: the same file either way. The switch is scheduled (at 4.5 s
 /// of sim time): `--check-controller` replays a scheduled switch exactly, an immediate one only
 /// to within a sample of where the recording saw the request. So the requests are made while
 /// the managed plant waits unconfigured, and it is activated after them: a lock-step run is
@@ -778,7 +778,8 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
             --mode forward --record-dir "$D/runs" --plant-arg --summary-json --plant-arg "$D/plant.json" \
             --managed
         rc=$?; wait; exit $rc"#,
-            if in_plant { "--record-in-plant" } else { "" }
+            // in the plant: composed (the launcher's default), which records in-process
+            if in_plant { "" } else { "--separate" }
         ),
     );
     assert_eq!(code, Some(0), "{all}");

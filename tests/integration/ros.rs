@@ -9,6 +9,7 @@
 mod harness;
 
 mod colcon;
+mod composed;
 mod device;
 mod example_controller;
 mod example_plant;

@@ -347,6 +347,7 @@ impl DemoPlan {
         let states = sub.async_stream();
         tokio::pin!(states);
         let started = Instant::now();
+        let (mut first_seq, mut last_seq) = (None, 0);
         while !meter.done() {
             let left = timeout.saturating_sub(started.elapsed());
             match tokio::time::timeout(left, states.next()).await {
@@ -356,15 +357,20 @@ impl DemoPlan {
                 ),
                 Ok(None) => bail!("state stream ended"),
                 Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),
-                Ok(Some(Ok((s, _)))) => meter.sample(&s),
+                Ok(Some(Ok((s, _)))) => {
+                    first_seq.get_or_insert(s.seq);
+                    last_seq = last_seq.max(s.seq);
+                    meter.sample(&s);
+                }
             }
         }
-        self.report(&meter, started.elapsed().as_secs_f64());
+        let steps = last_seq - first_seq.unwrap_or(last_seq);
+        self.report(&meter, started.elapsed().as_secs_f64(), steps);
         Ok(())
     }
 
     /// Prints each segment's progression and whether the directions came out right.
-    fn report(&self, meter: &SegmentMeter, wall: f64) {
+    fn report(&self, meter: &SegmentMeter, wall: f64, steps: u64) {
         let t = self.segments.last().map_or(0.0, |(_, _, to)| *to);
         println!("segment         periods  progression/period (non-dim)  progression/period [mm]");
         for r in meter.results() {
@@ -376,7 +382,10 @@ impl DemoPlan {
                 r.per_period_m * 1e3
             );
         }
-        println!("sim time {t:.3} s in {wall:.2} s wall");
+        println!(
+            "sim time {t:.3} s in {wall:.2} s wall: {steps} steps, {:.0} steps/s",
+            steps as f64 / wall
+        );
         let results = meter.results();
         let get = |m: &str| results.iter().find(|r| r.mode == m).map(|r| r.per_period);
         if let (Some(f), Some(b), Some(o)) = (get("FORWARD"), get("BACKWARD"), get("OFF")) {

@@ -1,5 +1,7 @@
-//! The plant's DDS endpoints (state, clock, force and JointState commands, views) and the
-//! logging of refused and undecodable commands, shared by the pacing loops.
+//! The plant's endpoints (state, clock, force and JointState commands, views) and the
+//! logging of refused and undecodable commands, shared by the pacing loops. State and force go
+//! over DDS or, composed with the controller in one process, over the in-process link
+//! ([`crate::intra_process`]; the state's DDS copies then leave from a publisher thread).
 
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::{Clock, DiagnosticArray, JointState};
@@ -11,8 +13,13 @@ use capsule_ros_base::{
     ros::{qos, subscribe, types, RosOptions},
     throttle::Throttle,
 };
+use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::sync::Arc;
 use std::time::Duration;
 use tracing::warn;
+
+use crate::intra_process::{CopyCounts, DdsCopies, Link, Transport};
 
 use super::{CommandOutcome, LoopStats, PlantOptions};
 
@@ -20,11 +27,30 @@ use super::{CommandOutcome, LoopStats, PlantOptions};
 /// the last sample before it leaves (discovery and sending run on DDS's own thread).
 pub(super) const MATCH_GRACE: Duration = Duration::from_millis(200);
 
-/// The plant's DDS endpoints.
+/// State and force: DDS topics, or the in-process link.
+pub(super) enum StateForce {
+    /// Over DDS: the state's writer, the force's reader (boxed: the larger variant).
+    Dds {
+        state_pub: Box<ros2_client::Publisher<CapsuleState>>,
+        force_sub: Box<ros2_client::Subscription<ActuatorForce>>,
+    },
+    /// In-process: each sample handed to the controller, its answer queued here with the
+    /// time it came (ns, [`capsule_record::writer::now_ns`]); the state's DDS copies queued to
+    /// their publisher thread.
+    InProcess {
+        link: Link,
+        gid: ros2_client::Gid,
+        answers: RefCell<VecDeque<(ActuatorForce, u64)>>,
+        copies: DdsCopies<CapsuleState>,
+    },
+}
+
+/// The plant's endpoints.
 pub(super) struct Endpoints {
-    pub(super) state_pub: ros2_client::Publisher<CapsuleState>,
+    pub(super) state_force: StateForce,
+    /// The state's DDS writer (in-process: the one its copies go out on).
+    pub(super) state_guid: ros2_client::dds::rustdds::GUID,
     pub(super) clock_pub: ros2_client::Publisher<Clock>,
-    pub(super) force_sub: ros2_client::Subscription<ActuatorForce>,
     pub(super) graph: Graph,
     /// Standard-type views (issue 10).
     pub(super) views: crate::views::PlantViews,
@@ -41,6 +67,7 @@ impl Endpoints {
         graph: &Graph,
         opts: &PlantOptions,
         rate_hz: f64,
+        transport: Transport,
     ) -> Result<(Endpoints, Vec<TopicRule>)> {
         let state_topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
         let force_topic = settings.topic(node, topics::FORCE, types::force(), &qos::data())?;
@@ -73,14 +100,36 @@ impl Endpoints {
                 "",
             ),
         ];
+        let state_pub = node
+            .create_publisher::<CapsuleState>(&state_topic, None)
+            .context("state publisher")?;
+        let state_guid = state_pub.guid();
+        let state_force = match transport {
+            Transport::Dds => StateForce::Dds {
+                state_pub: Box::new(state_pub),
+                force_sub: Box::new(subscribe::<ActuatorForce>(
+                    node,
+                    &force_topic,
+                    &qos::data_reader(),
+                )?),
+            },
+            Transport::InProcess(link) => StateForce::InProcess {
+                link,
+                gid: state_guid.into(),
+                answers: RefCell::default(),
+                copies: DdsCopies::start(
+                    &settings.resolve_name(topics::STATE),
+                    state_pub,
+                    graph.clone(),
+                )?,
+            },
+        };
         let io = Endpoints {
-            state_pub: node
-                .create_publisher::<CapsuleState>(&state_topic, None)
-                .context("state publisher")?,
+            state_force,
+            state_guid,
             clock_pub: node
                 .create_publisher::<Clock>(&clock_topic, None)
                 .context("clock publisher")?,
-            force_sub: subscribe::<ActuatorForce>(node, &force_topic, &qos::data_reader())?,
             joint_sub,
             graph: graph.clone(),
             views: crate::views::Views::create(
@@ -109,10 +158,74 @@ impl Endpoints {
         stats: &LoopStats,
     ) -> Option<DiagnosticArray> {
         let copy = self.views.per_sample.is_some().then(|| state.clone());
-        if let Err(e) = self.state_pub.publish(state) {
-            warn!("state not sent: {e:?}");
-        }
+        self.send_state(state);
         self.views_of(copy, stats)
+    }
+
+    /// Sends a sample (a re-send too): DDS's `publish`, or in-process the controller's answer
+    /// queued and the DDS copy queued.
+    pub(super) fn send_state(&self, state: CapsuleState) {
+        match &self.state_force {
+            StateForce::Dds { state_pub, .. } => {
+                if let Err(e) = state_pub.publish(state) {
+                    warn!("state not sent: {e:?}");
+                }
+            }
+            StateForce::InProcess { .. } => self.hand_over(state),
+        }
+    }
+
+    /// [`Endpoints::send_state`] for an async loop (DDS's `async_publish`).
+    pub(super) async fn send_state_async(&self, state: CapsuleState) {
+        match &self.state_force {
+            StateForce::Dds { state_pub, .. } => {
+                if let Err(e) = state_pub.async_publish(state).await {
+                    warn!("state not sent: {e:?}");
+                }
+            }
+            StateForce::InProcess { .. } => self.hand_over(state),
+        }
+    }
+
+    /// In-process: the sample to the controller (its answer queued) and to the DDS copies.
+    fn hand_over(&self, state: CapsuleState) {
+        if let StateForce::InProcess {
+            link,
+            gid,
+            answers,
+            copies,
+        } = &self.state_force
+        {
+            if let Some(cmd) = link.answer(&state, *gid) {
+                let now = capsule_record::writer::now_ns();
+                answers.borrow_mut().push_back((cmd, now));
+            }
+            copies.push(state);
+        }
+    }
+
+    /// In-process: the next answer queued and when it came (ns); `None` over DDS.
+    pub(super) fn next_answer(&self) -> Option<(ActuatorForce, u64)> {
+        match &self.state_force {
+            StateForce::InProcess { answers, .. } => answers.borrow_mut().pop_front(),
+            StateForce::Dds { .. } => None,
+        }
+    }
+
+    /// The DDS reader of commands (`None` in-process).
+    pub(super) fn force_sub(&self) -> Option<&ros2_client::Subscription<ActuatorForce>> {
+        match &self.state_force {
+            StateForce::Dds { force_sub, .. } => Some(force_sub),
+            StateForce::InProcess { .. } => None,
+        }
+    }
+
+    /// In-process: what became of the state's DDS copies.
+    pub(super) fn copies(&self) -> Option<Arc<CopyCounts>> {
+        match &self.state_force {
+            StateForce::InProcess { copies, .. } => Some(copies.counts()),
+            StateForce::Dds { .. } => None,
+        }
     }
 
     /// The standard-type views of a sample just published; the diagnostics if they went out.

@@ -41,8 +41,8 @@ mod recording;
 mod stats;
 
 pub use crate::hardware::SourceHealth;
-pub use node::run;
+pub use node::{run, run_in};
 pub use options::{Pacing, PlantOptions};
 pub use plant_core::{CommandOutcome, PlantCore};
 pub use recording::{InPlantRecordOptions, InPlantRecording};
-pub use stats::{summary_json, LoopStats};
+pub use stats::{summary_json, DdsCopyStats, LoopStats};

@@ -3,7 +3,8 @@
 //! only serves: the emergency stop, the parameters, the lifecycle), finish (statistics, the
 //! recording).
 //!
-//! The state and force transport is [`Endpoints`]; the loop takes everything else through
+//! The state and force transport is [`Endpoints`] (DDS, or in-process when composed with the
+//! controller: [`run_in`] takes it from outside); the loop takes everything else through
 //! [`LoopControl`] and the hardware through [`PlantCore`].
 
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -23,6 +24,7 @@ use super::paced::paced_loop;
 use super::pacing::{lockstep_loop, realtime_loop};
 use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
+use crate::intra_process::{CopyCounts, Transport};
 
 /// What the built node holds while it runs.
 struct Built {
@@ -39,25 +41,40 @@ struct Built {
     ),
 }
 
-/// Runs the plant node until `until_s`, a lifecycle shutdown, or SIGINT/SIGTERM; logs the
-/// loop statistics at the end.
+/// Runs the plant node on DDS, in a participant of its own, until `until_s`, a lifecycle
+/// shutdown, or SIGINT/SIGTERM; logs the loop statistics at the end.
 pub async fn run<H: CapsuleHardware + 'static>(
     settings: RosOptions,
     core: PlantCore<H>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
-    let built = build(&settings, &core, &opts)?;
+    run_in(None, settings, core, opts, Transport::Dds).await
+}
+
+/// [`run`] in the participant of `context` (a composed process's: `None` makes one) with state
+/// and force over `transport`.
+pub async fn run_in<H: CapsuleHardware + 'static>(
+    context: Option<&ros2_client::Context>,
+    settings: RosOptions,
+    core: PlantCore<H>,
+    opts: PlantOptions,
+    transport: Transport,
+) -> Result<(LoopStats, CapsuleState)> {
+    let built = build(context, &settings, &core, &opts, transport)?;
     wait_for_graph(&built, &settings, &opts).await?;
+    let copies = built.io.copies();
     let (ended, conflicts) = run_loop(built, core, opts).await?;
-    finish(ended, &conflicts).await
+    finish(ended, &conflicts, copies).await
 }
 
 /// Build: the recording's file first (an unwritable place is an error before anything else
 /// starts), then DDS: endpoints, conflict watch, emergency stop, parameters, lifecycle.
 fn build<H: CapsuleHardware>(
+    context: Option<&ros2_client::Context>,
     settings: &RosOptions,
     core: &PlantCore<H>,
     opts: &PlantOptions,
+    transport: Transport,
 ) -> Result<Built> {
     if opts.joint_commands && opts.pacing == Pacing::Lockstep {
         bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
@@ -67,9 +84,13 @@ fn build<H: CapsuleHardware>(
         .as_ref()
         .map(|r| InPlantRecording::create_file(r, settings))
         .transpose()?;
-    let context = settings.context()?;
+    let context = match context {
+        Some(c) => c.clone(),
+        None => settings.context()?,
+    };
     let (mut node, graph) = settings.loop_node(&context)?;
-    let (io, rules) = Endpoints::create(&mut node, settings, &graph, opts, core.rate_hz)?;
+    let (io, rules) =
+        Endpoints::create(&mut node, settings, &graph, opts, core.rate_hz, transport)?;
     let conflicts = conflicts::watch(graph.clone(), rules);
     crate::emergency_stop::serve(&mut node, settings, core.emergency_stop(), core.stopper())?;
     // ROS parameters (read-only here): served by their own task, never by the sample loop
@@ -131,7 +152,7 @@ async fn wait_for_graph(built: &Built, settings: &RosOptions, opts: &PlantOption
     if opts.wait_subscribers == 0 {
         return Ok(());
     }
-    let writer = built.io.state_pub.guid();
+    let writer = built.io.state_guid;
     if !built
         .graph
         .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
@@ -279,11 +300,22 @@ async fn drive<H: CapsuleHardware>(
 async fn finish<H: CapsuleHardware>(
     (result, mut core, recording, io): Ended<H>,
     conflicts: &AtomicU64,
+    copies: Option<Arc<CopyCounts>>,
 ) -> Result<(LoopStats, CapsuleState)> {
     // DDS sends from its own thread: let the last sample leave (and be repaired) before its
     // writer and the participant go
     tokio::time::sleep(MATCH_GRACE).await;
+    // in-process, this waits for the DDS copies to go out: their counts are final after it
     drop(io);
+    if let Some(c) = copies {
+        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
+        core.stats.dds_copies = Some(super::DdsCopyStats {
+            published: load(&c.published),
+            unread: load(&c.unread),
+            dropped: load(&c.dropped),
+        });
+        info!("state's DDS copies: {}", c.describe());
+    }
     core.stats.finish();
     core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
     let stats = core.stats.clone();

@@ -23,7 +23,9 @@ use tracing::warn;
 
 use super::endpoints::{log_undecodable, Endpoints};
 use super::loop_control::{apply, Exit, LoopControl};
-use super::pacing::{publish_now, take_command, take_joint_commands, CommandLogs, Wall};
+use super::pacing::{
+    commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs, Wall,
+};
 use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
 
@@ -149,8 +151,31 @@ impl Paced<'_> {
             r.published(&state, None)?;
             r.poll()?;
         }
-        if let Err(e) = self.io.state_pub.publish(state) {
-            warn!("state not re-sent: {e:?}");
+        self.io.send_state(state);
+        Ok(())
+    }
+
+    /// A command received at `at` (`info`: as DDS delivered it; `None`: in-process): held, and
+    /// written at once if it answers the current sample.
+    fn command<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        cmd: &capsule_msgs::ActuatorForce,
+        info: Option<&ros2_client::MessageInfo>,
+        at: f64,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<()> {
+        let outcome = if self.lockstep {
+            take_answer(core, cmd, info, at, rec)?
+        } else {
+            take_command(core, cmd, info, at, &mut self.logs, rec)?
+        };
+        if outcome == CommandOutcome::Accepted {
+            self.ever_commanded = true;
+            // the answer to the current sample goes out now
+            if self.started && cmd.state_seq == core.seq() {
+                core.answer().context("the plant's hardware")?;
+            }
         }
         Ok(())
     }
@@ -179,7 +204,7 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
         ever_commanded: false,
         logs: CommandLogs::default(),
     };
-    let commands = io.force_sub.async_stream();
+    let commands = commands_of(io);
     tokio::pin!(commands);
     let woken = control.woken.clone();
     let period = Duration::from_secs_f64(1.0 / core.rate_hz);
@@ -191,6 +216,9 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
         }
         if p.drain(core, rec.as_deref_mut())? {
             return Ok(Exit::Over);
+        }
+        while let Some((cmd, ns)) = io.next_answer() {
+            p.command(core, &cmd, None, p.wall.at_ns(ns), rec.as_deref_mut())?;
         }
         let advance = p.may_advance(core);
         tokio::select! {
@@ -204,21 +232,7 @@ pub(super) async fn paced_loop<H: CapsuleHardware>(
             msg = commands.select_next_some() => match msg {
                 Ok((cmd, info)) => {
                     let at = p.wall.at(&info);
-                    let outcome = if lockstep {
-                        if let Some(r) = rec.as_deref_mut() {
-                            r.received(&cmd, &info)?;
-                        }
-                        core.on_command(&cmd, at, true)
-                    } else {
-                        take_command(core, &cmd, &info, at, &mut p.logs, rec.as_deref_mut())?
-                    };
-                    if outcome == CommandOutcome::Accepted {
-                        p.ever_commanded = true;
-                        // the answer to the current sample goes out now
-                        if p.started && cmd.state_seq == core.seq() {
-                            core.answer().context("the plant's hardware")?;
-                        }
-                    }
+                    p.command(core, &cmd, Some(&info), at, rec.as_deref_mut())?;
                 }
                 Err(e) => log_undecodable(&mut p.logs.undecodable, &e),
             },

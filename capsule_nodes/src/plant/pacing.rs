@@ -91,7 +91,11 @@ impl Wall {
     /// When DDS received a message (now, if it does not say).
     pub(super) fn at(self, info: &ros2_client::MessageInfo) -> f64 {
         info.received_timestamp()
-            .map_or_else(|| self.now(), |t| (t.to_nanos() - self.0) as f64 * 1e-9)
+            .map_or_else(|| self.now(), |t| self.at_ns(t.to_nanos()))
+    }
+    /// Seconds since the start at `ns` of [`capsule_record::writer::now_ns`]'s clock.
+    pub(super) fn at_ns(self, ns: impl TryInto<i64>) -> f64 {
+        (ns.try_into().unwrap_or(i64::MAX) - self.0) as f64 * 1e-9
     }
 }
 
@@ -133,7 +137,7 @@ pub(super) struct CommandLogs {
 pub(super) fn take_command<H: CapsuleHardware>(
     core: &mut PlantCore<H>,
     cmd: &capsule_msgs::ActuatorForce,
-    info: &ros2_client::MessageInfo,
+    info: Option<&ros2_client::MessageInfo>,
     at: f64,
     logs: &mut CommandLogs,
     rec: Option<&mut InPlantRecording>,
@@ -157,10 +161,14 @@ pub(super) fn take_commands<H: CapsuleHardware>(
     logs: &mut CommandLogs,
     mut rec: Option<&mut InPlantRecording>,
 ) -> Result<()> {
-    loop {
-        match io.force_sub.take() {
+    while let Some((cmd, ns)) = io.next_answer() {
+        take_command(core, &cmd, None, wall.at_ns(ns), logs, rec.as_deref_mut())?;
+    }
+    while let Some(sub) = io.force_sub() {
+        match sub.take() {
             Ok(Some((cmd, info))) => {
-                take_command(core, &cmd, &info, wall.at(&info), logs, rec.as_deref_mut())?;
+                let at = wall.at(&info);
+                take_command(core, &cmd, Some(&info), at, logs, rec.as_deref_mut())?;
             }
             Ok(None) => break,
             // the rest waits for the next sample: never spin on a reader that keeps failing
@@ -195,6 +203,10 @@ pub(super) fn realtime_loop<H: CapsuleHardware>(
     let wall = Wall::start();
     let mut logs = CommandLogs::default();
     loop {
+        // how late this sample goes out (its due time: start + k / rate)
+        let due = start + period.mul_f64((core.seq() - first) as f64);
+        let late = Instant::now().saturating_duration_since(due);
+        core.stats.lateness.record(late.as_secs_f64());
         if publish_now(core, io, opts, wall, rec.as_deref_mut())? {
             return Ok(Exit::Over);
         }
@@ -228,7 +240,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
 ) -> Result<Exit> {
     let start = Instant::now();
     let steady = move || start.elapsed().as_secs_f64();
-    let commands = io.force_sub.async_stream();
+    let commands = commands_of(io);
     tokio::pin!(commands);
     let woken = control.woken.clone();
     let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
@@ -246,9 +258,7 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
                 let _ = io.clock_pub.async_publish(c).await;
             }
             let copy = io.views.per_sample.is_some().then(|| state.clone());
-            if let Err(e) = io.state_pub.async_publish(state).await {
-                warn!("state not sent: {e:?}");
-            }
+            io.send_state_async(state).await;
             if let (Some(d), Some(r)) = (io.views_of(copy, &core.stats), rec.as_deref_mut()) {
                 r.diagnostics(&d)?;
             }
@@ -264,7 +274,18 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
         if let Some(exit) = control.poll(core) {
             return Ok(exit);
         }
-        if core.answered() {
+        // in-process, the answer to the sample just sent is here already
+        while let Some((cmd, _)) = io.next_answer() {
+            let mut answers = Answers {
+                ever_commanded: &mut ever_commanded,
+                refused_logged: &mut refused_logged,
+            };
+            answers.take(core, (&cmd, None), steady(), rec.as_deref_mut())?;
+        }
+        // only an active plant steps: sim time stands still while inactive (before the
+        // activation that follows configure, too), so the run does not depend on how long
+        // the lifecycle took
+        if core.answered() && core.active() {
             core.step().context("the plant's hardware")?;
             need_publish = true;
             continue;
@@ -278,21 +299,15 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
             }
             msg = commands.select_next_some() => match msg {
                 Ok((cmd, info)) => {
-                    if let Some(r) = rec.as_deref_mut() {
-                        r.received(&cmd, &info)?;
-                    }
-                    match core.on_command(&cmd, steady(), true) {
-                        CommandOutcome::Accepted => ever_commanded = true,
-                        CommandOutcome::Duplicate => {}
-                        refused => log_refused(refused, &cmd, &mut refused_logged, core.rejected()),
-                    }
+                    let mut answers = Answers { ever_commanded: &mut ever_commanded, refused_logged: &mut refused_logged };
+                    answers.take(core, (&cmd, Some(&info)), steady(), rec.as_deref_mut())?;
                 }
                 Err(e) => log_undecodable(&mut undecodable, &e),
             },
             _ = resend.tick() => {
                 let waited = steady() - wait_started;
                 let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
-                if waited > limit {
+                if waited > limit && core.active() {
                     if core.force_stale() || !ever_commanded {
                         warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
                     }
@@ -305,11 +320,65 @@ pub(super) async fn lockstep_loop<H: CapsuleHardware>(
                         r.published(&state, None)?;
                         r.poll()?;
                     }
-                    if let Err(e) = io.state_pub.async_publish(state).await {
-                        warn!("state not re-sent: {e:?}");
-                    }
+                    io.send_state_async(state).await;
                 }
             }
         }
+    }
+}
+
+/// The commands DDS delivers (none in-process: the answers come with each sample sent).
+pub(super) fn commands_of(
+    io: &Endpoints,
+) -> impl futures::stream::FusedStream<
+    Item = ros2_client::ReadResult<(capsule_msgs::ActuatorForce, ros2_client::MessageInfo)>,
+> + '_ {
+    // fused: `select_next_some` refuses a stream that says it has ended, as `Pending` does
+    match io.force_sub() {
+        Some(sub) => sub.async_stream().left_stream(),
+        None => futures::stream::pending().fuse().right_stream(),
+    }
+}
+
+/// Lock-step: takes a command received at `at` as the answer to the current sample (recorded
+/// when recording; `info`: as DDS delivered it, `None`: in-process).
+pub(super) fn take_answer<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    cmd: &capsule_msgs::ActuatorForce,
+    info: Option<&ros2_client::MessageInfo>,
+    at: f64,
+    rec: Option<&mut InPlantRecording>,
+) -> Result<CommandOutcome> {
+    if let Some(r) = rec {
+        r.received(cmd, info)?;
+    }
+    Ok(core.on_command(cmd, at, true))
+}
+
+/// Lock-step: what a command answering a sample does (recorded when recording).
+struct Answers<'a> {
+    ever_commanded: &'a mut bool,
+    refused_logged: &'a mut Throttle,
+}
+
+impl Answers<'_> {
+    /// Takes `received` (the command, and as DDS delivered it or `None` in-process) at `now`.
+    fn take<H: CapsuleHardware>(
+        &mut self,
+        core: &mut PlantCore<H>,
+        received: (
+            &capsule_msgs::ActuatorForce,
+            Option<&ros2_client::MessageInfo>,
+        ),
+        now: f64,
+        rec: Option<&mut InPlantRecording>,
+    ) -> Result<()> {
+        let (cmd, info) = received;
+        match take_answer(core, cmd, info, now, rec)? {
+            CommandOutcome::Accepted => *self.ever_commanded = true,
+            CommandOutcome::Duplicate => {}
+            refused => log_refused(refused, cmd, self.refused_logged, core.rejected()),
+        }
+        Ok(())
     }
 }

@@ -53,13 +53,19 @@ impl InPlantRecording {
         self.rec.write(Channel::Diagnostics, d, now, now)
     }
 
-    /// Records a command as DDS delivered it.
+    /// Records a command as DDS delivered it (`info`), or as the in-process link did (now).
     pub(super) fn received(
         &mut self,
         cmd: &ActuatorForce,
-        info: &ros2_client::MessageInfo,
+        info: Option<&ros2_client::MessageInfo>,
     ) -> Result<()> {
-        self.rec.write_received(Channel::Force, cmd, info)
+        match info {
+            Some(info) => self.rec.write_received(Channel::Force, cmd, info),
+            None => {
+                let now = capsule_record::writer::now_ns();
+                self.rec.write(Channel::Force, cmd, now, now)
+            }
+        }
     }
 
     /// Every 10 ms: takes the controller's status and service events, closes the chunk when due.

@@ -13,6 +13,8 @@ use capsule_ros_base::latency::LatencyHistogram;
 pub struct LoopStats {
     /// Latencies from publishing a sample to receiving its first answer (constant memory).
     pub latencies: LatencyHistogram,
+    /// Real time: how late each sample went out after its due time (`start + k / rate`).
+    pub lateness: LatencyHistogram,
     /// Samples published.
     pub published: u64,
     /// Samples published before the first answer (discovery, controller start-up).
@@ -29,8 +31,23 @@ pub struct LoopStats {
     pub emergency_stop: bool,
     /// How the device is doing after the last step (`None`: the simulator).
     pub device: Option<super::SourceHealth>,
+    /// In-process transport: the state's DDS copies (`None` over DDS).
+    pub dds_copies: Option<DdsCopyStats>,
+    /// When the first and the last sample went out (the loop's clock, s).
+    pub(super) published_span: Option<(f64, f64)>,
     pub(super) in_flight: VecDeque<(u64, f64, bool)>,
     pub(super) answered_any: bool,
+}
+
+/// What became of the state's DDS copies in a composed process ([`crate::intra_process`]).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct DdsCopyStats {
+    /// Published on DDS.
+    pub published: u64,
+    /// Not published: no DDS reader had matched the state topic.
+    pub unread: u64,
+    /// Dropped: the publisher thread's queue was full.
+    pub dropped: u64,
 }
 
 impl LoopStats {
@@ -47,6 +64,8 @@ impl LoopStats {
     /// Notes sample `seq` published at steady time `now`.
     pub fn on_publish(&mut self, seq: u64, now: f64) {
         self.published += 1;
+        let first = self.published_span.map_or(now, |(first, _)| first);
+        self.published_span = Some((first, now));
         self.in_flight.push_back((seq, now, false));
         while self.in_flight.len() > Self::WINDOW {
             self.retire_front();
@@ -110,10 +129,14 @@ pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> Stri
         latency_p50_s: p50,
         latency_p99_s: p99,
         latency_max_s: max,
+        lateness_p99_s: stats.lateness.quantile(0.99),
+        lateness_max_s: stats.lateness.max(),
         wall_s,
+        loop_s: stats.published_span.map(|(first, last)| last - first),
         rejected_commands: last.rejected_commands,
         saturated_commands: stats.saturated_commands,
         graph_conflicts: stats.graph_conflicts,
+        dds_copies: stats.dds_copies,
         device: stats.device.as_ref().map(|d| Device {
             label: d.label.clone(),
             fault: d.fault.clone(),
@@ -148,10 +171,17 @@ struct Summary {
     latency_p50_s: Option<f64>,
     latency_p99_s: Option<f64>,
     latency_max_s: Option<f64>,
+    /// Real time: how late samples went out after their due time (`null` in lock-step).
+    lateness_p99_s: Option<f64>,
+    lateness_max_s: Option<f64>,
     wall_s: f64,
+    /// From the first sample out to the last (the loop alone: no start-up, no shutdown).
+    loop_s: Option<f64>,
     rejected_commands: u32,
     saturated_commands: u64,
     graph_conflicts: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dds_copies: Option<DdsCopyStats>,
     #[serde(skip_serializing_if = "Option::is_none")]
     device: Option<Device>,
     last: LastSample,

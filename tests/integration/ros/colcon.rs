@@ -15,9 +15,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The node executables the package installs.
-const EXECUTABLES: [&str; 6] = [
+const EXECUTABLES: [&str; 7] = [
     "capsule_plant",
     "capsule_controller",
+    "capsule_container",
     "capsule_ros",
     "capsule_recorder",
     "capsule_foxglove",

@@ -250,7 +250,7 @@ fn the_launcher_keeps_control_when_only_the_recorder_dies() {
     let run = case(
         120,
         r#"
-        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --until-s 4 --mode forward \
+        $ROOT/launch_scripts/capsule_launch.sh --separate --scene "$SCENE" --until-s 4 --mode forward \
             --record-dir $TMP/runs --plant-arg --summary-json --plant-arg $TMP/p.json \
             --plant-arg --command-timeout-s --plant-arg 1 2> $TMP/l.log &
         L=$!

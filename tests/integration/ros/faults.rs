@@ -131,7 +131,7 @@ fn launcher_forwards_sigterm_and_exits_cleanly() {
     let run = netns(
         60,
         r#"
-        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --record-dir "$TMP/runs" &
+        $ROOT/launch_scripts/capsule_launch.sh --separate --scene "$SCENE" --mode forward --record-dir "$TMP/runs" &
         L=$!
         wait_nodes_of $L 3
         KIDS=$(pgrep -P $L)
@@ -154,7 +154,7 @@ fn launcher_pins_every_thread_of_every_node_to_the_cpus_asked() {
         r#"
         CPU=$(grep Cpus_allowed_list /proc/self/status | awk '{print $2}' | tr ',' '\n' | tail -1 | sed 's/.*-//')
         echo "cpu=$CPU"
-        $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 20 \
+        $ROOT/launch_scripts/capsule_launch.sh --separate --scene "$SCENE" --mode forward --until-s 20 \
             --record-dir "$TMP/runs" --cpu-affinity "$CPU" &
         L=$!
         wait_nodes_of $L 3

@@ -21,6 +21,7 @@ pub fn bin_dir() -> PathBuf {
         "capsule_controller",
         "capsule_ros",
         "capsule_foxglove",
+        "capsule_container",
     ]
     .iter()
     .map(|b| dir.join(b))
@@ -116,6 +117,28 @@ impl Run {
             assert!(text.contains(n), "{name} lacks {n:?}\n{}", self.all());
         }
     }
+}
+
+/// The `"last": {...}` sample of the summary JSON on the stdout line starting with `tag`.
+#[track_caller]
+pub fn last_sample(run: &Run, tag: &str) -> String {
+    let line = run.line(tag);
+    line[line
+        .find("\"last\"")
+        .unwrap_or_else(|| panic!("no last sample in {line}\n{}", run.all()))..]
+        .to_string()
+}
+
+/// Panics unless `last` (a [`last_sample`]) is seq 1500 of a capsule that moved: what the
+/// lock-step comparisons of 1.5 s compare.
+#[track_caller]
+pub fn assert_moved_to_seq_1500(last: &str) {
+    assert_eq!(json_raw(last, "seq"), Some("1500"), "{last}");
+    assert_ne!(
+        json_raw(last, "capsule_position"),
+        Some("0.0"),
+        "the capsule never moved: {last}"
+    );
 }
 
 /// Panics unless `text` contains every one of `needles`.

@@ -1,6 +1,6 @@
 //! The demo in lock-step: direction control through the service, and bit-for-bit reproducibility.
 
-use super::harness::{json_raw, netns};
+use super::harness::{assert_moved_to_seq_1500, last_sample, netns};
 
 #[test]
 fn demo_goes_forward_then_backward_then_stops() {
@@ -49,19 +49,7 @@ fn lockstep_closed_loop_is_reproducible_bit_for_bit() {
         done"#;
     let run = netns(180, script);
     run.assert_ok();
-    let last = |tag: &str| -> String {
-        let line = run.line(tag);
-        line[line
-            .find("\"last\"")
-            .unwrap_or_else(|| panic!("no last sample in {line}"))..]
-            .to_string()
-    };
-    let (a, b) = (last("RUN1"), last("RUN2"));
-    assert_eq!(json_raw(&a, "seq"), Some("1500"), "{a}");
-    assert_ne!(
-        json_raw(&a, "capsule_position"),
-        Some("0.0"),
-        "the capsule never moved: {a}"
-    );
+    let (a, b) = (last_sample(&run, "RUN1"), last_sample(&run, "RUN2"));
+    assert_moved_to_seq_1500(&a);
     assert_eq!(a, b, "two lock-step runs differ");
 }
