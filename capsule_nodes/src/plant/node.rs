@@ -84,6 +84,7 @@ fn build<H: CapsuleHardware>(
         .as_ref()
         .map(|r| InPlantRecording::create_file(r, settings))
         .transpose()?;
+    let composed = context.is_some();
     let context = match context {
         Some(c) => c.clone(),
         None => settings.context()?,
@@ -104,6 +105,7 @@ fn build<H: CapsuleHardware>(
     )?;
     let (lifecycle, requests) = lifecycle_services::serve(&mut node, settings)?;
     let recording = match (file, &opts.record) {
+        (Some(rec), Some(r)) if composed => Some(InPlantRecording::start_apart(rec, r, settings)?),
         (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, settings)?),
         _ => None,
     };

@@ -35,6 +35,9 @@ pub struct InPlantRecording {
     pub(super) status_sub: ros2_client::Subscription<ControllerStatus>,
     pub(super) event_sub: ros2_client::Subscription<SetModeEvent>,
     pub(super) last_poll: Instant,
+    /// Composed: the participant and node of the status and event readers (RustDDS does not
+    /// deliver a writer's samples to a reader on its own participant, where the controller is).
+    pub(super) _apart: Option<(ros2_client::Context, ros2_client::Node)>,
 }
 
 impl InPlantRecording {
@@ -97,6 +100,22 @@ impl InPlantRecording {
         )
     }
 
+    /// [`InPlantRecording::start`] with the readers on a participant of their own, named
+    /// `<plant>_recording`: for a plant composed with its controller on one participant.
+    pub(super) fn start_apart(
+        rec: GraphRecording,
+        r: &InPlantRecordOptions,
+        settings: &capsule_ros_base::ros::RosOptions,
+    ) -> Result<InPlantRecording> {
+        let mut apart = settings.clone();
+        apart.node_name = format!("{}_recording", settings.node_name);
+        let context = apart.context()?;
+        let (mut node, _graph) = apart.loop_node(&context)?;
+        let mut recording = Self::start(rec, r, &mut node, &apart)?;
+        recording._apart = Some((context, node));
+        Ok(recording)
+    }
+
     /// Starts recording into `rec`: the readers of the controller's status and service events.
     pub(super) fn start(
         rec: GraphRecording,
@@ -119,6 +138,7 @@ impl InPlantRecording {
             status_sub: subscribe(node, &status_topic, &deep)?,
             event_sub: subscribe(node, &event_topic, &qos::service_events())?,
             last_poll: Instant::now(),
+            _apart: None,
         })
     }
 

@@ -107,6 +107,11 @@ fn composed_recording_holds_every_sample_in_real_time() {
     );
     // the state's DDS copies: none dropped (and none sent: nobody read them)
     assert_contains(summary, &["\"dds_copies\"", "\"dropped\":0"]);
+    // the controller's status too: its readers are on a participant of their own, since RustDDS
+    // delivers nothing to a reader on the writer's own participant (0 before; that participant's
+    // discovery takes part of this 2 s run, so only some of the 10 Hz statuses are in)
+    let statuses = first_rows(&v, "/capsule_controller/status", 0);
+    assert!(!statuses.is_empty(), "no status recorded");
 }
 
 #[test]
