@@ -9,7 +9,8 @@ use std::os::unix::net::UnixStream;
 use std::time::{Duration, Instant};
 
 use capsule_device::{Decoded, Decoder, Frame};
-use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+use nix::poll::{ppoll, PollFd, PollFlags};
+use nix::sys::time::TimeSpec;
 
 /// Why a link cannot go on.
 #[derive(Debug, thiserror::Error)]
@@ -70,9 +71,10 @@ impl<S: Line> Link<S> {
 
     fn wait(&self, flags: PollFlags, until: Instant) -> Result<bool, LinkError> {
         let left = until.saturating_duration_since(Instant::now());
-        let ms = u16::try_from(left.as_micros().div_ceil(1000)).unwrap_or(u16::MAX);
         let mut fds = [PollFd::new(self.file.as_fd(), flags)];
-        match poll(&mut fds, PollTimeout::from(ms)) {
+        // ppoll, not poll: poll's whole milliseconds overslept a device's sub-millisecond
+        // deadline by up to a period, and its next samples then went out in a burst
+        match ppoll(&mut fds, Some(TimeSpec::from_duration(left)), None) {
             Ok(0) => Ok(false),
             Ok(_) => {
                 let got = fds[0].revents().unwrap_or(PollFlags::empty());
