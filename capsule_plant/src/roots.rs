@@ -8,7 +8,11 @@
 
 /// Samples per step for crossing detection (the solvers keep steps short enough that `g`
 /// turns at most once between samples).
-const SAMPLES: usize = 4;
+pub const SAMPLES: usize = 4;
+
+/// The points [`first_crossing`] looks at in a step of length `h`: its start and the ends of
+/// [`SAMPLES`] equal parts.
+pub type Grid = [f64; SAMPLES + 1];
 
 /// `|g|` below this at the start of a step counts as "on the boundary" (just switched there).
 pub const BOUNDARY: f64 = 1e-10;
@@ -18,13 +22,21 @@ pub const BOUNDARY: f64 = 1e-10;
 pub const NOISE: f64 = 1e-13;
 
 /// First `t` in `(0, h]` where `g` crosses from `<= 0` to `> 0`, or `Some(0.0)` if `g` leaves the
-/// valid side immediately. `g` gives the value, `gd` the value and the derivative.
+/// valid side immediately. `g` gives the value, `gd` the value and the derivative, `gd_grid`
+/// the same as `gd` at every point of a [`Grid`] (all at once: independent evaluations
+/// overlap, where one after the other each waits for the last).
 pub fn first_crossing(
     g: impl Fn(f64) -> f64,
     gd: impl Fn(f64) -> (f64, f64),
+    gd_grid: impl FnOnce(&Grid) -> [(f64, f64); SAMPLES + 1],
     h: f64,
 ) -> Option<f64> {
-    let (g0_raw, d0) = gd(0.0);
+    let mut ts: Grid = [0.0; SAMPLES + 1];
+    for (i, t) in ts.iter_mut().enumerate().skip(1) {
+        *t = h * i as f64 / SAMPLES as f64;
+    }
+    let values = gd_grid(&ts);
+    let (g0_raw, d0) = values[0];
     if g0_raw > BOUNDARY {
         return Some(0.0);
     }
@@ -34,11 +46,11 @@ pub fn first_crossing(
     let f = |t: f64| g(t) - shift;
 
     let mut t_prev = 0.0;
-    let mut g_prev = 0.0f64.min(f(0.0));
+    // `f(0.0)`, taken from `gd`'s value at 0 (the two can differ only in the sign of a zero,
+    // which `min` and `==` do not see)
+    let mut g_prev = 0.0f64.min(g0_raw - shift);
     let mut d_prev = d0;
-    for i in 1..=SAMPLES {
-        let t = h * i as f64 / SAMPLES as f64;
-        let (gt, dt) = gd(t);
+    for (&t, &(gt, dt)) in ts.iter().zip(&values).skip(1) {
         let gt = gt - shift;
         if gt > NOISE {
             if t_prev == 0.0 && g_prev == 0.0 {
@@ -172,9 +184,14 @@ fn refine(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 mod tests {
     use super::*;
 
+    /// [`first_crossing`] with the grid evaluated point by point.
+    fn crossing(g: impl Fn(f64) -> f64, gd: impl Fn(f64) -> (f64, f64), h: f64) -> Option<f64> {
+        first_crossing(g, &gd, |ts| ts.map(&gd), h)
+    }
+
     #[test]
     fn finds_a_simple_crossing() {
-        let t = first_crossing(|t| t - 0.3, |t| (t - 0.3, 1.0), 1.0).unwrap_or(f64::NAN);
+        let t = crossing(|t| t - 0.3, |t| (t - 0.3, 1.0), 1.0).unwrap_or(f64::NAN);
         assert!((t - 0.3).abs() < 1e-14, "{t}");
     }
 
@@ -183,7 +200,7 @@ mod tests {
         // g peaks at t = 0.51 just above zero; both ends and all samples are negative
         let g = |t: f64| 1e-6 - 50.0 * (t - 0.51) * (t - 0.51);
         let dg = |t: f64| -100.0 * (t - 0.51);
-        let t = first_crossing(g, |t| (g(t), dg(t)), 1.0).unwrap_or(f64::NAN);
+        let t = crossing(g, |t| (g(t), dg(t)), 1.0).unwrap_or(f64::NAN);
         let expected = 0.51 - (1e-6f64 / 50.0).sqrt();
         assert!((t - expected).abs() < 1e-12, "{t} vs {expected}");
     }
@@ -191,17 +208,14 @@ mod tests {
     #[test]
     fn no_crossing_when_function_stays_below() {
         assert_eq!(
-            first_crossing(|t| -1.0 - t * t, |t| (-1.0 - t * t, -2.0 * t), 2.0),
+            crossing(|t| -1.0 - t * t, |t| (-1.0 - t * t, -2.0 * t), 2.0),
             None
         );
     }
 
     #[test]
     fn starting_on_the_boundary_and_moving_in_is_not_an_event() {
-        assert_eq!(
-            first_crossing(|t| 1e-13 - t, |t| (1e-13 - t, -1.0), 1.0),
-            None
-        );
+        assert_eq!(crossing(|t| 1e-13 - t, |t| (1e-13 - t, -1.0), 1.0), None);
         // ... nor is a derivative of rounding size pointing out while the curve bends in
         let g = |t: f64| {
             (
@@ -209,10 +223,10 @@ mod tests {
                 5e-17 - 17.4e-3 * t + 0.0894 * t * t,
             )
         };
-        let t = first_crossing(|t| g(t).0, g, 1.6).unwrap_or(f64::NAN);
+        let t = crossing(|t| g(t).0, g, 1.6).unwrap_or(f64::NAN);
         assert!((t - 8.7e-3 / 0.0298).abs() < 1e-6, "{t}");
         // ... but moving in then out again is
-        let t = first_crossing(|t| t * (t - 0.5), |t| (t * (t - 0.5), 2.0 * t - 0.5), 1.0)
+        let t = crossing(|t| t * (t - 0.5), |t| (t * (t - 0.5), 2.0 * t - 0.5), 1.0)
             .unwrap_or(f64::NAN);
         assert!((t - 0.5).abs() < 1e-12, "{t}");
     }

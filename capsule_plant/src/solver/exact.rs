@@ -100,17 +100,21 @@ fn horner(g: &[f64], t: f64) -> f64 {
     g.iter().rev().fold(0.0, |acc, &c| acc * t + c)
 }
 
-/// Horner evaluation of one scalar series and its derivative.
+/// Horner evaluation of one scalar series and its derivative at each of the points `ts`; the
+/// points go through the loop together (the same operations per point as one at a time, but
+/// `N` chains that overlap instead of one that waits on each multiply and add).
 #[inline]
-fn horner2(g: &[f64], t: f64) -> (f64, f64) {
+fn horner2<const N: usize>(g: &[f64], ts: &[f64; N]) -> [(f64, f64); N] {
     let n = g.len() - 1;
-    let mut acc = g[n];
-    let mut dacc = 0.0;
-    for k in (0..n).rev() {
-        dacc = dacc * t + acc;
-        acc = acc * t + g[k];
+    let mut acc = [g[n]; N];
+    let mut dacc = [0.0; N];
+    for &c in g[..n].iter().rev() {
+        for j in 0..N {
+            dacc[j] = dacc[j] * ts[j] + acc[j];
+            acc[j] = acc[j] * ts[j] + c;
+        }
     }
-    (acc, dacc)
+    std::array::from_fn(|j| (acc[j], dacc[j]))
 }
 
 /// The first event in `(0, h]` of a step whose series is `series` (degree `n` =
@@ -148,7 +152,13 @@ fn first_event(
             continue;
         }
         let g = &gser[..=degree];
-        if let Some(t) = first_crossing(|t| horner(g, t), |t| horner2(g, t), t_hit) {
+        let crossing = first_crossing(
+            |t| horner(g, t),
+            |t| horner2(g, &[t])[0],
+            |ts| horner2(g, ts),
+            t_hit,
+        );
+        if let Some(t) = crossing {
             if hit.is_none() || t < t_hit {
                 t_hit = t;
                 hit = Some(ev.kind);
@@ -158,16 +168,15 @@ fn first_event(
     (t_hit, hit)
 }
 
-/// The state at `t` into a step from its Taylor series (Horner).
+/// The state at `t` into a step from its Taylor series (Horner, the five components together:
+/// their chains overlap).
 fn sum_at(series: &[[f64; 5]], t: f64) -> [f64; 5] {
     let n = series.len() - 1;
-    let mut v = [0.0f64; 5];
-    for (i, vi) in v.iter_mut().enumerate() {
-        let mut acc = series[n][i];
-        for k in (0..n).rev() {
-            acc = acc * t + series[k][i];
+    let mut v = series[n];
+    for vk in series[..n].iter().rev() {
+        for (acc, c) in v.iter_mut().zip(vk) {
+            *acc = *acc * t + c;
         }
-        *vi = acc;
     }
     v
 }

@@ -144,7 +144,7 @@ fn first_event(events: &[EventFn], step: &DopriStep) -> Option<(f64, EventFn)> {
             (ev.eval(&v), ev.eval(&d) - ev.c0)
         };
         let limit = hit.map_or(1.0, |(t, _)| t);
-        if let Some(th) = first_crossing(|th| gd(th).0, gd, limit) {
+        if let Some(th) = first_crossing(|th| gd(th).0, gd, |ts| ts.map(gd), limit) {
             if hit.is_none_or(|(t, _)| th < t) {
                 hit = Some((th, *ev));
             }
