@@ -58,8 +58,9 @@ pub fn first_crossing(
                 // inward first, the crossing is on the way back up, after the minimum.
                 if d_prev < 0.0 && dt > 0.0 {
                     let tm = turning_point(&gd, 0.0, d_prev, t, dt);
-                    if f(tm) < 0.0 {
-                        return Some(refine(&f, tm, t));
+                    let fm = f(tm);
+                    if fm < 0.0 {
+                        return Some(refine(&f, (tm, fm), (t, gt)));
                     }
                 }
                 // The derivative at 0 may be rounding noise: look for a dip on a geometric grid;
@@ -72,21 +73,22 @@ pub fn first_crossing(
                         break;
                     }
                     if v < 0.0 {
-                        last_below = Some(tf);
+                        last_below = Some((tf, v));
                     }
                 }
                 return Some(match last_below {
-                    Some(a) => refine(&f, a, t),
+                    Some(a) => refine(&f, a, (t, gt)),
                     None => 0.0,
                 });
             }
-            return Some(refine(&f, t_prev, t));
+            return Some(refine(&f, (t_prev, g_prev), (t, gt)));
         }
         // a maximum hidden between two non-positive samples?
         if d_prev > 0.0 && dt < 0.0 {
             let tm = turning_point(&gd, t_prev, d_prev, t, dt);
-            if f(tm) > NOISE {
-                return Some(refine(&f, t_prev, tm));
+            let fm = f(tm);
+            if fm > NOISE {
+                return Some(refine(&f, (t_prev, g_prev), (tm, fm)));
             }
         }
         t_prev = t;
@@ -142,9 +144,15 @@ fn turning_point(
 
 /// Root of `f` in `[a, b]` with `f(a) <= 0 < f(b)` (Illinois false position), returning the
 /// right end of the final bracket so that `f` at the result is `>= 0` (the event has happened).
-fn refine(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let mut fa = f(a);
-    let mut fb = f(b);
+/// The ends come with `f`'s values there, which the caller has already evaluated. (The samples'
+/// values come from `gd`, whose value can differ from `g`'s in the sign of a zero only: a zero
+/// `f(a)` takes no part in the next point, `a fb - b fa` and `fb - fa` being the same for
+/// either sign.)
+fn refine(
+    f: &impl Fn(f64) -> f64,
+    (mut a, mut fa): (f64, f64),
+    (mut b, mut fb): (f64, f64),
+) -> f64 {
     if fa > 0.0 {
         return a;
     }
