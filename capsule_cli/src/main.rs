@@ -46,33 +46,86 @@ struct Cli {
     command: Command,
 }
 
+// `defer`: a subcommand's arguments are built only when it runs (building all eleven
+// subcommands' arguments was a sixth of `capsule --version`'s time)
 #[derive(Debug, Subcommand)]
+#[command(defer = true)]
 enum Command {
     /// Simulate one scene and report progression, period, impacts, efficiency.
-    Simulate(simulate::Args),
+    Simulate(Deferred<simulate::Args>),
     /// Sweep one parameter over a range in parallel (the paper's bifurcation diagrams).
-    Sweep(sweep::Args),
+    Sweep(Deferred<sweep::Args>),
     /// Basins of attraction on a plane of initial states (the paper's Figs 11, 18, 19).
-    Basins(basins::Args),
+    Basins(Deferred<basins::Args>),
     /// Move between coexisting attractors with a gain pulse (the paper's Fig 20).
-    Switch(switch::Args),
+    Switch(Deferred<switch::Args>),
     /// Continue a periodic orbit in one parameter (pseudo-arclength, bifurcations located).
-    Continue(continuation::Args),
+    Continue(Deferred<continuation::Args>),
     /// Regenerate the paper's figures the model covers (SVG, PNG, a Markdown page).
-    Figures(figures::Args),
+    Figures(Deferred<figures::Args>),
     /// Time the integrators on the paper's scenes and print the figures.
-    Bench(bench::Args),
+    Bench(Deferred<bench::Args>),
     /// Look into a recorded run (info) or complete a cut one (recover).
-    Record(record::Args),
+    Record(Deferred<record::Args>),
     /// What a real capsule costs: the law closed around a simulated prototype (sensor noise,
     /// delay, quantisation, coil lag, a +-20 % plant mismatch), per mode; tables and heat maps.
-    Robustness(robustness::Args),
+    Robustness(Deferred<robustness::Args>),
     /// A prototype on a pseudo-terminal: the scene's capsule behind its sensor and actuator
     /// models, speaking the device protocol (for capsule_plant --source serial:PATH).
-    EmulateDevice(emulate_device::Args),
+    EmulateDevice(Deferred<emulate_device::Args>),
     /// Publish a recording back onto ROS 2 at its pace, or check the controller against it
     /// (runs capsule_replay, from capsule_nodes).
-    Replay(replay::Args),
+    Replay(Deferred<replay::Args>),
+}
+
+/// A subcommand's arguments, built when the subcommand runs (`defer`), under the about text of
+/// its variant in [`Command`]: the arguments' own doc comment, applied after it once deferred,
+/// would otherwise replace it in `capsule SUBCOMMAND --help`.
+#[derive(Debug)]
+struct Deferred<T>(T);
+
+impl<T: clap::Args> clap::Args for Deferred<T> {
+    fn group_id() -> Option<clap::Id> {
+        T::group_id()
+    }
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        keep_about(cmd, T::augment_args)
+    }
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        keep_about(cmd, T::augment_args_for_update)
+    }
+}
+
+/// `augment(cmd)` with `cmd`'s about texts.
+fn keep_about(cmd: clap::Command, augment: fn(clap::Command) -> clap::Command) -> clap::Command {
+    let (about, long) = (cmd.get_about().cloned(), cmd.get_long_about().cloned());
+    let cmd = augment(cmd);
+    let cmd = match about {
+        Some(a) => cmd.about(a),
+        None => cmd.about(None::<&str>),
+    };
+    match long {
+        Some(l) => cmd.long_about(l),
+        None => cmd.long_about(None::<&str>),
+    }
+}
+
+impl<T: FromArgMatches> FromArgMatches for Deferred<T> {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        T::from_arg_matches(matches).map(Deferred)
+    }
+    fn from_arg_matches_mut(matches: &mut clap::ArgMatches) -> Result<Self, clap::Error> {
+        T::from_arg_matches_mut(matches).map(Deferred)
+    }
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        self.0.update_from_arg_matches(matches)
+    }
+    fn update_from_arg_matches_mut(
+        &mut self,
+        matches: &mut clap::ArgMatches,
+    ) -> Result<(), clap::Error> {
+        self.0.update_from_arg_matches_mut(matches)
+    }
 }
 
 fn main() -> std::process::ExitCode {
@@ -98,17 +151,17 @@ fn main() -> std::process::ExitCode {
         Err(e) => e.exit(),
     };
     let result = match cli.command {
-        Command::Simulate(a) => simulate::main(a),
-        Command::Sweep(a) => sweep::main(a),
-        Command::Basins(a) => basins::main(a),
-        Command::Continue(a) => continuation::main(a),
-        Command::Bench(a) => bench::main(a),
-        Command::Figures(a) => figures::main(a),
-        Command::Switch(a) => switch::main(a),
-        Command::Record(a) => record::main(a),
-        Command::Replay(a) => replay::main(a),
-        Command::EmulateDevice(a) => emulate_device::main(a),
-        Command::Robustness(a) => robustness::main(a),
+        Command::Simulate(Deferred(a)) => simulate::main(a),
+        Command::Sweep(Deferred(a)) => sweep::main(a),
+        Command::Basins(Deferred(a)) => basins::main(a),
+        Command::Continue(Deferred(a)) => continuation::main(a),
+        Command::Bench(Deferred(a)) => bench::main(a),
+        Command::Figures(Deferred(a)) => figures::main(a),
+        Command::Switch(Deferred(a)) => switch::main(a),
+        Command::Record(Deferred(a)) => record::main(a),
+        Command::Replay(Deferred(a)) => replay::main(a),
+        Command::EmulateDevice(Deferred(a)) => emulate_device::main(a),
+        Command::Robustness(Deferred(a)) => robustness::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
