@@ -7,12 +7,14 @@ as whole processes in alternating pairs, and checked for agreement first.
     cargo build --release -p capsule_cli
     python3 bench/cvode_pairs.py                      # section-5 scene, 41 pairs
     python3 bench/cvode_pairs.py --kp 0.1 --pairs 101 --cpu 1
+    python3 bench/cvode_pairs.py --also /bin/true --also "target/release/capsule --version"
 
 Each pair runs the reference, then capsule (the order alternates from pair to pair), each
 started with posix_spawn and waited for, its stdout going to /dev/null; the time of a run is the
-wall time from spawn to exit. Prints one JSON object: the agreement of the two results (the
-progression per period, efficiency, final state, Poincare points), the median and best times,
-and the ratio of the medians. Standard library only.
+wall time from spawn to exit, and its CPU time the user + system time the kernel accounts to it
+(wait4; steadier than the wall time on a loaded host). Prints one JSON object: the agreement of
+the two results (the progression per period, efficiency, final state, Poincare points), the
+median and best times, and the ratios of the medians. Standard library only.
 """
 import argparse
 import json
@@ -25,7 +27,7 @@ SCENE = "scenes/control_point.toml"
 
 
 def spawn_time(argv, cpu):
-    """Wall time of one run of argv (stdout and stderr to /dev/null), in seconds."""
+    """Wall and CPU time of one run of argv (stdout and stderr to /dev/null), in seconds."""
     if cpu is not None:
         argv = ["taskset", "-c", str(cpu)] + argv
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -33,13 +35,13 @@ def spawn_time(argv, cpu):
         actions = [(os.POSIX_SPAWN_DUP2, devnull, 1), (os.POSIX_SPAWN_DUP2, devnull, 2)]
         t0 = time.perf_counter()
         pid = os.posix_spawnp(argv[0], argv, os.environ, file_actions=actions)
-        _, status = os.waitpid(pid, 0)
+        _, status, usage = os.wait4(pid, 0)
         wall = time.perf_counter() - t0
     finally:
         os.close(devnull)
     if status != 0:
         raise SystemExit(f"{argv} failed (status {status})")
-    return wall
+    return wall, usage.ru_utime + usage.ru_stime
 
 
 def largest_difference(a, b):
@@ -62,6 +64,9 @@ def main():
     ap.add_argument("--cpu", type=int, help="pin both to this CPU (taskset)")
     ap.add_argument("--capsule-flag", action="append", default=[],
                     help="an extra flag for capsule (repeatable), e.g. --capsule-flag=--stability")
+    ap.add_argument("--also", action="append", default=[], metavar="COMMAND",
+                    help="also time this command line (split on spaces; repeatable) in each pair, "
+                         "after capsule: what a process costs before any work (the floor)")
     a = ap.parse_args()
     capsule = [a.capsule, "simulate", "--json", "--scene", SCENE, "--kp", repr(a.kp)]
     capsule += a.capsule_flag
@@ -85,11 +90,22 @@ def main():
     }
 
     times = {"cvode": [], "capsule": []}
+    cpu = {"cvode": [], "capsule": []}
+    also = {c: ([], []) for c in a.also}
     for i in range(a.pairs):
         order = [("cvode", reference), ("capsule", capsule)]
         for name, argv in order if i % 2 == 0 else reversed(order):
-            times[name].append(spawn_time(argv, a.cpu))
+            wall, used = spawn_time(argv, a.cpu)
+            times[name].append(wall)
+            cpu[name].append(used)
+        for c, (walls, used) in also.items():
+            # each right after a run of the reference, as capsule is in every other pair
+            spawn_time(reference, a.cpu)
+            wall, u = spawn_time(c.split(), a.cpu)
+            walls.append(wall)
+            used.append(u)
     med = {k: statistics.median(v) for k, v in times.items()}
+    cpu_med = {k: statistics.median(v) for k, v in cpu.items()}
     ratios = [r / c for r, c in zip(times["cvode"], times["capsule"])]
     print(json.dumps({
         "scene": SCENE, "kp": a.kp, "reference": ref["impl"], "rtol": a.rtol,
@@ -98,6 +114,10 @@ def main():
         "median_s": med, "best_s": {k: min(v) for k, v in times.items()},
         "ratio_of_medians": med["cvode"] / med["capsule"],
         "median_pair_ratio": statistics.median(ratios),
+        "cpu_median_s": cpu_med,
+        "cpu_ratio_of_medians": cpu_med["cvode"] / cpu_med["capsule"],
+        "also_median_s": {c: {"wall": statistics.median(w), "cpu": statistics.median(u)}
+                          for c, (w, u) in also.items()},
         "reference_work": ref["work"], "capsule_work": got["work"],
     }, indent=2))
 
