@@ -65,8 +65,9 @@ def main():
     ap.add_argument("--capsule-flag", action="append", default=[],
                     help="an extra flag for capsule (repeatable), e.g. --capsule-flag=--stability")
     ap.add_argument("--also", action="append", default=[], metavar="COMMAND",
-                    help="also time this command line (split on spaces; repeatable) in each pair, "
-                         "after capsule: what a process costs before any work (the floor)")
+                    help="also time this command line (split on spaces; repeatable) once per "
+                         "pair, right after a run of the reference as capsule is in every other "
+                         "pair: what a process costs before any work (the floor)")
     a = ap.parse_args()
     capsule = [a.capsule, "simulate", "--json", "--scene", SCENE, "--kp", repr(a.kp)]
     capsule += a.capsule_flag
