@@ -128,6 +128,11 @@ impl<T: FromArgMatches> FromArgMatches for Deferred<T> {
     }
 }
 
+/// The command line's parser: every subcommand takes negative numbers as values (`--kp -0.1`).
+fn command() -> clap::Command {
+    Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true))
+}
+
 fn main() -> std::process::ExitCode {
     // Like other Unix filters, end quietly when the reader goes away (`capsule ... | head`)
     // instead of panicking on a failed print.
@@ -142,10 +147,7 @@ fn main() -> std::process::ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    // every subcommand takes negative numbers as values (`--kp -0.1`)
-    let matches = Cli::command()
-        .mut_subcommands(|c| c.allow_negative_numbers(true))
-        .get_matches();
+    let matches = command().get_matches();
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
         Err(e) => e.exit(),
@@ -170,5 +172,56 @@ fn main() -> std::process::ExitCode {
             eprintln!("error: {e:#}");
             std::process::ExitCode::from(exit_status(&e))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_deferred_subcommand_keeps_its_about_text_and_gets_its_arguments_when_built() {
+        let top = command();
+        let mut seen = 0;
+        for sub in top.get_subcommands() {
+            // what `capsule --help` lists, before the subcommand is built
+            let listed = sub.get_about().map(ToString::to_string);
+            assert!(listed.is_some(), "{} has no about text", sub.get_name());
+            assert_eq!(
+                sub.get_arguments().count(),
+                0,
+                "{} built early",
+                sub.get_name()
+            );
+            let mut built = sub.clone();
+            built.build();
+            assert_eq!(
+                built.get_about().map(ToString::to_string),
+                listed,
+                "capsule {} --help",
+                sub.get_name()
+            );
+            assert!(built.get_arguments().count() > 0, "{}", sub.get_name());
+            seen += 1;
+        }
+        assert_eq!(seen, 11);
+    }
+
+    #[test]
+    fn deferred_arguments_parse_with_negative_values() {
+        let argv = ["capsule", "simulate", "--kp", "-0.1", "--periods", "3"];
+        let matches = command().try_get_matches_from(argv);
+        let cli = matches.and_then(|m| Cli::from_arg_matches(&m));
+        assert!(
+            matches!(
+                cli,
+                Ok(Cli {
+                    command: Command::Simulate(_)
+                })
+            ),
+            "{cli:?}"
+        );
+        let refused = command().try_get_matches_from(["capsule", "simulate", "--no-such-flag"]);
+        assert!(refused.is_err());
     }
 }
