@@ -3,10 +3,11 @@
 //! SDK's subprotocol name `foxglove.sdk.v1`).
 //!
 //! The bridge is its own node (`capsule_foxglove`), in a process of its own ([`run`], the
-//! `capsule_foxglove` binary) or on a thread of its own in `capsule_container` ([`BridgeThread`]):
-//! either way it subscribes to the plant's state and the controller's status over DDS, in a
-//! participant of its own, like any other reader, so the plant's loop does not know it exists.
-//! It serves four JSON channels, each with a JSON schema:
+//! `capsule_foxglove` binary: it reads the plant's state and commands over DDS like any other
+//! reader, so the plant's loop does not know it exists) or on a thread of its own in
+//! `capsule_container` ([`BridgeThread`]: state and commands from the in-process link,
+//! [`Source::InProcess`]); the controller's status it reads over DDS in a participant of its
+//! own. It serves four JSON channels, each with a JSON schema:
 //!
 //! - the state topic (`/capsule/state`): `t`, `x1`, `x2`, `y1`, `y2`, `x1_minus_x2`,
 //!   `y1_minus_y2`, `force`, ... in SI (what the paper's plots show, in metres and seconds);
@@ -20,7 +21,9 @@
 //! encoded while no client subscribes. The server binds 127.0.0.1 only ([`check_host`]).
 
 use capsule_msgs::names::topics;
-use std::{future::Future, io::Write as _, net::Ipv4Addr, sync::Arc};
+use std::sync::mpsc::{sync_channel, Receiver};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::{future::Future, io::Write as _, net::Ipv4Addr, time::Duration};
 
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
@@ -29,6 +32,7 @@ use futures::StreamExt;
 use serde_json::json;
 use tracing::{info, warn};
 
+use crate::intra_process::Link;
 use crate::views::BODY_FRAME;
 use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
 use ros2_client::Subscription;
@@ -257,27 +261,130 @@ fn log(ch: &RawChannel, value: serde_json::Value) {
     }
 }
 
-/// The bridge started: its DDS readers (on a participant of its own) and its channels, and its
-/// server listening.
+/// Where the bridge takes the plant's state and the controller's commands from (the status is
+/// always read over DDS).
+#[derive(Clone)]
+pub enum Source {
+    /// DDS readers of the state and force topics, like any other node's.
+    Dds,
+    /// The in-process link of a plant and a controller composed in this process: the samples
+    /// and answers the link hands over, thinned to `--max-rate-hz` on the loop's thread (a stamp
+    /// compared; what passes queued without waiting) and taken every [`FEED_PERIOD`].
+    InProcess(Link),
+}
+
+/// How often the bridge takes what the in-process link queued for it (polled: the loop's thread
+/// never wakes the bridge's).
+pub const FEED_PERIOD: Duration = Duration::from_millis(5);
+/// Samples the in-process queue holds; what does not fit is not shown (a live view).
+const FEED_CAPACITY: usize = 1024;
+
+/// A state sample and the command answering it, from the in-process link.
+type Fed = (CapsuleState, Option<ActuatorForce>);
+
+/// State and force: DDS readers (boxed: the larger variant), or the in-process link's queue.
+enum Feed {
+    Dds {
+        state_sub: Box<Subscription<CapsuleState>>,
+        force_sub: Box<Subscription<ActuatorForce>>,
+    },
+    InProcess(Receiver<Fed>),
+}
+
+impl Feed {
+    /// The feed of `source`: its readers on `node`, or a watcher on the link.
+    fn create(
+        source: Source,
+        node: &mut ros2_client::Node,
+        settings: &RosOptions,
+        max_rate_hz: f64,
+    ) -> Result<Feed> {
+        match source {
+            Source::Dds => {
+                let state_topic =
+                    settings.topic(node, topics::STATE, types::state(), &qos::data())?;
+                let force_topic =
+                    settings.topic(node, topics::FORCE, types::force(), &qos::data())?;
+                Ok(Feed::Dds {
+                    force_sub: Box::new(subscribe(node, &force_topic, &qos::data_reader())?),
+                    state_sub: Box::new(subscribe(node, &state_topic, &qos::data_reader())?),
+                })
+            }
+            Source::InProcess(link) => {
+                let (tx, rx) = sync_channel(FEED_CAPACITY);
+                let thin = Mutex::new(StampThinner::new(max_rate_hz));
+                link.watch(Box::new(move |state, answer| {
+                    let pass = thin
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .pass(state.header.stamp);
+                    if pass {
+                        let _ = tx.try_send((state.clone(), answer.cloned()));
+                    }
+                }))?;
+                Ok(Feed::InProcess(rx))
+            }
+        }
+    }
+}
+
+/// The four channels and their thinning: what the bridge does with each message.
+struct Outputs {
+    state: Arc<RawChannel>,
+    status: Arc<RawChannel>,
+    frame: Arc<RawChannel>,
+    force: Arc<RawChannel>,
+    thin: StampThinner,
+    thin_force: StampThinner,
+}
+
+impl Outputs {
+    fn state(&mut self, s: &CapsuleState) {
+        let wanted = self.state.has_sinks() || self.frame.has_sinks();
+        if wanted && self.thin.pass(s.header.stamp) {
+            if self.state.has_sinks() {
+                log(&self.state, state_json(s));
+            }
+            if self.frame.has_sinks() {
+                log(&self.frame, frame_json(s));
+            }
+        }
+    }
+
+    fn force(&mut self, c: &ActuatorForce) {
+        if self.force.has_sinks() && self.thin_force.pass(c.header.stamp) {
+            log(&self.force, force_json(c));
+        }
+    }
+
+    fn status(&mut self, s: &ControllerStatus) {
+        if self.status.has_sinks() {
+            log(&self.status, status_json(s));
+        }
+    }
+}
+
+/// The bridge started: its feed and status reader (on a DDS participant of its own), its
+/// channels, and its server listening.
 pub struct Bridge {
     // the participant and node outlive the readers (dropped after them: fields drop in order)
-    state_sub: Subscription<CapsuleState>,
+    feed: Feed,
     status_sub: Subscription<ControllerStatus>,
-    force_sub: Subscription<ActuatorForce>,
-    state_ch: Arc<RawChannel>,
-    status_ch: Arc<RawChannel>,
-    frame_ch: Arc<RawChannel>,
-    force_ch: Arc<RawChannel>,
+    outputs: Outputs,
     server: foxglove::WebSocketServerHandle,
-    max_rate_hz: f64,
     _node: ros2_client::Node,
     _context: ros2_client::Context,
 }
 
 impl Bridge {
     /// Starts the bridge as the node `settings` names, in a DDS participant of its own: the
-    /// readers, the channels, then the server on 127.0.0.1 (a port taken is an error naming it).
-    pub async fn start(settings: &RosOptions, opts: &BridgeOptions) -> Result<Bridge> {
+    /// feed from `source`, the status reader, the channels, then the server on 127.0.0.1 (a
+    /// port taken is an error naming it).
+    pub async fn start(
+        settings: &RosOptions,
+        opts: &BridgeOptions,
+        source: Source,
+    ) -> Result<Bridge> {
         let context = settings.context()?;
         let (mut node, _graph) = settings.loop_node(&context)?;
         let controller = RosOptions {
@@ -286,7 +393,7 @@ impl Bridge {
         };
         let state_name = settings.resolve_name(topics::STATE);
         let status_name = controller.resolve_name(topics::STATUS);
-        let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
+        let force_name = settings.resolve_name(topics::FORCE);
         let status_topic = node
             .create_topic(
                 &controller.ros_name(topics::STATUS)?,
@@ -294,38 +401,36 @@ impl Bridge {
                 &qos::data(),
             )
             .with_context(|| format!("topic {status_name}"))?;
-        let force_name = settings.resolve_name(topics::FORCE);
-        let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
-        let force_sub = subscribe::<ActuatorForce>(&mut node, &force_topic, &qos::data_reader())?;
-        let state_sub = subscribe::<CapsuleState>(&mut node, &state_topic, &qos::data_reader())?;
-        let status_sub =
-            subscribe::<ControllerStatus>(&mut node, &status_topic, &qos::data_reader())?;
-
-        let state_ch = channel(&state_name, STATE_SCHEMA)?;
-        let status_ch = channel(&status_name, STATUS_SCHEMA)?;
-        let frame_ch = channel(FRAME_TOPIC, FRAME_SCHEMA)?;
-        let force_ch = channel(&force_name, FORCE_SCHEMA)?;
+        let feed = Feed::create(source, &mut node, settings, opts.max_rate_hz)?;
+        let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
+        let outputs = Outputs {
+            state: channel(&state_name, STATE_SCHEMA)?,
+            status: channel(&status_name, STATUS_SCHEMA)?,
+            frame: channel(FRAME_TOPIC, FRAME_SCHEMA)?,
+            force: channel(&force_name, FORCE_SCHEMA)?,
+            thin: StampThinner::new(opts.max_rate_hz),
+            thin_force: StampThinner::new(opts.max_rate_hz),
+        };
         let server = foxglove::WebSocketServer::new()
             .name(capsule_msgs::names::nodes::FOXGLOVE)
             .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
             .start()
             .await
             .with_context(|| format!("cannot serve on 127.0.0.1:{}", opts.port))?;
+        let from = match feed {
+            Feed::Dds { .. } => "DDS",
+            Feed::InProcess(_) => "the in-process link",
+        };
         info!(
-            "{}: ws://127.0.0.1:{} ({SUBPROTOCOL}) serves {state_name}, {status_name}, {force_name}, {FRAME_TOPIC}",
+            "{}: ws://127.0.0.1:{} ({SUBPROTOCOL}) serves {state_name}, {force_name} (from {from}), {status_name}, {FRAME_TOPIC}",
             settings.describe(),
             server.port()
         );
         Ok(Bridge {
-            state_sub,
+            feed,
             status_sub,
-            force_sub,
-            state_ch,
-            status_ch,
-            frame_ch,
-            force_ch,
+            outputs,
             server,
-            max_rate_hz: opts.max_rate_hz,
             _node: node,
             _context: context,
         })
@@ -339,51 +444,65 @@ impl Bridge {
     /// Serves until `stop` resolves (its error is the bridge's), then closes the clients'
     /// connections.
     pub async fn serve(self, stop: impl Future<Output = Result<()>>) -> Result<()> {
-        let states = self.state_sub.async_stream();
-        let statuses = self.status_sub.async_stream();
-        let forces = self.force_sub.async_stream();
-        tokio::pin!(states, statuses, forces, stop);
-        let (state_ch, frame_ch) = (&self.state_ch, &self.frame_ch);
-        let (status_ch, force_ch) = (&self.status_ch, &self.force_ch);
-        let mut thin = StampThinner::new(self.max_rate_hz);
-        let mut thin_force = StampThinner::new(self.max_rate_hz);
-        let stopped = loop {
-            tokio::select! {
-                stopped = &mut stop => break stopped,
-                msg = states.select_next_some() => match msg {
-                    Ok((s, _)) => {
-                        let wanted = state_ch.has_sinks() || frame_ch.has_sinks();
-                        if wanted && thin.pass(s.header.stamp) {
-                            if state_ch.has_sinks() {
-                                log(state_ch, state_json(&s));
+        let Bridge {
+            feed,
+            status_sub,
+            mut outputs,
+            server,
+            ..
+        } = self;
+        let statuses = status_sub.async_stream();
+        tokio::pin!(statuses, stop);
+        let out = &mut outputs;
+        let stopped = match &feed {
+            Feed::Dds {
+                state_sub,
+                force_sub,
+            } => {
+                let states = state_sub.async_stream();
+                let forces = force_sub.async_stream();
+                tokio::pin!(states, forces);
+                loop {
+                    tokio::select! {
+                        stopped = &mut stop => break stopped,
+                        msg = states.select_next_some() => match msg {
+                            Ok((s, _)) => out.state(&s),
+                            Err(e) => warn!("bad state sample: {e:?}"),
+                        },
+                        msg = forces.select_next_some() => match msg {
+                            Ok((c, _)) => out.force(&c),
+                            Err(e) => warn!("bad force command: {e:?}"),
+                        },
+                        msg = statuses.select_next_some() => match msg {
+                            Ok((s, _)) => out.status(&s),
+                            Err(e) => warn!("bad status: {e:?}"),
+                        },
+                    }
+                }
+            }
+            Feed::InProcess(fed) => {
+                let mut tick = tokio::time::interval(FEED_PERIOD);
+                loop {
+                    tokio::select! {
+                        stopped = &mut stop => break stopped,
+                        _ = tick.tick() => {
+                            for (s, c) in fed.try_iter() {
+                                out.state(&s);
+                                if let Some(c) = c {
+                                    out.force(&c);
+                                }
                             }
-                            if frame_ch.has_sinks() {
-                                log(frame_ch, frame_json(&s));
-                            }
-                        }
+                        },
+                        msg = statuses.select_next_some() => match msg {
+                            Ok((s, _)) => out.status(&s),
+                            Err(e) => warn!("bad status: {e:?}"),
+                        },
                     }
-                    Err(e) => warn!("bad state sample: {e:?}"),
-                },
-                msg = forces.select_next_some() => match msg {
-                    Ok((c, _)) => {
-                        if force_ch.has_sinks() && thin_force.pass(c.header.stamp) {
-                            log(force_ch, force_json(&c));
-                        }
-                    }
-                    Err(e) => warn!("bad force command: {e:?}"),
-                },
-                msg = statuses.select_next_some() => match msg {
-                    Ok((s, _)) => {
-                        if status_ch.has_sinks() {
-                            log(status_ch, status_json(&s));
-                        }
-                    }
-                    Err(e) => warn!("bad status: {e:?}"),
-                },
+                }
             }
         };
         // close the clients' connections before leaving
-        self.server.stop().wait().await;
+        server.stop().wait().await;
         stopped
     }
 }
@@ -400,7 +519,7 @@ pub fn announce(port: u16) {
 
 /// Runs the bridge until SIGINT/SIGTERM (the `capsule_foxglove` binary).
 pub async fn run(settings: RosOptions, opts: BridgeOptions) -> Result<()> {
-    let bridge = Bridge::start(&settings, &opts).await?;
+    let bridge = Bridge::start(&settings, &opts, Source::Dds).await?;
     announce(bridge.port());
     bridge.serve(capsule_ros_base::ros::shutdown()).await
 }
@@ -416,7 +535,11 @@ pub struct BridgeThread {
 impl BridgeThread {
     /// Starts the bridge ([`Bridge::start`]) on its thread and waits until it serves; an error
     /// (a port taken) leaves nothing running.
-    pub async fn spawn(settings: RosOptions, opts: BridgeOptions) -> Result<BridgeThread> {
+    pub async fn spawn(
+        settings: RosOptions,
+        opts: BridgeOptions,
+        source: Source,
+    ) -> Result<BridgeThread> {
         let (started_tx, started) = tokio::sync::oneshot::channel();
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let thread = std::thread::Builder::new()
@@ -434,7 +557,7 @@ impl BridgeThread {
                     }
                 };
                 rt.block_on(async move {
-                    let bridge = match Bridge::start(&settings, &opts).await {
+                    let bridge = match Bridge::start(&settings, &opts, source).await {
                         Ok(b) => b,
                         Err(e) => {
                             let _ = started_tx.send(Err(e));

@@ -3,7 +3,7 @@
 //! parameters, services, diagnostics, lifecycle), on one DDS participant, with state and force
 //! delivered in-process ([`capsule_nodes::intra_process`]) and their DDS copies published for
 //! the rest of the graph. With --foxglove-port, capsule_foxglove's bridge is a third node of the
-//! process, on a thread and a DDS participant of its own.
+//! process, on a thread and a DDS participant of its own, fed state and force by the link.
 
 #[path = "cli/controller.rs"]
 mod controller_cli;
@@ -17,7 +17,7 @@ use anyhow::{bail, Context as _, Result};
 use capsule_msgs::names::nodes;
 use capsule_nodes::{
     controller::{self, ControllerOptions},
-    foxglove_bridge::{self, BridgeOptions, BridgeThread},
+    foxglove_bridge::{self, BridgeOptions, BridgeThread, Source},
     intra_process::{Link, Transport},
     plant::{self, PlantOptions},
 };
@@ -96,10 +96,11 @@ struct Composed {
 }
 
 /// The Foxglove bridge's node: `capsule_foxglove` in the plant's namespace, domain and security
-/// with the plant's remaps, serving the composed controller's status, on `port`. It reads the
-/// graph over DDS in a participant of its own ([`foxglove_bridge::Bridge::start`] makes one):
-/// RustDDS delivers nothing to a reader on the writer's own participant, which is the plant's
-/// and the controller's here, and DDS keeps it off the loop (the loop's DDS copies feed it).
+/// with the plant's remaps, serving the composed controller's status, on `port`. State and force
+/// come from the in-process link (thinned on the loop's thread to the bridge's rate: at 10 kHz,
+/// fed over DDS, the loop's copies of every sample would be published for it alone); the status
+/// over DDS, in a participant of its own ([`foxglove_bridge::Bridge::start`] makes one): RustDDS
+/// delivers nothing to a reader on the writer's own participant, the plant's and controller's.
 fn bridge_node(
     plant: &RosOptions,
     controller: &RosOptions,
@@ -207,9 +208,10 @@ fn build(cli: &Cli) -> Result<Composed> {
 /// stops after them. A bridge that failed on the way is named and makes the exit non-zero, but
 /// did not stop control (as the launcher treats a separate live view).
 async fn run(mut composed: Composed) -> Result<()> {
+    let link = Link::new();
     let bridge = match composed.foxglove.take() {
         Some((settings, opts)) => {
-            let bridge = BridgeThread::spawn(settings, opts)
+            let bridge = BridgeThread::spawn(settings, opts, Source::InProcess(link.clone()))
                 .await
                 .context(nodes::FOXGLOVE)?;
             foxglove_bridge::announce(bridge.port());
@@ -217,7 +219,7 @@ async fn run(mut composed: Composed) -> Result<()> {
         }
         None => None,
     };
-    let result = run_loop(composed).await;
+    let result = run_loop(composed, link).await;
     let bridged = bridge.map(BridgeThread::stop).transpose();
     match (result, bridged) {
         (Err(e), Err(b)) => {
@@ -232,8 +234,9 @@ async fn run(mut composed: Composed) -> Result<()> {
 }
 
 /// Runs plant and controller until the plant's end (`--until-s`, a lifecycle shutdown) or a
-/// signal; a node that fails is named and ends the process (the other does not run on).
-async fn run_loop(composed: Composed) -> Result<()> {
+/// signal, their state and force over `link`; a node that fails is named and ends the process
+/// (the other does not run on).
+async fn run_loop(composed: Composed, link: Link) -> Result<()> {
     let Composed {
         plant: (psettings, core, popts),
         plant_cli,
@@ -241,7 +244,6 @@ async fn run_loop(composed: Composed) -> Result<()> {
         ..
     } = composed;
     let context = psettings.context().context("the container's participant")?;
-    let link = Link::new();
     let plant_done = Arc::new(tokio::sync::Notify::new());
     let done = plant_done.clone();
     let end = async move {

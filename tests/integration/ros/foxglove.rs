@@ -69,6 +69,8 @@ fn a_foxglove_websocket_client_decodes_the_composed_live_graph() {
         !kids.contains("capsule_foxglov"),
         "a bridge process: {kids}"
     );
+    // state and force from the in-process link, not from DDS copies published for it
+    run.assert_stderr(&["(from the in-process link)"]);
 }
 
 /// `--separate`: `capsule_foxglove` as a process of its own, the same channels.
@@ -81,6 +83,7 @@ fn a_foxglove_websocket_client_decodes_the_separate_live_graph() {
         "no bridge process: {kids}"
     );
     assert!(!kids.contains("capsule_contain"), "{kids}");
+    run.assert_stderr(&["(from DDS)"]);
 }
 
 /// What every live-graph run shows: each channel decoded, with its schema and the sample's
