@@ -189,6 +189,9 @@ fn due_in(start: Instant, period: Duration, k: u64) -> Duration {
 /// What the emulator counted.
 struct Counts {
     samples: u64,
+    /// Real time: samples that went out over half a period after their time (the host did
+    /// not run the emulator in time; a real device's own clock does not slip so).
+    behind: u64,
     forces: u64,
     timeouts: u64,
     bad_in: u64,
@@ -207,6 +210,7 @@ impl Counts {
             .transpose()?;
         Ok(Counts {
             samples: 0,
+            behind: 0,
             forces: 0,
             timeouts: 0,
             bad_in: 0,
@@ -293,8 +297,9 @@ pub fn main(args: Args) -> Result<()> {
         w.flush().context("--force-log: cannot write")?;
     }
     eprintln!(
-        "emulate-device: {} samples, {} force frames, {} command timeouts, {} bad frames in; {}",
+        "emulate-device: {} samples ({} sent over half a period late), {} force frames, {} command timeouts, {} bad frames in; {}",
         counts.samples,
+        counts.behind,
         counts.forces,
         counts.timeouts,
         counts.bad_in,
@@ -362,6 +367,10 @@ fn serve(
                 .map_err(|e| anyhow::anyhow!("simulation failed at {t:.3} s: {e}"))?;
             continue;
         } else {
+            let behind = Instant::now().saturating_duration_since(start + period.mul_f64(k as f64));
+            if args.pacing == Pacing::Realtime && behind > period / 2 {
+                counts.behind += 1;
+            }
             let seq = send_sample(link)?;
             counts.latency.sent(seq);
             seq
