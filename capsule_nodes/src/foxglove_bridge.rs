@@ -292,11 +292,13 @@ enum Feed {
 }
 
 impl Feed {
-    /// The feed of `source`: its readers on `node`, or a watcher on the link.
+    /// The feed of `source`: its readers on `node`, or a watcher on the link (which queues
+    /// nothing while no client subscribes to a channel of `outputs`).
     fn create(
         source: Source,
         node: &mut ros2_client::Node,
         settings: &RosOptions,
+        outputs: &Outputs,
         max_rate_hz: f64,
     ) -> Result<Feed> {
         match source {
@@ -313,12 +315,13 @@ impl Feed {
             Source::InProcess(link) => {
                 let (tx, rx) = sync_channel(FEED_CAPACITY);
                 let thin = Mutex::new(StampThinner::new(max_rate_hz));
+                let channels = [&outputs.state, &outputs.frame, &outputs.force].map(Arc::clone);
                 link.watch(Box::new(move |state, answer| {
                     let pass = thin
                         .lock()
                         .unwrap_or_else(PoisonError::into_inner)
                         .pass(state.header.stamp);
-                    if pass {
+                    if pass && channels.iter().any(|c| c.has_sinks()) {
                         let _ = tx.try_send((state.clone(), answer.cloned()));
                     }
                 }))?;
@@ -401,8 +404,6 @@ impl Bridge {
                 &qos::data(),
             )
             .with_context(|| format!("topic {status_name}"))?;
-        let feed = Feed::create(source, &mut node, settings, opts.max_rate_hz)?;
-        let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
         let outputs = Outputs {
             state: channel(&state_name, STATE_SCHEMA)?,
             status: channel(&status_name, STATUS_SCHEMA)?,
@@ -411,6 +412,8 @@ impl Bridge {
             thin: StampThinner::new(opts.max_rate_hz),
             thin_force: StampThinner::new(opts.max_rate_hz),
         };
+        let feed = Feed::create(source, &mut node, settings, &outputs, opts.max_rate_hz)?;
+        let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
         let server = foxglove::WebSocketServer::new()
             .name(capsule_msgs::names::nodes::FOXGLOVE)
             .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
