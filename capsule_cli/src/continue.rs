@@ -2,7 +2,7 @@
 //! one parameter; writes the branch (CSV, JSON) and the bifurcation diagram (SVG, stable solid,
 //! unstable dashed, special points marked, optionally over a brute-force sweep).
 
-use crate::scene_args::SceneArgs;
+use crate::scene_args::ParamArgs;
 use crate::svg;
 use crate::work;
 use anyhow::{bail, Context, Result};
@@ -20,12 +20,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    scene: SceneArgs,
-    /// Parameter to continue in. The start is the scene's own value of it (set it with the scene
-    /// flags, e.g. --alpha 2.0).
-    #[arg(long, value_parser = crate::scene_args::param())]
-    param: Param,
-    /// Continue towards this value (stops past it), finite, |value| <= 1e12.
+    vary: ParamArgs,
+    /// Continue from the scene's own value of --param (set it with the scene flags, e.g. --alpha
+    /// 2.0) towards this value (stops past it), finite, |value| <= 1e12.
     #[arg(long, value_parser = ranges::within(-ranges::MAX_MAGNITUDE, ranges::MAX_MAGNITUDE))]
     to: f64,
     /// First arclength step (in the norm of (x1 - x2, y1, y2, parameter)), (0, 10].
@@ -52,7 +49,7 @@ pub struct Args {
 }
 
 pub fn main(args: Args) -> Result<()> {
-    let param = args.param;
+    let param = args.vary.param;
     if !args.to.is_finite() {
         bail!("--to must be a finite number");
     }
@@ -63,7 +60,7 @@ pub fn main(args: Args) -> Result<()> {
     if args.max_points < 2 {
         bail!("--max-points must be at least 2");
     }
-    let scene = args.scene.scene()?;
+    let scene = args.vary.scene.scene()?;
     let mut settings = ContinuationConfig::new(param, args.to);
     settings.step = args.arc_step;
     settings.max_step = args.max_arc_step;

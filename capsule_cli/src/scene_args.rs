@@ -1,5 +1,5 @@
 //! The scene flags shared by `simulate`, `sweep` and `bench`: a scene file and/or overrides
-//! named after the paper's symbols.
+//! named after the paper's symbols; with `--param`, the parameter `sweep` and `continue` vary.
 
 use crate::Refused;
 use anyhow::{bail, Result};
@@ -99,6 +99,16 @@ pub struct SceneArgs {
     /// Step of the fixed method, (0, 1e12] [default: 1e-3] (see --max-work).
     #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
     pub step: Option<f64>,
+}
+
+/// A scene and one of its parameters to vary: the flags of `sweep` and `continue`.
+#[derive(Debug, Clone, Args)]
+pub struct ParamArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Parameter to vary.
+    #[arg(long, value_parser = param())]
+    pub param: Param,
 }
 
 impl SceneArgs {

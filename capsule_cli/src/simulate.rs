@@ -20,9 +20,7 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    scene: SceneArgs,
-    #[command(flatten)]
-    schedule: ScheduleArgs,
+    run: RunArgs,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -64,6 +62,24 @@ pub struct Args {
     /// With --record: compression and splitting
     #[command(flatten)]
     storage: capsule_args::storage::StorageArgs,
+}
+
+/// One scheduled run's flags (`simulate`, `switch`): the scene and the gain schedule on it.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub schedule: ScheduleArgs,
+}
+
+impl RunArgs {
+    /// The scene, and the schedule checked against its horizon.
+    pub fn resolve(&self) -> Result<(Scene, GainSchedule)> {
+        let scene = self.scene.scene()?;
+        let schedule = self.schedule.schedule(&scene)?;
+        Ok((scene, schedule))
+    }
 }
 
 /// A gain schedule on top of the scene's `--kp`: a pulse of another gain for some drive
@@ -121,8 +137,7 @@ struct Output<'a> {
 }
 
 pub fn main(args: Args) -> Result<()> {
-    let scene = args.scene.scene()?;
-    let schedule = args.schedule.schedule(&scene)?;
+    let (scene, schedule) = args.run.resolve()?;
     if args.print_scene {
         print!("{}", scene.to_toml());
         return Ok(());
@@ -169,7 +184,13 @@ pub fn main(args: Args) -> Result<()> {
         written.push(format!("{} ({} rows)", path.display(), rows.len()));
     }
     if let Some(path) = &args.record {
-        let n = record::write(path, &scene, args.scene.scene_text(&scene), &rows, storage)?;
+        let n = record::write(
+            path,
+            &scene,
+            args.run.scene.scene_text(&scene),
+            &rows,
+            storage,
+        )?;
         if report.is_some() && !args.json {
             println!("recording      {} ({n} messages)", path.display());
         }

@@ -185,29 +185,30 @@ pub fn bifurcation_panels(param: &str, points: &[SweepPoint]) -> (Panel, Panel) 
         .iter()
         .filter_map(|p| p.result.as_ref().ok().map(|r| (p.value, r)))
         .collect();
-    let dots = Panel::new(
+    // one unnamed curve over the parameter
+    let panel = |title: &str, ylabel: &str, colour: &str, style: Style, points| {
+        Panel::new(
+            title,
+            param,
+            ylabel,
+            vec![Curve::new("", colour, style, points)],
+        )
+    };
+    let dots = panel(
         "Poincaré y1 (drive phase 0)",
-        param,
         "y1*",
-        vec![Curve::new(
-            "",
-            "black",
-            Style::Dots,
-            ok.iter()
-                .flat_map(|(v, r)| r.poincare.iter().map(move |q| (*v, q[2])))
-                .collect(),
-        )],
+        "black",
+        Style::Dots,
+        ok.iter()
+            .flat_map(|(v, r)| r.poincare.iter().map(move |q| (*v, q[2])))
+            .collect(),
     );
-    let line = Panel::new(
+    let line = panel(
         "average progression per period",
-        param,
         "progression / period",
-        vec![Curve::new(
-            "",
-            "steelblue",
-            Style::Line,
-            ok.iter().map(|(v, r)| (*v, r.avg_progression)).collect(),
-        )],
+        "steelblue",
+        Style::Line,
+        ok.iter().map(|(v, r)| (*v, r.avg_progression)).collect(),
     );
     (dots, line)
 }

@@ -2,7 +2,7 @@
 //! Poincaré points and measurements per value as CSV and JSON, and the bifurcation diagram and
 //! progression curve as SVG.
 
-use crate::scene_args::SceneArgs;
+use crate::scene_args::ParamArgs;
 use crate::svg;
 use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
@@ -23,10 +23,7 @@ pub const MAX_THREADS: usize = 1024;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    scene: SceneArgs,
-    /// Parameter to sweep.
-    #[arg(long, value_parser = crate::scene_args::param())]
-    param: Param,
+    vary: ParamArgs,
     /// First value, [-1e12, 1e12].
     #[arg(long, value_parser = ranges::finite())]
     from: f64,
@@ -72,10 +69,10 @@ fn prefix(out: &Path, param: &str) -> PathBuf {
 }
 
 pub fn main(args: Args) -> Result<()> {
-    let param = args.param;
-    let scene = args.scene.scene()?;
+    let param = args.vary.param;
+    let scene = args.vary.scene.scene()?;
     args.work.check(&scene, args.steps)?;
-    let prefix = prefix(&args.out, args.param.name());
+    let prefix = prefix(&args.out, param.name());
     work::check_parent(&prefix)?;
     let values: Vec<f64> = (0..args.steps)
         .map(|i| {
@@ -110,7 +107,7 @@ pub fn main(args: Args) -> Result<()> {
     let csv = prefix.with_extension("csv");
     let json = prefix.with_extension("json");
     let svg_path = prefix.with_extension("svg");
-    write_csv(&csv, args.param.name(), &points, spectra.as_deref())
+    write_csv(&csv, param.name(), &points, spectra.as_deref())
         .with_context(|| format!("writing {}", csv.display()))?;
     std::fs::write(&json, json_text(&points, spectra.as_deref())?)
         .with_context(|| format!("writing {}", json.display()))?;
@@ -124,11 +121,11 @@ pub fn main(args: Args) -> Result<()> {
     let title = format!(
         "{} friction: y1 at drive phase 0 and progression vs {}",
         scene.model.friction.name(),
-        args.param.name()
+        param.name()
     );
     std::fs::write(
         &svg_path,
-        svg::bifurcation(&title, args.param.name(), &points, largest.as_deref()),
+        svg::bifurcation(&title, param.name(), &points, largest.as_deref()),
     )
     .with_context(|| format!("writing {}", svg_path.display()))?;
     let failed: Vec<(f64, &String)> = points
@@ -138,7 +135,7 @@ pub fn main(args: Args) -> Result<()> {
     println!(
         "{} values of {} in {:.2} s ({} failed); wrote {}, {}, {}",
         points.len(),
-        args.param.name(),
+        param.name(),
         wall,
         failed.len(),
         csv.display(),
@@ -146,7 +143,7 @@ pub fn main(args: Args) -> Result<()> {
         svg_path.display()
     );
     for (v, e) in failed.iter().take(5) {
-        println!("  {} = {v}: {e}", args.param.name());
+        println!("  {} = {v}: {e}", param.name());
     }
     if failed.len() > 5 {
         let more = failed.len() - 5;

@@ -5,8 +5,7 @@
 //! N consecutive pulse starts instead.
 
 use crate::basins;
-use crate::scene_args::SceneArgs;
-use crate::simulate::ScheduleArgs;
+use crate::simulate::RunArgs;
 use crate::svg::{self, Curve, Panel, Style};
 use anyhow::{bail, Context, Result};
 use capsule_analysis::switch::{switch_run, SwitchReport};
@@ -21,9 +20,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    scene: SceneArgs,
-    #[command(flatten)]
-    schedule: ScheduleArgs,
+    run: RunArgs,
     /// Try the pulse at N consecutive starts (--pulse-at, +1, ...) and report which switch.
     #[arg(long, value_name = "N")]
     scan: Option<u32>,
@@ -40,7 +37,7 @@ const SAMPLES: u32 = 100;
 
 /// The scene and schedule: the flags, with Fig 20's values where none are given.
 fn setup(args: &mut Args) -> Result<(Scene, GainSchedule)> {
-    let a = &mut args.scene;
+    let a = &mut args.run.scene;
     if a.scene.is_none() {
         a.alpha.get_or_insert(1.3);
         // on the period-3 orbit's basin (x1 - x2 = -1.5, all at rest): from rest the motion
@@ -51,14 +48,13 @@ fn setup(args: &mut Args) -> Result<(Scene, GainSchedule)> {
             a.transient.get_or_insert(0);
         }
     }
-    let scene = a.scene()?;
-    let s = &mut args.schedule;
+    let s = &mut args.run.schedule;
     if s.pulse_kp.is_none() && s.pulse_at.is_none() && s.kp_after.is_none() {
         s.pulse_kp = Some(0.1);
         s.pulse_at = Some(300);
         s.kp_after = Some(0.1);
     }
-    let schedule = args.schedule.schedule(&scene)?;
+    let (scene, schedule) = args.run.resolve()?;
     if schedule.pulse.is_none() {
         bail!("capsule switch needs a pulse (--pulse-kp, --pulse-at)");
     }

@@ -13,7 +13,7 @@ use crate::{
     metadata_yaml::{metadata_yaml, relative_file_paths, BagFile, BagTopic, METADATA_YAML},
     profile::QOS_KEY,
     types::OfferedQos,
-    writer::{ChunkCompression, RecordWriter, WriteSummary, WriterOptions},
+    writer::{topic_channel, ChunkCompression, RecordWriter, WriteSummary, WriterOptions},
     ChannelId, RecordError,
 };
 
@@ -118,11 +118,7 @@ impl BagWriter {
         type_name: &str,
         qos: &OfferedQos,
     ) -> Result<ChannelId, RecordError> {
-        let schema = crate::types::ros2msg_schema(type_name).ok_or_else(|| {
-            RecordError::Usage(format!("{topic}: no ros2msg schema for type {type_name}"))
-        })?;
-        let mut metadata = BTreeMap::new();
-        metadata.insert(QOS_KEY.to_string(), qos.to_yaml());
+        let (schema, metadata) = topic_channel(topic, type_name, qos)?;
         let id = self
             .current
             .add_channel(topic, type_name, schema.as_bytes(), metadata.clone())?;

@@ -125,6 +125,21 @@ impl Default for WriterOptions {
     }
 }
 
+/// A topic's channel: the `ros2msg` schema of its type (one this crate knows) and the channel
+/// metadata holding the publisher's QoS.
+pub(crate) fn topic_channel(
+    topic: &str,
+    type_name: &str,
+    qos: &OfferedQos,
+) -> Result<(String, BTreeMap<String, String>), RecordError> {
+    let schema = ros2msg_schema(type_name).ok_or_else(|| {
+        RecordError::Usage(format!("{topic}: no ros2msg schema for type {type_name}"))
+    })?;
+    let mut metadata = BTreeMap::new();
+    metadata.insert(QOS_KEY.to_string(), qos.to_yaml());
+    Ok((schema, metadata))
+}
+
 /// Wall-clock time in nanoseconds since the epoch (0 if the clock is before it).
 pub fn now_ns() -> u64 {
     std::time::SystemTime::now()
@@ -276,11 +291,7 @@ impl RecordWriter {
         type_name: &str,
         qos: &OfferedQos,
     ) -> Result<ChannelId, RecordError> {
-        let schema = ros2msg_schema(type_name).ok_or_else(|| {
-            RecordError::Usage(format!("{topic}: no ros2msg schema for type {type_name}"))
-        })?;
-        let mut metadata = BTreeMap::new();
-        metadata.insert(QOS_KEY.to_string(), qos.to_yaml());
+        let (schema, metadata) = topic_channel(topic, type_name, qos)?;
         self.add_channel(topic, type_name, schema.as_bytes(), metadata)
     }
 

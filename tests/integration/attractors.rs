@@ -1,7 +1,7 @@
 //! Coexisting attractors (the paper's section 5.4, Figs 18-20) at coarse grids: basins and their
 //! change with the gain and the drive amplitude, switching by a gain schedule.
 
-use crate::common::{command, json, line, stderr, TempDir};
+use crate::common::{assert_refused_at_once, json, line, TempDir};
 use capsule_analysis::attractor::SettleConfig;
 use capsule_analysis::basin::{basins, BasinMap, Grid};
 use capsule_analysis::switch::switch_run;
@@ -235,19 +235,7 @@ fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
     // run elsewhere than the repository, so that nothing lands there if a case goes through
     let dir = TempDir::new("attractors_refusals");
     for (args, needle) in cases {
-        let t0 = std::time::Instant::now();
-        let out = command("capsule")
-            .args(args)
-            .current_dir(&*dir)
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
-        let err = stderr(&out);
-        assert!(!out.status.success(), "{args:?} succeeded");
-        assert!(err.contains(needle), "{args:?}: {err}");
-        assert!(
-            t0.elapsed().as_secs_f64() < 5.0,
-            "{args:?} worked before refusing"
-        );
+        assert_refused_at_once(&dir, args, needle);
     }
 }
 

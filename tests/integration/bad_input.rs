@@ -7,7 +7,7 @@
 //! (the nodes run with `--check`, which stops after the same checks a real start makes).
 
 use crate::common::{
-    assert_ok, assert_refused, command, files_in, json_of, line, run, stderr, TempDir,
+    assert_holds, assert_ok, assert_refused, command, files_in, json_of, line, run, stderr, TempDir,
 };
 use crate::root;
 use proptest::prelude::*;
@@ -346,9 +346,9 @@ fn one_range_is_refused_the_same_way_by_flag_scene_and_parameter() {
     // the help says the same range, and where else the value comes from
     let o = run("capsule_controller", &["--help"]);
     let help = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(
-        help.contains("[0, 100] [scene: drive.alpha; parameter alpha, writable]"),
-        "{help}"
+    assert_holds(
+        &help,
+        &["[0, 100] [scene: drive.alpha; parameter alpha, writable]"],
     );
 }
 
@@ -578,21 +578,17 @@ fn an_interrupted_continuation_writes_the_branch_so_far_and_exits_non_zero() {
     let words = ": interrupted; the branch so far is written";
     assert_interrupted(&o, words, &out.with_extension("csv"), 2);
     let json = std::fs::read_to_string(out.with_extension("json")).unwrap_or_default();
-    assert!(
-        json.contains("interrupted") && json.contains("\"closed\": false"),
-        "{json}"
-    );
+    assert_holds(&json, &["interrupted", "\"closed\": false"]);
 }
 
 #[test]
 fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero() {
     let tmp = TempDir::new("bad_input_interrupted_sim");
-    let csv = tmp.file("interrupted_sim.csv");
-    let csv_s = csv.display().to_string();
+    let csv = tmp.arg("interrupted_sim.csv");
     // a million periods: minutes even in release, so the signal finds it running
     let o = interrupted(&line(
         "simulate --periods 1000000 --samples-per-period 1 --csv",
-        &[&csv_s],
+        &[&csv],
     ));
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
@@ -602,12 +598,12 @@ fn an_interrupted_simulation_writes_its_time_history_so_far_and_exits_non_zero()
         .find(|l| l.contains("interrupted:"))
         .unwrap_or_else(|| panic!("no `interrupted:` in `{err}`"));
     assert!(
-        line.contains("of 1000000 periods done") && line.contains(&csv_s),
+        line.contains("of 1000000 periods done") && line.contains(&csv),
         "{line}"
     );
     assert!(o.stdout.is_empty(), "printed a summary of a partial run");
     // the CSV is whole: the header, then complete rows in time order, fewer than a full run's
-    let text = std::fs::read_to_string(&csv).unwrap_or_else(|e| panic!("{csv_s}: {e}"));
+    let text = std::fs::read_to_string(&csv).unwrap_or_else(|e| panic!("{csv}: {e}"));
     let mut lines = text.lines();
     assert_eq!(
         lines.next(),

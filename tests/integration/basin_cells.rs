@@ -2,7 +2,7 @@
 //! the refusal of cells that cannot resolve the map, and offline commands that write files only
 //! where asked (issue 32).
 
-use crate::common::{command, files_in, json_of, line, stderr, TempDir};
+use crate::common::{assert_refused_at_once, capsule_in, files_in, json_of, line, stderr, TempDir};
 use capsule_analysis::attractor::SettleConfig;
 use capsule_analysis::basin::{BasinMap, CellCheck, CellConfig, Grid, Method};
 use capsule_analysis::basin_cells::basins_by;
@@ -107,17 +107,8 @@ fn cells_that_cannot_resolve_the_map_are_refused_with_the_reason() {
     ];
     let dir = TempDir::new("basin_cells_refusals");
     for (args, needle) in cases {
-        let t0 = std::time::Instant::now();
-        let out = command("capsule")
-            .args(line("basins", &[]))
-            .args(args.split_whitespace())
-            .current_dir(&*dir)
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
-        let err = stderr(&out);
-        assert!(!out.status.success(), "{args} succeeded");
-        assert!(err.contains(needle), "{args}: {err}");
-        assert!(t0.elapsed().as_secs_f64() < 5.0, "{args} worked first");
+        let words = format!("basins {args}");
+        assert_refused_at_once(&dir, &line(&words, &[]), needle);
     }
     assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
 }
@@ -130,11 +121,7 @@ fn basins_and_switch_with_json_write_nothing_unasked() {
         "basins --alpha 1.5 --grid 6,5 --periods 60 --basin-method per-state",
         "switch --periods 40 --pulse-kp 0.1 --pulse-at 20 --kp-after 0.1 --json",
     ] {
-        let out = command("capsule")
-            .args(args.split_whitespace())
-            .current_dir(&*dir)
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+        let out = capsule_in(&dir, &line(args, &[]));
         assert!(out.status.success(), "{args}: {}", stderr(&out));
         if args.contains("--json") {
             json_of(&out);
@@ -146,14 +133,10 @@ fn basins_and_switch_with_json_write_nothing_unasked() {
         );
     }
     // the JSON reports the method and its cost per state
-    let out = command("capsule")
-        .args(line(
-            "basins --alpha 1.5 --grid 6,5 --periods 60 --json",
-            &[],
-        ))
-        .current_dir(&*dir)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+    let out = capsule_in(
+        &dir,
+        &line("basins --alpha 1.5 --grid 6,5 --periods 60 --json", &[]),
+    );
     let v = json_of(&out);
     assert_eq!(v["basin_method"]["name"], "known-cells", "{v}");
     assert!(
@@ -169,11 +152,7 @@ fn basins_and_switch_with_json_write_nothing_unasked() {
         "sweep --param alpha --from 1 --to 1.2 --steps 3 --periods 20",
         "continue --param alpha --to 1.6 --alpha 1.5",
     ] {
-        let out = command("capsule")
-            .args(args.split_whitespace())
-            .current_dir(&*dir)
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+        let out = capsule_in(&dir, &line(args, &[]));
         assert!(!out.status.success(), "{args} ran without --out");
         assert!(stderr(&out).contains("--out"), "{args}: {}", stderr(&out));
     }

@@ -1,7 +1,9 @@
 //! The `capsule` command as a user runs it (needs `cargo build -p capsule_cli` first, as the
 //! README's test command does; `CAPSULE_BIN` names another directory of binaries).
 
-use crate::common::{assert_ok, assert_refused, capsule, command, files_in, json, line, TempDir};
+use crate::common::{
+    assert_ok, assert_refused, capsule, capsule_in, files_in, json, line, TempDir,
+};
 
 #[test]
 fn simulate_json_reports_what_the_issue_lists() {
@@ -192,11 +194,7 @@ fn robustness_writes_files_only_where_asked() {
     let docs = dir.join("docs/robustness");
     std::fs::create_dir_all(&docs).unwrap_or_else(|e| panic!("{}: {e}", docs.display()));
     let quick = line("robustness --periods 1 --transient 0", &[]);
-    let o = command("capsule")
-        .args(&quick)
-        .current_dir(&*dir)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run capsule: {e}"));
+    let o = capsule_in(&dir, &quick);
     assert_ok(&o);
     let report = String::from_utf8_lossy(&o.stdout);
     assert!(

@@ -60,10 +60,30 @@ pub fn run(name: &str, args: &[&str]) -> Output {
 
 /// Runs the `capsule` command to the end, however long it takes.
 pub fn capsule(args: &[&str]) -> Output {
+    capsule_in(&root(), args)
+}
+
+/// Runs the `capsule` command in `dir` (where it writes what it writes by default) to the end.
+pub fn capsule_in(dir: &Path, args: &[&str]) -> Output {
     command("capsule")
         .args(args)
+        .current_dir(dir)
         .output()
         .unwrap_or_else(|e| panic!("cannot run capsule: {e}"))
+}
+
+/// Asserts that `capsule` run in `dir` refuses `args` at once (within 5 s: before any work),
+/// with `words` in its stderr.
+pub fn assert_refused_at_once(dir: &Path, args: &[&str], words: &str) {
+    let t0 = Instant::now();
+    let out = capsule_in(dir, args);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(err.contains(words), "{args:?}: {err}");
+    assert!(
+        t0.elapsed().as_secs_f64() < 5.0,
+        "{args:?} worked before refusing"
+    );
 }
 
 /// What a run wrote to stderr.

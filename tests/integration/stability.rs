@@ -1,7 +1,7 @@
 //! Stability analysis: the Poincaré map's exact Jacobian against central finite differences on
 //! orbits that cross every kind of event, Floquet multipliers, Lyapunov exponents.
 
-use crate::common::{assert_ok, capsule, json, line, TempDir};
+use crate::common::{assert_holds, assert_ok, capsule, json, line, TempDir};
 use crate::scene;
 use capsule_analysis::floquet::{floquet, map_only, poincare_map};
 use capsule_analysis::lyapunov::{largest_by_divergence, lyapunov};
@@ -348,7 +348,7 @@ fn simulate_and_sweep_report_the_stability() {
 }
 
 mod continuation {
-    use super::at;
+    use super::{assert_holds, at};
     use capsule_analysis::continuation::{
         continue_branch, switch_at_period_doubling, Branch, ContinuationConfig, ContinuationError,
         SpecialKind, SpecialPoint,
@@ -522,10 +522,7 @@ mod continuation {
             "{e:?}"
         );
         let msg = e.err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(
-            msg.contains("alpha = 0.5") && msg.contains("not periodic"),
-            "{msg}"
-        );
+        assert_holds(&msg, &["alpha = 0.5", "not periodic"]);
     }
 }
 

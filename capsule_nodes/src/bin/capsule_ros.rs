@@ -146,7 +146,13 @@ async fn run(cli: Cli) -> Result<()> {
             node,
             transition,
             timeout_s,
-        } => lifecycle_set(&settings, &node, &transition, timeout_s).await,
+        } => {
+            let ask = Ask::Transition {
+                managed: node,
+                transition,
+            };
+            ask_once(&settings, ask, timeout_s).await
+        }
         Cmd::SetMode {
             mode,
             gain,
@@ -160,7 +166,11 @@ async fn run(cli: Cli) -> Result<()> {
                 effective_from: capsule_nodes::client::effective_from(at_s)?,
                 ..pulse.request()
             };
-            set_mode(&settings, &cli.service, req, timeout_s).await
+            let ask = Ask::SetMode {
+                service: cli.service,
+                req,
+            };
+            ask_once(&settings, ask, timeout_s).await
         }
         Cmd::SwitchAttractor {
             scene,
@@ -223,48 +233,45 @@ fn print_answer(resp: &capsule_msgs::SetModeResponse) {
     );
 }
 
-/// The `set-mode` subcommand: one call, the answer printed; exit status 3 when refused.
-async fn set_mode(
-    settings: &RosOptions,
-    service: &str,
-    req: SetModeRequest,
-    timeout_s: f64,
-) -> Result<()> {
-    let context = settings.context()?;
-    let mut node = settings.node(&context)?;
-    let client = ModeClient::new(&mut node, settings, service)?;
-    let resp = client
-        .call(&node, req, Duration::from_secs_f64(timeout_s))
-        .await?;
-    print_answer(&resp);
-    if !resp.accepted {
-        std::process::exit(3);
-    }
-    Ok(())
+/// What a one-shot subcommand asks for.
+enum Ask {
+    /// `set-mode`: a set_mode request to the controller's mode service.
+    SetMode {
+        service: String,
+        req: SetModeRequest,
+    },
+    /// `lifecycle-set`: a lifecycle transition of a managed node.
+    Transition { managed: String, transition: String },
 }
 
-/// The `lifecycle-set` subcommand: one transition asked for, the answer printed; exit status 3
-/// when it was refused or failed.
-async fn lifecycle_set(
-    settings: &RosOptions,
-    managed: &str,
-    transition: &str,
-    timeout_s: f64,
-) -> Result<()> {
+/// The one-shot subcommands (`set-mode`, `lifecycle-set`): one call from a node of its own,
+/// the answer printed; exit status 3 when it was refused or failed.
+async fn ask_once(settings: &RosOptions, ask: Ask, timeout_s: f64) -> Result<()> {
     let context = settings.context()?;
     let mut node = settings.node(&context)?;
-    let client = LifecycleClient::new(&mut node, settings, managed)?;
-    let taken = client
-        .set(&node, transition, Duration::from_secs_f64(timeout_s))
-        .await?;
-    println!(
-        "{managed} {transition}: {}",
-        if taken {
-            "Transitioning successful"
-        } else {
-            "Transitioning failed"
+    let timeout = Duration::from_secs_f64(timeout_s);
+    let taken = match ask {
+        Ask::SetMode { service, req } => {
+            let client = ModeClient::new(&mut node, settings, &service)?;
+            let resp = client.call(&node, req, timeout).await?;
+            print_answer(&resp);
+            resp.accepted
         }
-    );
+        Ask::Transition {
+            managed,
+            transition,
+        } => {
+            let client = LifecycleClient::new(&mut node, settings, &managed)?;
+            let taken = client.set(&node, &transition, timeout).await?;
+            let outcome = if taken {
+                "Transitioning successful"
+            } else {
+                "Transitioning failed"
+            };
+            println!("{managed} {transition}: {outcome}");
+            taken
+        }
+    };
     if !taken {
         std::process::exit(3);
     }

@@ -20,8 +20,7 @@ use tracing::{info, warn};
 use super::endpoints::{Endpoints, MATCH_GRACE};
 use super::lifecycle_services::{self, Lifecycle};
 use super::loop_control::{apply_unconfigured, Exit, LoopControl};
-use super::paced::paced_loop;
-use super::pacing::{lockstep_loop, realtime_loop};
+use super::pacing::SampleLoop;
 use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
 use crate::intra_process::{CopyCounts, Transport};
@@ -283,14 +282,18 @@ async fn drive<H: CapsuleHardware>(
             Some(Exit::CleanedUp) => continue,
             None => {}
         }
-        let exit = match (core.ready(), opts.pacing) {
-            (Some(ready), _) => {
-                paced_loop(core, io, opts, control, rec.as_deref_mut(), ready).await?
-            }
-            (None, Pacing::Realtime) => realtime_loop(core, io, opts, control, rec.as_deref_mut())?,
-            (None, Pacing::Lockstep) => {
-                lockstep_loop(core, io, opts, control, rec.as_deref_mut()).await?
-            }
+        let ready = core.ready();
+        let sample_loop = SampleLoop {
+            core,
+            io,
+            opts,
+            control,
+            rec: rec.as_deref_mut(),
+        };
+        let exit = match (ready, opts.pacing) {
+            (Some(ready), _) => sample_loop.paced(ready).await?,
+            (None, Pacing::Realtime) => sample_loop.realtime()?,
+            (None, Pacing::Lockstep) => sample_loop.lockstep().await?,
         };
         if exit == Exit::Over {
             return Ok(());

@@ -22,9 +22,10 @@ use tokio::sync::Notify;
 use tracing::warn;
 
 use super::endpoints::{log_undecodable, Endpoints};
-use super::loop_control::{apply, Exit, LoopControl};
+use super::loop_control::{apply, Exit};
 use super::pacing::{
-    commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs, Wall,
+    commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs,
+    SampleLoop, Wall,
 };
 use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
@@ -181,84 +182,89 @@ impl Paced<'_> {
     }
 }
 
-/// Runs hardware that paces itself (`ready` wakes the loop when it has something) until the
-/// end time, a signal, a cleanup or a shutdown.
-pub(super) async fn paced_loop<H: CapsuleHardware>(
-    core: &mut PlantCore<H>,
-    io: &Endpoints,
-    opts: &PlantOptions,
-    control: &mut LoopControl,
-    mut rec: Option<&mut InPlantRecording>,
-    ready: Arc<Notify>,
-) -> Result<Exit> {
-    let lockstep = opts.pacing == Pacing::Lockstep;
-    let mut p = Paced {
-        io,
-        opts,
-        lockstep,
-        wall: Wall::start(),
-        started: false,
-        startup_until: Instant::now() + opts.startup_timeout,
-        due: Instant::now() + opts.startup_timeout.min(Duration::from_millis(100)),
-        waited_from: Instant::now(),
-        ever_commanded: false,
-        logs: CommandLogs::default(),
-    };
-    let commands = commands_of(io);
-    tokio::pin!(commands);
-    let woken = control.woken.clone();
-    let period = Duration::from_secs_f64(1.0 / core.rate_hz);
-    let mut tick = tokio::time::interval(if lockstep { opts.retransmit } else { period });
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        if let Some(exit) = control.poll(core) {
-            return Ok(exit);
-        }
-        if p.drain(core, rec.as_deref_mut())? {
-            return Ok(Exit::Over);
-        }
-        while let Some((cmd, ns)) = io.next_answer() {
-            p.command(core, &cmd, None, p.wall.at_ns(ns), rec.as_deref_mut())?;
-        }
-        let advance = p.may_advance(core);
-        tokio::select! {
-            biased;
-            _ = woken.notified() => {}
-            Some(r) = control.requests.recv() => {
-                if let Some(exit) = apply(core, r) {
-                    return Ok(exit);
-                }
+impl<H: CapsuleHardware> SampleLoop<'_, H> {
+    /// Runs hardware that paces itself (`ready` wakes the loop when it has something) until the
+    /// end time, a signal, a cleanup or a shutdown.
+    pub(super) async fn paced(mut self, ready: Arc<Notify>) -> Result<Exit> {
+        let lockstep = self.opts.pacing == Pacing::Lockstep;
+        let mut p = Paced {
+            io: self.io,
+            opts: self.opts,
+            lockstep,
+            wall: Wall::start(),
+            started: false,
+            startup_until: Instant::now() + self.opts.startup_timeout,
+            due: Instant::now() + self.opts.startup_timeout.min(Duration::from_millis(100)),
+            waited_from: Instant::now(),
+            ever_commanded: false,
+            logs: CommandLogs::default(),
+        };
+        let commands = commands_of(self.io);
+        tokio::pin!(commands);
+        let woken = self.control.woken.clone();
+        let period = Duration::from_secs_f64(1.0 / self.core.rate_hz);
+        let mut tick = tokio::time::interval(if lockstep {
+            self.opts.retransmit
+        } else {
+            period
+        });
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        loop {
+            if let Some(exit) = self.control.poll(self.core) {
+                return Ok(exit);
             }
-            msg = commands.select_next_some() => match msg {
-                Ok((cmd, info)) => {
-                    let at = p.wall.at(&info);
-                    p.command(core, &cmd, Some(&info), at, rec.as_deref_mut())?;
-                }
-                Err(e) => log_undecodable(&mut p.logs.undecodable, &e),
-            },
-            _ = ready.notified() => {}
-            _ = tokio::time::sleep_until(p.due.into()), if advance => {
-                if p.overdue(core, rec.as_deref_mut())? {
-                    return Ok(Exit::Over);
-                }
+            if p.drain(self.core, self.rec.as_deref_mut())? {
+                return Ok(Exit::Over);
             }
-            _ = tick.tick() => {
-                if lockstep {
-                    if p.started && !core.written() {
-                        p.unanswered(core, rec.as_deref_mut())?;
+            while let Some((cmd, ns)) = self.io.next_answer() {
+                p.command(
+                    self.core,
+                    &cmd,
+                    None,
+                    p.wall.at_ns(ns),
+                    self.rec.as_deref_mut(),
+                )?;
+            }
+            let advance = p.may_advance(self.core);
+            tokio::select! {
+                biased;
+                _ = woken.notified() => {}
+                Some(r) = self.control.requests.recv() => {
+                    if let Some(exit) = apply(self.core, r) {
+                        return Ok(exit);
                     }
-                } else {
-                    // JointState commands and the watchdog, once a period
-                    if let Some(sub) = &io.joint_sub {
-                        let at = |info: &ros2_client::MessageInfo| p.wall.at(info);
-                        let logs = &mut p.logs;
-                        take_joint_commands(core, sub, at, &mut logs.refused, &mut logs.joint_bad);
-                        if p.started && core.answered() {
-                            core.answer().context("the plant's hardware")?;
+                }
+                msg = commands.select_next_some() => match msg {
+                    Ok((cmd, info)) => {
+                        let at = p.wall.at(&info);
+                        p.command(self.core, &cmd, Some(&info), at, self.rec.as_deref_mut())?;
+                    }
+                    Err(e) => log_undecodable(&mut p.logs.undecodable, &e),
+                },
+                _ = ready.notified() => {}
+                _ = tokio::time::sleep_until(p.due.into()), if advance => {
+                    if p.overdue(self.core, self.rec.as_deref_mut())? {
+                        return Ok(Exit::Over);
+                    }
+                }
+                _ = tick.tick() => {
+                    if lockstep {
+                        if p.started && !self.core.written() {
+                            p.unanswered(self.core, self.rec.as_deref_mut())?;
                         }
-                    }
-                    if core.check_watchdog(p.wall.now()) {
-                        warn!("no command for {:.3} s: applying zero force", core.command_timeout);
+                    } else {
+                        // JointState commands and the watchdog, once a period
+                        if let Some(sub) = &self.io.joint_sub {
+                            let at = |info: &ros2_client::MessageInfo| p.wall.at(info);
+                            let logs = &mut p.logs;
+                            take_joint_commands(self.core, sub, at, &mut logs.refused, &mut logs.joint_bad);
+                            if p.started && self.core.answered() {
+                                self.core.answer().context("the plant's hardware")?;
+                            }
+                        }
+                        if self.core.check_watchdog(p.wall.now()) {
+                            warn!("no command for {:.3} s: applying zero force", self.core.command_timeout);
+                        }
                     }
                 }
             }

@@ -16,6 +16,16 @@ use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
 use capsule_ros_base::throttle::Throttle;
 
+/// What a pacing loop runs on: the plant, its endpoints and options, the lifecycle's control
+/// of the loop, and the in-plant recording when recording.
+pub(super) struct SampleLoop<'a, H: CapsuleHardware> {
+    pub(super) core: &'a mut PlantCore<H>,
+    pub(super) io: &'a Endpoints,
+    pub(super) opts: &'a PlantOptions,
+    pub(super) control: &'a mut LoopControl,
+    pub(super) rec: Option<&'a mut InPlantRecording>,
+}
+
 /// The current sample and, every `clock_every`-th sample, its /clock, recorded when recording.
 pub(super) fn outgoing<H: CapsuleHardware>(
     core: &PlantCore<H>,
@@ -185,142 +195,138 @@ pub(super) fn take_commands<H: CapsuleHardware>(
     Ok(())
 }
 
-/// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
-/// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
-/// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
-/// DDS's own (an earlier timer thread -> tokio -> DDS hand-off, with a wake-up per command,
-/// cost a third of the plant's CPU at 1 kHz). Latency is measured from DDS's reception time.
-pub(super) fn realtime_loop<H: CapsuleHardware>(
-    core: &mut PlantCore<H>,
-    io: &Endpoints,
-    opts: &PlantOptions,
-    control: &mut LoopControl,
-    mut rec: Option<&mut InPlantRecording>,
-) -> Result<Exit> {
-    let period = Duration::from_secs_f64(1.0 / core.rate_hz);
-    let start = Instant::now();
-    let first = core.seq();
-    let wall = Wall::start();
-    let mut logs = CommandLogs::default();
-    loop {
-        // how late this sample goes out (its due time: start + k / rate)
-        let due = start + period.mul_f64((core.seq() - first) as f64);
-        let late = Instant::now().saturating_duration_since(due);
-        core.stats.lateness.record(late.as_secs_f64());
-        if publish_now(core, io, opts, wall, rec.as_deref_mut())? {
-            return Ok(Exit::Over);
+impl<H: CapsuleHardware> SampleLoop<'_, H> {
+    /// Real time on one thread: publish sample `k`, sleep until `start + (k+1) / rate`, take every
+    /// command received meanwhile, step. Commands are taken, not awaited, and the timer is this
+    /// thread's own sleep, so a sample costs no wake-up of another thread in this process besides
+    /// DDS's own (an earlier timer thread -> tokio -> DDS hand-off, with a wake-up per command,
+    /// cost a third of the plant's CPU at 1 kHz). Latency is measured from DDS's reception time.
+    pub(super) fn realtime(mut self) -> Result<Exit> {
+        let period = Duration::from_secs_f64(1.0 / self.core.rate_hz);
+        let start = Instant::now();
+        let first = self.core.seq();
+        let wall = Wall::start();
+        let mut logs = CommandLogs::default();
+        loop {
+            // how late this sample goes out (its due time: start + k / rate)
+            let due = start + period.mul_f64((self.core.seq() - first) as f64);
+            let late = Instant::now().saturating_duration_since(due);
+            self.core.stats.lateness.record(late.as_secs_f64());
+            if publish_now(self.core, self.io, self.opts, wall, self.rec.as_deref_mut())? {
+                return Ok(Exit::Over);
+            }
+            let due = start + period.mul_f64((self.core.seq() + 1 - first) as f64);
+            let wait = due.saturating_duration_since(Instant::now());
+            if !wait.is_zero() {
+                std::thread::sleep(wait);
+            }
+            if let Some(exit) = self.control.poll(self.core) {
+                return Ok(exit);
+            }
+            take_commands(self.core, self.io, wall, &mut logs, self.rec.as_deref_mut())?;
+            if self.core.check_watchdog(wall.now()) {
+                warn!(
+                    "no command for {:.3} s: applying zero force",
+                    self.core.command_timeout
+                );
+            }
+            self.core.step().context("the plant's hardware")?;
         }
-        let due = start + period.mul_f64((core.seq() + 1 - first) as f64);
-        let wait = due.saturating_duration_since(Instant::now());
-        if !wait.is_zero() {
-            std::thread::sleep(wait);
-        }
-        if let Some(exit) = control.poll(core) {
-            return Ok(exit);
-        }
-        take_commands(core, io, wall, &mut logs, rec.as_deref_mut())?;
-        if core.check_watchdog(wall.now()) {
-            warn!(
-                "no command for {:.3} s: applying zero force",
-                core.command_timeout
-            );
-        }
-        core.step().context("the plant's hardware")?;
     }
-}
 
-/// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
-/// every `retransmit`), step with it; zero force after the command timeout.
-pub(super) async fn lockstep_loop<H: CapsuleHardware>(
-    core: &mut PlantCore<H>,
-    io: &Endpoints,
-    opts: &PlantOptions,
-    control: &mut LoopControl,
-    mut rec: Option<&mut InPlantRecording>,
-) -> Result<Exit> {
-    let start = Instant::now();
-    let steady = move || start.elapsed().as_secs_f64();
-    let commands = commands_of(io);
-    tokio::pin!(commands);
-    let woken = control.woken.clone();
-    let until_nanos = opts.until_s.map(|s| (s * 1e9).round() as i64);
-    let mut wait_started = steady();
-    let mut resend = tokio::time::interval(opts.retransmit);
-    resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut ever_commanded = false;
-    let mut refused_logged = Throttle::default();
-    let mut undecodable = Throttle::default();
-    let mut need_publish = true;
-    loop {
-        if need_publish {
-            let (state, clock) = outgoing(core, opts, rec.as_deref_mut())?;
-            if let Some(c) = clock.filter(|_| io.clock_wanted()) {
-                let _ = io.clock_pub.async_publish(c).await;
-            }
-            let copy = io.views.per_sample.is_some().then(|| state.clone());
-            io.send_state_async(state).await;
-            if let (Some(d), Some(r)) = (io.views_of(copy, &core.stats), rec.as_deref_mut()) {
-                r.diagnostics(&d)?;
-            }
-            core.published(steady());
-            need_publish = false;
-            wait_started = steady();
-            resend.reset();
-        }
-        if until_nanos.is_some_and(|u| core.stamp().to_nanos() >= u) {
-            info!("reached the end time {:.3} s", core.stamp().as_secs_f64());
-            return Ok(Exit::Over);
-        }
-        if let Some(exit) = control.poll(core) {
-            return Ok(exit);
-        }
-        // in-process, the answer to the sample just sent is here already
-        while let Some((cmd, _)) = io.next_answer() {
-            let mut answers = Answers {
-                ever_commanded: &mut ever_commanded,
-                refused_logged: &mut refused_logged,
-            };
-            answers.take(core, (&cmd, None), steady(), rec.as_deref_mut())?;
-        }
-        // only an active plant steps: sim time stands still while inactive (before the
-        // activation that follows configure, too), so the run does not depend on how long
-        // the lifecycle took
-        if core.answered() && core.active() {
-            core.step().context("the plant's hardware")?;
-            need_publish = true;
-            continue;
-        }
-        tokio::select! {
-            _ = woken.notified() => {}
-            Some(r) = control.requests.recv() => {
-                if let Some(exit) = super::loop_control::apply(core, r) {
-                    return Ok(exit);
+    /// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
+    /// every `retransmit`), step with it; zero force after the command timeout.
+    pub(super) async fn lockstep(mut self) -> Result<Exit> {
+        let start = Instant::now();
+        let steady = move || start.elapsed().as_secs_f64();
+        let commands = commands_of(self.io);
+        tokio::pin!(commands);
+        let woken = self.control.woken.clone();
+        let until_nanos = self.opts.until_s.map(|s| (s * 1e9).round() as i64);
+        let mut wait_started = steady();
+        let mut resend = tokio::time::interval(self.opts.retransmit);
+        resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut ever_commanded = false;
+        let mut refused_logged = Throttle::default();
+        let mut undecodable = Throttle::default();
+        let mut need_publish = true;
+        loop {
+            if need_publish {
+                let (state, clock) = outgoing(self.core, self.opts, self.rec.as_deref_mut())?;
+                if let Some(c) = clock.filter(|_| self.io.clock_wanted()) {
+                    let _ = self.io.clock_pub.async_publish(c).await;
                 }
-            }
-            msg = commands.select_next_some() => match msg {
-                Ok((cmd, info)) => {
-                    let mut answers = Answers { ever_commanded: &mut ever_commanded, refused_logged: &mut refused_logged };
-                    answers.take(core, (&cmd, Some(&info)), steady(), rec.as_deref_mut())?;
+                let copy = self.io.views.per_sample.is_some().then(|| state.clone());
+                self.io.send_state_async(state).await;
+                if let (Some(d), Some(r)) = (
+                    self.io.views_of(copy, &self.core.stats),
+                    self.rec.as_deref_mut(),
+                ) {
+                    r.diagnostics(&d)?;
                 }
-                Err(e) => log_undecodable(&mut undecodable, &e),
-            },
-            _ = resend.tick() => {
-                let waited = steady() - wait_started;
-                let limit = if ever_commanded { core.command_timeout } else { opts.startup_timeout.as_secs_f64() };
-                if waited > limit && core.active() {
-                    if core.force_stale() || !ever_commanded {
-                        warn!("no command for seq {} within {:.3} s: applying zero force", core.seq(), limit);
+                self.core.published(steady());
+                need_publish = false;
+                wait_started = steady();
+                resend.reset();
+            }
+            if until_nanos.is_some_and(|u| self.core.stamp().to_nanos() >= u) {
+                info!(
+                    "reached the end time {:.3} s",
+                    self.core.stamp().as_secs_f64()
+                );
+                return Ok(Exit::Over);
+            }
+            if let Some(exit) = self.control.poll(self.core) {
+                return Ok(exit);
+            }
+            // in-process, the answer to the sample just sent is here already
+            while let Some((cmd, _)) = self.io.next_answer() {
+                let mut answers = Answers {
+                    ever_commanded: &mut ever_commanded,
+                    refused_logged: &mut refused_logged,
+                };
+                answers.take(self.core, (&cmd, None), steady(), self.rec.as_deref_mut())?;
+            }
+            // only an active plant steps: sim time stands still while inactive (before the
+            // activation that follows configure, too), so the run does not depend on how long
+            // the lifecycle took
+            if self.core.answered() && self.core.active() {
+                self.core.step().context("the plant's hardware")?;
+                need_publish = true;
+                continue;
+            }
+            tokio::select! {
+                _ = woken.notified() => {}
+                Some(r) = self.control.requests.recv() => {
+                    if let Some(exit) = super::loop_control::apply(self.core, r) {
+                        return Ok(exit);
                     }
-                    ever_commanded = true;
-                    core.step().context("the plant's hardware")?;
-                    need_publish = true;
-                } else {
-                    let state = core.state();
-                    if let Some(r) = rec.as_deref_mut() {
-                        r.published(&state, None)?;
-                        r.poll()?;
+                }
+                msg = commands.select_next_some() => match msg {
+                    Ok((cmd, info)) => {
+                        let mut answers = Answers { ever_commanded: &mut ever_commanded, refused_logged: &mut refused_logged };
+                        answers.take(self.core, (&cmd, Some(&info)), steady(), self.rec.as_deref_mut())?;
                     }
-                    io.send_state_async(state).await;
+                    Err(e) => log_undecodable(&mut undecodable, &e),
+                },
+                _ = resend.tick() => {
+                    let waited = steady() - wait_started;
+                    let limit = if ever_commanded { self.core.command_timeout } else { self.opts.startup_timeout.as_secs_f64() };
+                    if waited > limit && self.core.active() {
+                        if self.core.force_stale() || !ever_commanded {
+                            warn!("no command for seq {} within {:.3} s: applying zero force", self.core.seq(), limit);
+                        }
+                        ever_commanded = true;
+                        self.core.step().context("the plant's hardware")?;
+                        need_publish = true;
+                    } else {
+                        let state = self.core.state();
+                        if let Some(r) = self.rec.as_deref_mut() {
+                            r.published(&state, None)?;
+                            r.poll()?;
+                        }
+                        self.io.send_state_async(state).await;
+                    }
                 }
             }
         }

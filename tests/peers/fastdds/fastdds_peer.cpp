@@ -204,26 +204,27 @@ static std::vector<T> take_all(DataReader* r) {
   return out;
 }
 
-static void wait_matched(DataWriter* w, double timeout_s, const std::string& what) {
+/// Waits until endpoint E has matched an endpoint on the other side (`side`), by its matched
+/// status; fails naming the other side and WHAT after `timeout_s`.
+template <class Endpoint, class Status>
+static void wait_for_match(const Endpoint* e, ReturnCode_t (Endpoint::*matched)(Status&) const,
+                           const char* side, double timeout_s, const std::string& what) {
   auto end = after(timeout_s);
-  PublicationMatchedStatus st;
+  Status st;
   while (Clock::now() < end) {
-    w->get_publication_matched_status(st);
+    (e->*matched)(st);
     if (st.current_count > 0) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  fail("no subscriber matched " + what + " within " + num(timeout_s) + " s");
+  fail(std::string("no ") + side + " matched " + what + " within " + num(timeout_s) + " s");
+}
+
+static void wait_matched(DataWriter* w, double timeout_s, const std::string& what) {
+  wait_for_match(w, &DataWriter::get_publication_matched_status, "subscriber", timeout_s, what);
 }
 
 static void wait_matched(DataReader* r, double timeout_s, const std::string& what) {
-  auto end = after(timeout_s);
-  SubscriptionMatchedStatus st;
-  while (Clock::now() < end) {
-    r->get_subscription_matched_status(st);
-    if (st.current_count > 0) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  fail("no publisher matched " + what + " within " + num(timeout_s) + " s");
+  wait_for_match(r, &DataReader::get_subscription_matched_status, "publisher", timeout_s, what);
 }
 
 /// A service client in rmw_fastrtps's mapping.
@@ -248,15 +249,15 @@ class Client {
       if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
       auto sent = wp.sample_identity();
       auto resend = std::min(end, after(0.5));
+      Rep answer;
+      auto answers_sent = [&](const Rep& rep, const auto& rel) {
+        bool ours = rel.writer_guid() == r_->guid() || rel.writer_guid() == w_->guid();
+        bool answers = ours && rel.sequence_number() == sent.sequence_number();
+        if (answers) answer = rep;
+        return answers;
+      };
       while (Clock::now() < resend) {
-        Rep rep;
-        SampleInfo info;
-        while (r_->take_next_sample(&rep, &info) == ReturnCode_t::RETCODE_OK) {
-          if (!info.valid_data) continue;
-          const auto& rel = info.related_sample_identity;
-          bool ours = rel.writer_guid() == r_->guid() || rel.writer_guid() == w_->guid();
-          if (ours && rel.sequence_number() == sent.sequence_number()) return rep;
-        }
+        if (take_replies(answers_sent)) return answer;
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }
     }
@@ -270,22 +271,33 @@ class Client {
     if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
     auto sent = wp.sample_identity();
     auto end = after(wait_s);
+    std::string addressed;
+    auto first = [&](const Rep&, const auto& rel) {
+      bool to_request = rel.writer_guid() == w_->guid() &&
+                        rel.sequence_number() == sent.sequence_number();
+      addressed = to_request ? "request" : "other";
+      return true;
+    };
     while (Clock::now() < end) {
-      Rep rep;
-      SampleInfo info;
-      while (r_->take_next_sample(&rep, &info) == ReturnCode_t::RETCODE_OK) {
-        if (!info.valid_data) continue;
-        const auto& rel = info.related_sample_identity;
-        bool to_request = rel.writer_guid() == w_->guid() &&
-                          rel.sequence_number() == sent.sequence_number();
-        return to_request ? "request" : "other";
-      }
+      if (take_replies(first)) return addressed;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return "none";
   }
 
  private:
+  /// Takes the replies waiting (valid data only) until TAKEN(reply, the sample identity it is
+  /// related to) says it was the one; true if one was, the rest left in the reader.
+  template <class F>
+  bool take_replies(F&& taken) {
+    Rep rep;
+    SampleInfo info;
+    while (r_->take_next_sample(&rep, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data && taken(rep, info.related_sample_identity)) return true;
+    }
+    return false;
+  }
+
   std::string service_;
   double timeout_;
   DataWriter* w_;
