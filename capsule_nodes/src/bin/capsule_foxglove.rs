@@ -67,17 +67,11 @@ fn main() -> std::process::ExitCode {
         Err(e) => return ros::exit_code(nodes::FOXGLOVE, Err(e)),
     };
     let would = |opts: &BridgeOptions| format!(", would serve ws://127.0.0.1:{}", opts.port);
-    ros::node_main(
+    ros::async_node_main(
         nodes::FOXGLOVE,
         cli.check,
         build(&cli, &overrides),
         would,
-        |settings, opts| {
-            let cpus = settings.cpu_affinity.clone();
-            Ok(ros::block_on(
-                cpus.as_ref(),
-                foxglove_bridge::run(settings, opts),
-            )?)
-        },
+        foxglove_bridge::run,
     )
 }
