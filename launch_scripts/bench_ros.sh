@@ -17,6 +17,8 @@
 #   *-cpu1 the same with both nodes pinned to one CPU (--cpu-affinity), the last one allowed
 #   c-*    the same cases with plant and controller composed in one process (capsule_container,
 #          in-process state and force; pinned with taskset -c for -cpu1); CPU is the process's
+#   c-rt10k-fox[-cpu1]  c-rt10k with the container's Foxglove bridge (--foxglove-port 0) serving
+#          a Foxglove client (tests/peers/foxglove_ws_client.py) all four channels for the run
 # BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
 # BENCH_RT="chrt -f 50" runs every node with that prefix (real-time scheduling: a host busy with
 # other work then delays the loop by microseconds, not milliseconds; docs/perf/composition.md).
@@ -64,18 +66,27 @@ B=$CAPSULE_BIN
 cpu() { awk "{print \$14 + \$15}" /proc/$1/stat 2>/dev/null || echo -1; }
 steal() { awk "/^cpu / {print \$9}" /proc/stat; }
 rm -f /tmp/bench_rec.mcap
-${BENCH_RT:-} $PIN $B/capsule_container --scene "$SCENE" --mode forward $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null &
+${BENCH_RT:-} $PIN $B/capsule_container --scene "$SCENE" --mode forward $PLANT_ARGS --summary-json /tmp/bench_$$.json 2>/dev/null >/tmp/bench_out_$$ &
 P=$!
+if [ -n "$FOX_CLIENT" ]; then
+  for i in $(seq 100); do grep -q serving /tmp/bench_out_$$ && break; sleep 0.05; done
+  URL=$(sed -n "s/^capsule_foxglove: serving //p" /tmp/bench_out_$$)
+  python3 "$FOX_CLIENT" "$URL" --topics /capsule/state /capsule_controller/status /capsule/frame /capsule/actuator_force \
+    --seconds $(awk "BEGIN{print $SECS - 3}") --min 1 --timeout $(( ${SECS%.*} + 30 )) >/tmp/bench_fox_$$ &
+  F=$!
+fi
 sleep 2
 t0=$(date +%s.%N); p0=$(cpu $P); s0=$(steal)
 sleep $(awk "BEGIN{print $SECS - 2.5}")
 p1=$(cpu $P); t1=$(date +%s.%N); s1=$(steal)
 wait $P
+# the client: messages received per channel (state, status, frame, force), or why not
+[ -n "$FOX_CLIENT" ] && { wait $F; echo "FOXGLOVE client (rc $?) received: $(grep -o "\"count\": [0-9]*" /tmp/bench_fox_$$ | tr "\n" " ")"; }
 hz=$(getconf CLK_TCK)
 echo "SUMMARY $(cat /tmp/bench_$$.json)"
 awk "/^Udp:/ { if (!h) { for (i = 1; i <= NF; i++) f[\$i] = i; h = 1 } else print \"UDP dropped \" \$f[\"RcvbufErrors\"] + \$f[\"InErrors\"] }" /proc/net/snmp
 [ "$p1" -lt 0 ] || awk -v p0=$p0 -v p1=$p1 -v s0=$s0 -v s1=$s1 -v t0=$t0 -v t1=$t1 -v hz=$hz -v n=$(nproc) "BEGIN{printf \"CPU container %.1f%% of one core (host steal %.1f%% of the CPUs)\\n\", 100*(p1-p0)/hz/(t1-t0), 100*(s1-s0)/hz/(t1-t0)/n}"
-rm -f /tmp/bench_$$.json /tmp/bench_rec.mcap
+rm -f /tmp/bench_$$.json /tmp/bench_rec.mcap /tmp/bench_out_$$ /tmp/bench_fox_$$
 '
 report() { # name, output
   local name="$1" out="$2" json
@@ -107,16 +118,18 @@ run_case() { # name seconds plant-args [node-args]
   report "$1" "$out"
 }
 run_composed() { # name seconds container-args [pin]
-  local out
+  local out client=
   case " ${BENCH_CASES:-$1} " in *" $1 "*) ;; *) return 0 ;; esac
-  out=$(SECS="$2" PLANT_ARGS="$3" PIN="${4:-}" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$composed_script")
+  case "$1" in *-fox*) client="$root/tests/peers/foxglove_ws_client.py" ;; esac
+  out=$(SECS="$2" PLANT_ARGS="$3" PIN="${4:-}" FOX_CLIENT="$client" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$composed_script")
   report "$1" "$out"
+  echo "$out" | grep "^FOXGLOVE" | sed "s/^/$1: /"
 }
 cpu=$(awk '/Cpus_allowed_list/ {print $2}' /proc/self/status | tr ',' '\n' | tail -1 | sed 's/.*-//')
 
 for c in ${BENCH_CASES:-}; do
   case "$c" in rt1k|rt1k-cpu1|rt10k|rt10k-cpu1|lock|lock-cpu1|lock-rec|lock-rec-cpu1) ;;
-    c-rt1k|c-rt1k-cpu1|c-rt10k|c-rt10k-cpu1|c-lock|c-lock-cpu1|c-lock-rec|c-lock-rec-cpu1) ;;
+    c-rt1k|c-rt1k-cpu1|c-rt10k|c-rt10k-cpu1|c-rt10k-fox|c-rt10k-fox-cpu1|c-lock|c-lock-cpu1|c-lock-rec|c-lock-rec-cpu1) ;;
     *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt10k lock lock-rec, each also -cpu1 and c-)" >&2; exit 2 ;;
   esac
 done
@@ -140,6 +153,9 @@ run_composed c-rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_composed c-rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "taskset -c $cpu"
 run_composed c-rt10k ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}"
 run_composed c-rt10k-cpu1 ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5}" "taskset -c $cpu"
+fox="--foxglove-port 0"
+run_composed c-rt10k-fox ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5} $fox"
+run_composed c-rt10k-fox-cpu1 ${RT10K_S:-5} "--pacing realtime --plant-arg --rate-hz --plant-arg 10000 --until-s ${RT10K_S:-5} $fox" "taskset -c $cpu"
 run_composed c-lock 8 "--pacing lockstep --until-s 300"
 run_composed c-lock-cpu1 8 "--pacing lockstep --until-s 300" "taskset -c $cpu"
 run_composed c-lock-rec 8 "--pacing lockstep --until-s 300 $rec"

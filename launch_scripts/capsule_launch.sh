@@ -18,9 +18,10 @@
 # docs/recording.md). --secure runs the nodes separate (each its own enclave).
 # --cpu-affinity LIST (e.g. 0): every node's threads on these CPUs; plant and controller on one
 # CPU wake each other without inter-processor interrupts (less CPU, lower latency: docs/ros.md).
-# --foxglove-port PORT: also serve the graph live to Foxglove (capsule_foxglove, 127.0.0.1 only;
-# 0 picks a free port and prints it; docs/foxglove/README.md). Like the recorder, a failed live
-# view does not stop control.
+# --foxglove-port PORT: also serve the graph live to Foxglove (capsule_foxglove's bridge, 127.0.0.1
+# only; 0 picks a free port and prints it; docs/foxglove/README.md): composed, inside the container
+# (a port it cannot serve on stops the launch before the loop starts); with --separate, a process
+# of its own whose failure, like the recorder's, does not stop control.
 # --secure KEYSTORE: run secured with SROS2 enclaves (ROS_SECURITY_KEYSTORE=KEYSTORE,
 # ROS_SECURITY_ENABLE=true, ROS_SECURITY_STRATEGY=Enforce unless set; a keystore from
 # launch_scripts/capsule_keystore.sh create KEYSTORE). Also when those variables are set already.
@@ -40,7 +41,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; }
 record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true separate=0
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
@@ -109,6 +110,8 @@ if [ "$separate" = 0 ]; then
   [ -n "$until_s" ] && co+=(--until-s "$until_s")
   [ -n "$mode" ] && co+=(--mode "$mode")
   [ -n "$cpus" ] && co+=(--cpu-affinity "$cpus")
+  # the live view: the bridge inside the container, not a process of its own
+  [ -n "$fox_port" ] && co+=(--foxglove-port "$fox_port")
   for a in --autostart "$autostart" ${plant_args[@]+"${plant_args[@]}"}; do co+=(--plant-arg "$a"); done
   for a in ${ctl_args[@]+"${ctl_args[@]}"}; do co+=(--controller-arg "$a"); done
   # lock-step: the extras' DDS readers matched before the first sample (the controller is in-process)
@@ -148,7 +151,7 @@ else
   [ "$pacing" = lockstep ] && pl+=(--wait-subscribers "$(( 1 + ${#withs[@]} ))")
 fi
 [ "$separate" = 1 ] && { "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"} --check || exit 2; }
-if [ -n "$fox_port" ]; then
+if [ -n "$fox_port" ] && [ "$separate" = 1 ]; then
   [ -x "$bin/capsule_foxglove" ] || { echo "capsule_launch: $bin/capsule_foxglove not built (cargo build --workspace)" >&2; exit 2; }
   fox=("$bin/capsule_foxglove" --port "$fox_port" ${fox_args[@]+"${fox_args[@]}"})
   [ -n "$cpus" ] && fox+=(--cpu-affinity "$cpus")
@@ -176,7 +179,7 @@ start() { # name cmd...
 
 [ "$separate" = 1 ] && start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
 [ "$separate" = 1 ] && [ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
-[ -n "$fox_port" ] && start foxglove "${fox[@]}"
+[ -n "$fox_port" ] && [ "$separate" = 1 ] && start foxglove "${fox[@]}"
 for w in ${withs[@]+"${withs[@]}"}; do start "extra: $w" ${extra_enclave[@]+"${extra_enclave[@]}"} bash -c "$w"; done
 if [ "$separate" = 1 ]; then
   start plant "$bin/capsule_plant" "${pl[@]}" ${plant_args[@]+"${plant_args[@]}"}

@@ -2,9 +2,12 @@
 //! WebSocket on loopback (the `foxglove` SDK crate; Foxglove's v1 WebSocket protocol under the
 //! SDK's subprotocol name `foxglove.sdk.v1`).
 //!
-//! The bridge is its own node (`capsule_foxglove`): it subscribes to the plant's state and the
-//! controller's status over DDS like any other reader, so the plant's 1 kHz loop does not know
-//! it exists. It serves three JSON channels, each with a JSON schema:
+//! The bridge is its own node (`capsule_foxglove`), in a process of its own ([`run`], the
+//! `capsule_foxglove` binary: it reads the plant's state and commands over DDS like any other
+//! reader, so the plant's loop does not know it exists) or on a thread of its own in
+//! `capsule_container` ([`BridgeThread`]: state and commands from the in-process link,
+//! [`Source::InProcess`]); the controller's status it reads over DDS in a participant of its
+//! own. It serves four JSON channels, each with a JSON schema:
 //!
 //! - the state topic (`/capsule/state`): `t`, `x1`, `x2`, `y1`, `y2`, `x1_minus_x2`,
 //!   `y1_minus_y2`, `force`, ... in SI (what the paper's plots show, in metres and seconds);
@@ -18,7 +21,9 @@
 //! encoded while no client subscribes. The server binds 127.0.0.1 only ([`check_host`]).
 
 use capsule_msgs::names::topics;
-use std::{net::Ipv4Addr, sync::Arc};
+use std::sync::mpsc::{sync_channel, Receiver};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::{future::Future, io::Write as _, net::Ipv4Addr, time::Duration};
 
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
@@ -27,8 +32,10 @@ use futures::StreamExt;
 use serde_json::json;
 use tracing::{info, warn};
 
+use crate::intra_process::Link;
 use crate::views::BODY_FRAME;
 use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
+use ros2_client::Subscription;
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
 pub const FRAME_TOPIC: &str = "/capsule/frame";
@@ -45,6 +52,11 @@ pub struct BridgeOptions {
     pub controller_node: String,
     /// Most state, frame and command messages per second (by their stamps); 0: every one.
     pub max_rate_hz: f64,
+}
+
+impl BridgeOptions {
+    /// The default of [`BridgeOptions::max_rate_hz`]: enough for a plot, little to encode.
+    pub const DEFAULT_MAX_RATE_HZ: f64 = 200.0;
 }
 
 /// Refuses any bind address but loopback: the live view is for this machine (forward the
@@ -249,95 +261,370 @@ fn log(ch: &RawChannel, value: serde_json::Value) {
     }
 }
 
-/// Runs the bridge until SIGINT/SIGTERM; `ready` gets the bound port once the server listens.
-pub async fn run(settings: RosOptions, opts: BridgeOptions, ready: impl FnOnce(u16)) -> Result<()> {
-    let context = settings.context()?;
-    let (mut node, _graph) = settings.loop_node(&context)?;
-    let controller = RosOptions {
-        node_name: opts.controller_node.clone(),
-        ..settings.clone()
-    };
-    let state_name = settings.resolve_name(topics::STATE);
-    let status_name = controller.resolve_name(topics::STATUS);
-    let state_topic = settings.topic(&node, topics::STATE, types::state(), &qos::data())?;
-    let status_topic = node
-        .create_topic(
-            &controller.ros_name(topics::STATUS)?,
-            types::status(),
-            &qos::data(),
-        )
-        .with_context(|| format!("topic {status_name}"))?;
-    let force_name = settings.resolve_name(topics::FORCE);
-    let force_topic = settings.topic(&node, topics::FORCE, types::force(), &qos::data())?;
-    let force_sub = subscribe::<ActuatorForce>(&mut node, &force_topic, &qos::data_reader())?;
-    let state_sub = subscribe::<CapsuleState>(&mut node, &state_topic, &qos::data_reader())?;
-    let status_sub = subscribe::<ControllerStatus>(&mut node, &status_topic, &qos::data_reader())?;
+/// Where the bridge takes the plant's state and the controller's commands from (the status is
+/// always read over DDS).
+#[derive(Clone)]
+pub enum Source {
+    /// DDS readers of the state and force topics, like any other node's.
+    Dds,
+    /// The in-process link of a plant and a controller composed in this process: the samples
+    /// and answers the link hands over, thinned to `--max-rate-hz` on the loop's thread (a stamp
+    /// compared; what passes queued without waiting) and taken every [`FEED_PERIOD`].
+    InProcess(Link),
+}
 
-    let state_ch = channel(&state_name, STATE_SCHEMA)?;
-    let status_ch = channel(&status_name, STATUS_SCHEMA)?;
-    let frame_ch = channel(FRAME_TOPIC, FRAME_SCHEMA)?;
-    let force_ch = channel(&force_name, FORCE_SCHEMA)?;
-    let server = foxglove::WebSocketServer::new()
-        .name(capsule_msgs::names::nodes::FOXGLOVE)
-        .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
-        .start()
-        .await
-        .with_context(|| format!("cannot serve on 127.0.0.1:{}", opts.port))?;
-    let port = server.port();
-    info!(
-        "{}: ws://127.0.0.1:{port} ({SUBPROTOCOL}) serves {state_name}, {status_name}, {force_name}, {FRAME_TOPIC}",
-        settings.describe()
-    );
-    ready(port);
+/// How often the bridge takes what the in-process link queued for it (polled: the loop's thread
+/// never wakes the bridge's).
+pub const FEED_PERIOD: Duration = Duration::from_millis(5);
+/// Samples the in-process queue holds; what does not fit is not shown (a live view).
+const FEED_CAPACITY: usize = 1024;
 
-    let states = state_sub.async_stream();
-    let statuses = status_sub.async_stream();
-    tokio::pin!(states);
-    let forces = force_sub.async_stream();
-    tokio::pin!(statuses);
-    tokio::pin!(forces);
-    let mut thin = StampThinner::new(opts.max_rate_hz);
-    let mut thin_force = StampThinner::new(opts.max_rate_hz);
-    let shutdown = capsule_ros_base::ros::shutdown();
-    tokio::pin!(shutdown);
-    loop {
-        tokio::select! {
-            stopped = &mut shutdown => break stopped?,
-            msg = states.select_next_some() => match msg {
-                Ok((s, _)) => {
-                    let wanted = state_ch.has_sinks() || frame_ch.has_sinks();
-                    if wanted && thin.pass(s.header.stamp) {
-                        if state_ch.has_sinks() {
-                            log(&state_ch, state_json(&s));
-                        }
-                        if frame_ch.has_sinks() {
-                            log(&frame_ch, frame_json(&s));
-                        }
+/// A state sample and the command answering it, from the in-process link.
+type Fed = (CapsuleState, Option<ActuatorForce>);
+
+/// State and force: DDS readers (boxed: the larger variant), or the in-process link's queue.
+enum Feed {
+    Dds {
+        state_sub: Box<Subscription<CapsuleState>>,
+        force_sub: Box<Subscription<ActuatorForce>>,
+    },
+    InProcess(Receiver<Fed>),
+}
+
+impl Feed {
+    /// The feed of `source`: its readers on `node`, or a watcher on the link (which queues
+    /// nothing while no client subscribes to a channel of `outputs`).
+    fn create(
+        source: Source,
+        node: &mut ros2_client::Node,
+        settings: &RosOptions,
+        outputs: &Outputs,
+        max_rate_hz: f64,
+    ) -> Result<Feed> {
+        match source {
+            Source::Dds => {
+                let state_topic =
+                    settings.topic(node, topics::STATE, types::state(), &qos::data())?;
+                let force_topic =
+                    settings.topic(node, topics::FORCE, types::force(), &qos::data())?;
+                Ok(Feed::Dds {
+                    force_sub: Box::new(subscribe(node, &force_topic, &qos::data_reader())?),
+                    state_sub: Box::new(subscribe(node, &state_topic, &qos::data_reader())?),
+                })
+            }
+            Source::InProcess(link) => {
+                let (tx, rx) = sync_channel(FEED_CAPACITY);
+                let thin = Mutex::new(StampThinner::new(max_rate_hz));
+                let channels = [&outputs.state, &outputs.frame, &outputs.force].map(Arc::clone);
+                link.watch(Box::new(move |state, answer| {
+                    let pass = thin
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .pass(state.header.stamp);
+                    if pass && channels.iter().any(|c| c.has_sinks()) {
+                        let _ = tx.try_send((state.clone(), answer.cloned()));
                     }
-                }
-                Err(e) => warn!("bad state sample: {e:?}"),
-            },
-            msg = forces.select_next_some() => match msg {
-                Ok((c, _)) => {
-                    if force_ch.has_sinks() && thin_force.pass(c.header.stamp) {
-                        log(&force_ch, force_json(&c));
-                    }
-                }
-                Err(e) => warn!("bad force command: {e:?}"),
-            },
-            msg = statuses.select_next_some() => match msg {
-                Ok((s, _)) => {
-                    if status_ch.has_sinks() {
-                        log(&status_ch, status_json(&s));
-                    }
-                }
-                Err(e) => warn!("bad status: {e:?}"),
-            },
+                }))?;
+                Ok(Feed::InProcess(rx))
+            }
         }
     }
-    // close the clients' connections before leaving
-    server.stop().wait().await;
-    Ok(())
+}
+
+/// The four channels and their thinning: what the bridge does with each message.
+struct Outputs {
+    state: Arc<RawChannel>,
+    status: Arc<RawChannel>,
+    frame: Arc<RawChannel>,
+    force: Arc<RawChannel>,
+    thin: StampThinner,
+    thin_force: StampThinner,
+}
+
+impl Outputs {
+    fn state(&mut self, s: &CapsuleState) {
+        let wanted = self.state.has_sinks() || self.frame.has_sinks();
+        if wanted && self.thin.pass(s.header.stamp) {
+            if self.state.has_sinks() {
+                log(&self.state, state_json(s));
+            }
+            if self.frame.has_sinks() {
+                log(&self.frame, frame_json(s));
+            }
+        }
+    }
+
+    fn force(&mut self, c: &ActuatorForce) {
+        if self.force.has_sinks() && self.thin_force.pass(c.header.stamp) {
+            log(&self.force, force_json(c));
+        }
+    }
+
+    fn status(&mut self, s: &ControllerStatus) {
+        if self.status.has_sinks() {
+            log(&self.status, status_json(s));
+        }
+    }
+}
+
+/// The bridge started: its feed and status reader (on a DDS participant of its own), its
+/// channels, and its server listening.
+pub struct Bridge {
+    // the participant and node outlive the readers (dropped after them: fields drop in order)
+    feed: Feed,
+    status_sub: Subscription<ControllerStatus>,
+    outputs: Outputs,
+    server: foxglove::WebSocketServerHandle,
+    _node: ros2_client::Node,
+    _context: ros2_client::Context,
+}
+
+impl Bridge {
+    /// Starts the bridge as the node `settings` names, in a DDS participant of its own: the
+    /// feed from `source`, the status reader, the channels, then the server on 127.0.0.1 (a
+    /// port taken is an error naming it).
+    pub async fn start(
+        settings: &RosOptions,
+        opts: &BridgeOptions,
+        source: Source,
+    ) -> Result<Bridge> {
+        let context = settings.context()?;
+        let (mut node, _graph) = settings.loop_node(&context)?;
+        let controller = RosOptions {
+            node_name: opts.controller_node.clone(),
+            ..settings.clone()
+        };
+        let state_name = settings.resolve_name(topics::STATE);
+        let status_name = controller.resolve_name(topics::STATUS);
+        let force_name = settings.resolve_name(topics::FORCE);
+        let status_topic = node
+            .create_topic(
+                &controller.ros_name(topics::STATUS)?,
+                types::status(),
+                &qos::data(),
+            )
+            .with_context(|| format!("topic {status_name}"))?;
+        let outputs = Outputs {
+            state: channel(&state_name, STATE_SCHEMA)?,
+            status: channel(&status_name, STATUS_SCHEMA)?,
+            frame: channel(FRAME_TOPIC, FRAME_SCHEMA)?,
+            force: channel(&force_name, FORCE_SCHEMA)?,
+            thin: StampThinner::new(opts.max_rate_hz),
+            thin_force: StampThinner::new(opts.max_rate_hz),
+        };
+        let feed = Feed::create(source, &mut node, settings, &outputs, opts.max_rate_hz)?;
+        let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
+        let server = foxglove::WebSocketServer::new()
+            .name(capsule_msgs::names::nodes::FOXGLOVE)
+            .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
+            .start()
+            .await
+            .with_context(|| format!("cannot serve on 127.0.0.1:{}", opts.port))?;
+        let from = match feed {
+            Feed::Dds { .. } => "DDS",
+            Feed::InProcess(_) => "the in-process link",
+        };
+        info!(
+            "{}: ws://127.0.0.1:{} ({SUBPROTOCOL}) serves {state_name}, {force_name} (from {from}), {status_name}, {FRAME_TOPIC}",
+            settings.describe(),
+            server.port()
+        );
+        Ok(Bridge {
+            feed,
+            status_sub,
+            outputs,
+            server,
+            _node: node,
+            _context: context,
+        })
+    }
+
+    /// The port the server listens on.
+    pub fn port(&self) -> u16 {
+        self.server.port()
+    }
+
+    /// Serves until `stop` resolves (its error is the bridge's), then closes the clients'
+    /// connections.
+    pub async fn serve(self, stop: impl Future<Output = Result<()>>) -> Result<()> {
+        let Bridge {
+            feed,
+            status_sub,
+            mut outputs,
+            server,
+            ..
+        } = self;
+        let statuses = status_sub.async_stream();
+        tokio::pin!(statuses, stop);
+        let out = &mut outputs;
+        let stopped = match &feed {
+            Feed::Dds {
+                state_sub,
+                force_sub,
+            } => {
+                let states = state_sub.async_stream();
+                let forces = force_sub.async_stream();
+                tokio::pin!(states, forces);
+                loop {
+                    tokio::select! {
+                        stopped = &mut stop => break stopped,
+                        msg = states.select_next_some() => match msg {
+                            Ok((s, _)) => out.state(&s),
+                            Err(e) => warn!("bad state sample: {e:?}"),
+                        },
+                        msg = forces.select_next_some() => match msg {
+                            Ok((c, _)) => out.force(&c),
+                            Err(e) => warn!("bad force command: {e:?}"),
+                        },
+                        msg = statuses.select_next_some() => match msg {
+                            Ok((s, _)) => out.status(&s),
+                            Err(e) => warn!("bad status: {e:?}"),
+                        },
+                    }
+                }
+            }
+            Feed::InProcess(fed) => {
+                let mut tick = tokio::time::interval(FEED_PERIOD);
+                loop {
+                    tokio::select! {
+                        stopped = &mut stop => break stopped,
+                        _ = tick.tick() => {
+                            for (s, c) in fed.try_iter() {
+                                out.state(&s);
+                                if let Some(c) = c {
+                                    out.force(&c);
+                                }
+                            }
+                        },
+                        msg = statuses.select_next_some() => match msg {
+                            Ok((s, _)) => out.status(&s),
+                            Err(e) => warn!("bad status: {e:?}"),
+                        },
+                    }
+                }
+            }
+        };
+        // close the clients' connections before leaving
+        server.stop().wait().await;
+        stopped
+    }
+}
+
+/// Says where the bridge serves, on stdout (`capsule_foxglove: serving ws://127.0.0.1:PORT`:
+/// the line scripts wait for, with port 0 the only place the port is said).
+pub fn announce(port: u16) {
+    println!(
+        "{}: serving ws://127.0.0.1:{port}",
+        capsule_msgs::names::nodes::FOXGLOVE
+    );
+    let _ = std::io::stdout().flush();
+}
+
+/// Runs the bridge until SIGINT/SIGTERM (the `capsule_foxglove` binary).
+pub async fn run(settings: RosOptions, opts: BridgeOptions) -> Result<()> {
+    let bridge = Bridge::start(&settings, &opts, Source::Dds).await?;
+    announce(bridge.port());
+    bridge.serve(capsule_ros_base::ros::shutdown()).await
+}
+
+/// The bridge on a thread of its own with its own runtime, in a process that runs other nodes
+/// (`capsule_container`): what it does never waits on, or delays, theirs.
+pub struct BridgeThread {
+    port: u16,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<Result<()>>>,
+}
+
+impl BridgeThread {
+    /// Starts the bridge ([`Bridge::start`]) on its thread and waits until it serves; an error
+    /// (a port taken) leaves nothing running.
+    pub async fn spawn(
+        settings: RosOptions,
+        opts: BridgeOptions,
+        source: Source,
+    ) -> Result<BridgeThread> {
+        let (started_tx, started) = tokio::sync::oneshot::channel();
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let thread = std::thread::Builder::new()
+            .name(capsule_msgs::names::nodes::FOXGLOVE.into())
+            .spawn(move || -> Result<()> {
+                let rt = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                    .context("cannot start the bridge's runtime");
+                let rt = match rt {
+                    Ok(rt) => rt,
+                    Err(e) => {
+                        let _ = started_tx.send(Err(e));
+                        return Ok(());
+                    }
+                };
+                rt.block_on(async move {
+                    let bridge = match Bridge::start(&settings, &opts, source).await {
+                        Ok(b) => b,
+                        Err(e) => {
+                            let _ = started_tx.send(Err(e));
+                            return Ok(());
+                        }
+                    };
+                    let _ = started_tx.send(Ok(bridge.port()));
+                    // stopped, or the owner gone: either way the end
+                    bridge
+                        .serve(async move {
+                            let _ = stopped.await;
+                            Ok(())
+                        })
+                        .await
+                })
+            })
+            .context("cannot start the bridge's thread")?;
+        let started = started.await;
+        match started {
+            Ok(Ok(port)) => Ok(BridgeThread {
+                port,
+                stop: Some(stop),
+                thread: Some(thread),
+            }),
+            Ok(Err(e)) => {
+                let _ = thread.join();
+                Err(e)
+            }
+            Err(_) => {
+                let _ = thread.join();
+                bail!("the bridge's thread ended before it served (it panicked)")
+            }
+        }
+    }
+
+    /// The port the bridge serves on.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
+    /// Stops the bridge and waits for its thread; its error, or its panic, is the result.
+    pub fn stop(mut self) -> Result<()> {
+        self.end()
+    }
+
+    fn end(&mut self) -> Result<()> {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        match self.thread.take().map(std::thread::JoinHandle::join) {
+            None | Some(Ok(Ok(()))) => Ok(()),
+            Some(Ok(Err(e))) => Err(e),
+            Some(Err(_)) => bail!("the bridge panicked"),
+        }
+    }
+}
+
+impl Drop for BridgeThread {
+    /// Stops the bridge if [`BridgeThread::stop`] was not called (an error on the way out).
+    fn drop(&mut self) {
+        if let Err(e) = self.end() {
+            warn!("{}: {e}", capsule_msgs::names::nodes::FOXGLOVE);
+        }
+    }
 }
 
 #[cfg(test)]

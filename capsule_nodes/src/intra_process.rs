@@ -38,6 +38,10 @@ pub enum Transport {
 /// from the plant `Gid`, or `None` (not answered).
 pub type Answer = dyn Fn(&CapsuleState, Gid) -> Option<ActuatorForce> + Send + Sync;
 
+/// A watcher of the link (the composed Foxglove bridge): each state sample handed over and the
+/// controller's answer to it, on the loop's thread (so it must cost next to nothing).
+pub type Watch = dyn Fn(&CapsuleState, Option<&ActuatorForce>) + Send + Sync;
+
 /// The in-process link between a plant and a controller: the controller attaches its state
 /// handler, the plant calls it with each sample it publishes.
 #[derive(Clone, Default)]
@@ -45,6 +49,7 @@ pub struct Link {
     controller: Arc<OnceLock<Box<Answer>>>,
     /// Set when the controller's handler panicked: no answer from then on.
     broken: Arc<AtomicBool>,
+    watcher: Arc<OnceLock<Box<Watch>>>,
 }
 
 impl Link {
@@ -61,6 +66,14 @@ impl Link {
         Ok(())
     }
 
+    /// Attaches a watcher of every sample and answer (once; a second one is refused).
+    pub fn watch(&self, watcher: Box<Watch>) -> Result<()> {
+        if self.watcher.set(watcher).is_err() {
+            capsule_ros_base::error::bail!("a second watcher on one in-process link");
+        }
+        Ok(())
+    }
+
     /// Whether a controller is attached.
     pub fn is_attached(&self) -> bool {
         self.controller.get().is_some()
@@ -69,7 +82,16 @@ impl Link {
     /// The controller's answer to `state` from the plant `plant`; `None` while no controller
     /// is attached, when it does not answer, and after it panicked (named in the log once: the
     /// plant then applies zero force after its command timeout).
+    /// The watcher, if any, sees the sample and the answer.
     pub fn answer(&self, state: &CapsuleState, plant: Gid) -> Option<ActuatorForce> {
+        let answer = self.controller_answer(state, plant);
+        if let Some(watch) = self.watcher.get() {
+            watch(state, answer.as_ref());
+        }
+        answer
+    }
+
+    fn controller_answer(&self, state: &CapsuleState, plant: Gid) -> Option<ActuatorForce> {
         if self.broken.load(Ordering::Relaxed) {
             return None;
         }
@@ -260,6 +282,34 @@ mod tests {
             link.attach(Box::new(|_, _| None)).is_err(),
             "a second controller"
         );
+    }
+
+    #[test]
+    fn a_watcher_sees_every_sample_and_its_answer() {
+        let link = Link::new();
+        let gid = Gid::from([7; 16]);
+        let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let s = seen.clone();
+        link.watch(Box::new(
+            move |st: &CapsuleState, a: Option<&ActuatorForce>| {
+                if let Ok(mut v) = s.lock() {
+                    v.push((st.seq, a.map(|c| c.force)));
+                }
+            },
+        ))
+        .expect("first watcher");
+        assert!(link.answer(&state(1), gid).is_none(), "no controller yet");
+        link.attach(Box::new(|s: &CapsuleState, _| {
+            Some(ActuatorForce {
+                force: s.seq as f64,
+                ..ActuatorForce::default()
+            })
+        }))
+        .expect("attach");
+        assert!(link.answer(&state(2), gid).is_some());
+        assert!(link.watch(Box::new(|_, _| {})).is_err(), "a second watcher");
+        let seen = seen.lock().map(|v| v.clone()).unwrap_or_default();
+        assert_eq!(seen, [(1, None), (2, Some(2.0))]);
     }
 
     #[test]

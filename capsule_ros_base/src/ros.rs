@@ -635,6 +635,25 @@ pub fn node_main<O, E: Into<BoxError>>(
     exit_code(name, result)
 }
 
+/// [`node_main`] for a node that is one future: run on [`block_on`]'s runtime, pinned to the
+/// node's `--cpu-affinity`.
+pub fn async_node_main<O, E, F>(
+    name: &str,
+    check: bool,
+    built: Result<(RosOptions, O), E>,
+    would: impl FnOnce(&O) -> String,
+    run: impl FnOnce(RosOptions, O) -> F,
+) -> std::process::ExitCode
+where
+    E: Into<BoxError> + From<NodeError>,
+    F: std::future::Future<Output = Result<()>>,
+{
+    node_main(name, check, built, would, |settings, opts| {
+        let cpus = settings.cpu_affinity.clone();
+        Ok(block_on(cpus.as_ref(), run(settings, opts))?)
+    })
+}
+
 /// [`shutdown_signal`], logged (`SIGTERM: shutting down`): the end of a node's loop.
 pub async fn shutdown() -> Result<()> {
     let sig = shutdown_signal().await?;

@@ -250,6 +250,8 @@ capsule_recorder | --check --poll-ms 0 | from 1 to 60000
 capsule_foxglove | --check --max-rate-hz inf | finite
 capsule_foxglove | --check --port 70000 | 0..=65535
 capsule_foxglove | --check --host 0.0.0.0 | 127.0.0.1 only
+capsule_container | --scene scenes/control_point.toml --check --foxglove-port 70000 | 0..=65535
+capsule_container | --scene scenes/control_point.toml --check --foxglove-port -1 | --foxglove-port
 capsule_recorder | --check --queue-depth 0 | from 1 to 1000000
 capsule_recorder | --check --queue-depth 18446744073709551616 | from 1 to 1000000
 capsule_ros | period --scene scenes/control_point.toml --periods -5 | must be > 0
@@ -275,7 +277,7 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         assert_refused(&run(name, &args), 2, words, &format!("{name} {args:?}"));
         n += 1;
     }
-    assert_eq!(n, 76, "OUT_OF_RANGE lost cases");
+    assert_eq!(n, 78, "OUT_OF_RANGE lost cases");
 }
 
 #[test]

@@ -2,7 +2,8 @@
 //! component container runs nodes: each the same node as its own binary runs (its name,
 //! parameters, services, diagnostics, lifecycle), on one DDS participant, with state and force
 //! delivered in-process ([`capsule_nodes::intra_process`]) and their DDS copies published for
-//! the rest of the graph.
+//! the rest of the graph. With --foxglove-port, capsule_foxglove's bridge is a third node of the
+//! process, on a thread and a DDS participant of its own, fed state and force by the link.
 
 #[path = "cli/controller.rs"]
 mod controller_cli;
@@ -16,6 +17,7 @@ use anyhow::{bail, Context as _, Result};
 use capsule_msgs::names::nodes;
 use capsule_nodes::{
     controller::{self, ControllerOptions},
+    foxglove_bridge::{self, BridgeOptions, BridgeThread, Source},
     intra_process::{Link, Transport},
     plant::{self, PlantOptions},
 };
@@ -31,7 +33,9 @@ use clap::Parser;
 /// serialisation, no DDS round trip on the loop's critical path), while both still publish
 /// their topics on DDS for everyone else (recorder, Foxglove, RViz, rclcpp nodes) from a
 /// publisher thread, and serve their services and parameters as before. With --record-dir the
-/// plant records every sample in-process (the file capsule_recorder writes).
+/// plant records every sample in-process (the file capsule_recorder writes). With
+/// --foxglove-port it also serves the graph live to Foxglove (capsule_foxglove's bridge, a node
+/// of its own in this process).
 #[derive(Debug, Parser)]
 #[command(name = "capsule_container", version, allow_negative_numbers = true)]
 struct Cli {
@@ -57,6 +61,12 @@ struct Cli {
     /// Write the plant's JSON summary here at the end (capsule_plant --summary-json)
     #[arg(long, value_name = "FILE")]
     summary_json: Option<String>,
+    /// Also serve the graph live to Foxglove on ws://127.0.0.1:PORT (0: any free port, printed
+    /// as `capsule_foxglove: serving ws://127.0.0.1:PORT`): capsule_foxglove's bridge, the same
+    /// node, channels and schemas, run in this process on a thread of its own; loopback only. A
+    /// port it cannot serve on ends the container before the loop starts, 0 to 65535
+    #[arg(long, value_name = "PORT")]
+    foxglove_port: Option<u16>,
     /// Pin the process's threads (both nodes, DDS's) to these CPUs, e.g. 0 or 0-1
     #[arg(long, value_name = "LIST")]
     cpu_affinity: Option<CpuList>,
@@ -81,6 +91,32 @@ struct Composed {
     plant: (RosOptions, plant_cli::Plant, PlantOptions),
     plant_cli: plant_cli::Cli,
     controller: (RosOptions, ControllerOptions),
+    /// The Foxglove bridge's node, if asked for.
+    foxglove: Option<(RosOptions, BridgeOptions)>,
+}
+
+/// The Foxglove bridge's node: `capsule_foxglove` in the plant's namespace, domain and security
+/// with the plant's remaps, serving the composed controller's status, on `port`. State and force
+/// come from the in-process link (thinned on the loop's thread to the bridge's rate: at 10 kHz,
+/// fed over DDS, the loop's copies of every sample would be published for it alone); the status
+/// over DDS, in a participant of its own ([`foxglove_bridge::Bridge::start`] makes one): RustDDS
+/// delivers nothing to a reader on the writer's own participant, the plant's and controller's.
+fn bridge_node(
+    plant: &RosOptions,
+    controller: &RosOptions,
+    port: u16,
+) -> (RosOptions, BridgeOptions) {
+    let settings = RosOptions {
+        node_name: nodes::FOXGLOVE.to_string(),
+        cpu_affinity: None,
+        ..plant.clone()
+    };
+    let opts = BridgeOptions {
+        port,
+        controller_node: controller.node_name.clone(),
+        max_rate_hz: BridgeOptions::DEFAULT_MAX_RATE_HZ,
+    };
+    (settings, opts)
 }
 
 /// The command lines of the two nodes: the shared flags, then each one's own.
@@ -156,23 +192,58 @@ fn build(cli: &Cli) -> Result<Composed> {
             p.node_name
         );
     }
+    let foxglove = cli
+        .foxglove_port
+        .map(|port| bridge_node(&plant.0, &controller.0, port));
     Ok(Composed {
         plant,
         plant_cli: pcli,
         controller,
+        foxglove,
     })
 }
 
-/// Runs both nodes until the plant's end (`--until-s`, a lifecycle shutdown) or a signal; a node
-/// that fails is named and ends the process (the other does not run on).
-async fn run(composed: Composed) -> Result<()> {
+/// Runs the nodes: the Foxglove bridge first, if asked for (a port it cannot serve on ends the
+/// container before anything else starts), then plant and controller ([`run_loop`]); the bridge
+/// stops after them. A bridge that failed on the way is named and makes the exit non-zero, but
+/// did not stop control (as the launcher treats a separate live view).
+async fn run(mut composed: Composed) -> Result<()> {
+    let link = Link::new();
+    let bridge = match composed.foxglove.take() {
+        Some((settings, opts)) => {
+            let bridge = BridgeThread::spawn(settings, opts, Source::InProcess(link.clone()))
+                .await
+                .context(nodes::FOXGLOVE)?;
+            foxglove_bridge::announce(bridge.port());
+            Some(bridge)
+        }
+        None => None,
+    };
+    let result = run_loop(composed, link).await;
+    let bridged = bridge.map(BridgeThread::stop).transpose();
+    match (result, bridged) {
+        (Err(e), Err(b)) => {
+            tracing::error!("{}: {b:#}", nodes::FOXGLOVE);
+            Err(e)
+        }
+        (result, bridged) => {
+            bridged.context(nodes::FOXGLOVE)?;
+            result
+        }
+    }
+}
+
+/// Runs plant and controller until the plant's end (`--until-s`, a lifecycle shutdown) or a
+/// signal, their state and force over `link`; a node that fails is named and ends the process
+/// (the other does not run on).
+async fn run_loop(composed: Composed, link: Link) -> Result<()> {
     let Composed {
         plant: (psettings, core, popts),
         plant_cli,
         controller: (csettings, copts),
+        ..
     } = composed;
     let context = psettings.context().context("the container's participant")?;
-    let link = Link::new();
     let plant_done = Arc::new(tokio::sync::Notify::new());
     let done = plant_done.clone();
     let end = async move {
@@ -242,7 +313,7 @@ fn main() -> std::process::ExitCode {
         if cli.check {
             let (p, core, popts) = &composed.plant;
             println!(
-                "capsule_container: ok: plant {}, {}, {:?}, force limit {} N{}; controller {}, {} k_p = {}; in-process state and force",
+                "capsule_container: ok: plant {}, {}, {:?}, force limit {} N{}; controller {}, {} k_p = {}; in-process state and force{}",
                 p.describe(),
                 composed.plant_cli.source_label(),
                 popts.pacing,
@@ -254,7 +325,15 @@ fn main() -> std::process::ExitCode {
                     .unwrap_or_default(),
                 composed.controller.0.describe(),
                 composed.controller.1.core.mode(),
-                composed.controller.1.core.law().kp
+                composed.controller.1.core.law().kp,
+                composed
+                    .foxglove
+                    .as_ref()
+                    .map(|(s, o)| format!(
+                        "; {} would serve ws://127.0.0.1:{}",
+                        s.node_name, o.port
+                    ))
+                    .unwrap_or_default()
             );
             return Ok(());
         }

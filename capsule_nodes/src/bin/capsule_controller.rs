@@ -17,17 +17,11 @@ fn main() -> std::process::ExitCode {
     };
     let would =
         |opts: &ControllerOptions| format!(", {} k_p = {}", opts.core.mode(), opts.core.law().kp);
-    ros::node_main(
+    ros::async_node_main(
         "capsule_controller",
         cli.check,
         build(&cli, &overrides),
         would,
-        |settings, opts| {
-            let cpus = settings.cpu_affinity.clone();
-            Ok(ros::block_on(
-                cpus.as_ref(),
-                controller::run(settings, opts),
-            )?)
-        },
+        controller::run,
     )
 }

@@ -1,7 +1,5 @@
 //! `capsule_foxglove`: the capsule graph live in Foxglove, without ROS installed.
 
-use std::io::Write as _;
-
 use anyhow::{bail, Result};
 use capsule_args::ranges;
 use capsule_msgs::names::nodes;
@@ -31,7 +29,7 @@ struct Cli {
     controller_node: String,
     /// Most state, frame and command messages per second, each by its stamps (0: all),
     /// [0, 1e6]
-    #[arg(long, default_value_t = 200.0, value_parser = ranges::non_negative(1e6))]
+    #[arg(long, default_value_t = BridgeOptions::DEFAULT_MAX_RATE_HZ, value_parser = ranges::non_negative(1e6))]
     max_rate_hz: f64,
     /// Check the flags, print what would be served, and exit (no DDS, no server)
     #[arg(long)]
@@ -69,19 +67,11 @@ fn main() -> std::process::ExitCode {
         Err(e) => return ros::exit_code(nodes::FOXGLOVE, Err(e)),
     };
     let would = |opts: &BridgeOptions| format!(", would serve ws://127.0.0.1:{}", opts.port);
-    ros::node_main(
+    ros::async_node_main(
         nodes::FOXGLOVE,
         cli.check,
         build(&cli, &overrides),
         would,
-        |settings, opts| {
-            let serving = |port| {
-                println!("capsule_foxglove: serving ws://127.0.0.1:{port}");
-                let _ = std::io::stdout().flush();
-            };
-            let cpus = settings.cpu_affinity.clone();
-            let run = foxglove_bridge::run(settings, opts, serving);
-            Ok(ros::block_on(cpus.as_ref(), run)?)
-        },
+        foxglove_bridge::run,
     )
 }

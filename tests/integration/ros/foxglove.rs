@@ -1,10 +1,13 @@
 //! The live view without ROS (`capsule_foxglove`): a WebSocket client that is not ours
 //! (PyPI `websockets`, tests/peers/foxglove_ws_client.py) speaks Foxglove's v1 WebSocket
 //! protocol (subprotocol foxglove.sdk.v1) to the bridge serving a running plant and controller,
-//! subscribes, and decodes the samples; a bind address other than loopback is refused before
-//! anything starts; the layout in docs/foxglove plots only fields the bridge serves.
+//! subscribes, and decodes the samples, from the bridge inside the composed process
+//! (`capsule_container --foxglove-port`, the launcher's default) and from `capsule_foxglove` as a
+//! process of its own (`--separate`); a bind address other than loopback is refused before
+//! anything starts, and a port taken ends the container, naming the bridge, before the loop
+//! starts; the layout in docs/foxglove plots only fields the bridge serves.
 
-use super::harness::{json_number, json_raw, netns, root};
+use super::harness::{json_number, json_raw, netns, root, Run};
 
 const STATE: &str = "/capsule/state";
 const STATUS: &str = "/capsule_controller/status";
@@ -26,16 +29,16 @@ fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
     &rest[..end]
 }
 
-/// Through the launcher (`--foxglove-port 0`), as a user starts it.
-#[test]
-fn a_foxglove_websocket_client_decodes_the_live_graph() {
+/// Through the launcher (`--foxglove-port 0` and `flags`), as a user starts it: a Foxglove client
+/// decodes every channel; the launcher's processes (`KIDS ...`: their names) are printed.
+fn client_decodes_the_live_graph(flags: &str) -> Run {
     let client = root().join("tests/peers/foxglove_ws_client.py");
     let run = netns(
         150,
         &format!(
             r#"
             $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --no-record \
-                --foxglove-port 0 > $TMP/fox.out &
+                --foxglove-port 0 {flags} > $TMP/fox.out &
             L=$!
             for i in $(seq 300); do grep -q serving $TMP/fox.out && break; sleep 0.2; done
             URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
@@ -43,6 +46,7 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
             python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} \
                 --seconds 3 --min 5 --timeout 90 || exit 1
             KIDS=$(pgrep -P $L)
+            echo "KIDS $(for k in $KIDS; do cat /proc/$k/comm; done | sort | tr '\n' ' ')"
             stop $L || exit 1
             # the launcher stopped every node, the bridge too
             for k in $KIDS; do kill -0 $k 2>/dev/null && {{ echo "left running: $k"; exit 1; }}; done
@@ -50,6 +54,42 @@ fn a_foxglove_websocket_client_decodes_the_live_graph() {
             client = client.display()
         ),
     );
+    assert_decoded(&run);
+    run
+}
+
+/// The composed bridge (the launcher's default): the container serves, no process of its own.
+#[test]
+fn a_foxglove_websocket_client_decodes_the_composed_live_graph() {
+    let run = client_decodes_the_live_graph("");
+    let kids = run.line("KIDS ");
+    // /proc/PID/comm keeps 15 characters
+    assert!(kids.contains("capsule_contain"), "{kids}");
+    assert!(
+        !kids.contains("capsule_foxglov"),
+        "a bridge process: {kids}"
+    );
+    // state and force from the in-process link, not from DDS copies published for it
+    run.assert_stderr(&["(from the in-process link)"]);
+}
+
+/// `--separate`: `capsule_foxglove` as a process of its own, the same channels.
+#[test]
+fn a_foxglove_websocket_client_decodes_the_separate_live_graph() {
+    let run = client_decodes_the_live_graph("--separate");
+    let kids = run.line("KIDS ");
+    assert!(
+        kids.contains("capsule_foxglov"),
+        "no bridge process: {kids}"
+    );
+    assert!(!kids.contains("capsule_contain"), "{kids}");
+    run.assert_stderr(&["(from DDS)"]);
+}
+
+/// What every live-graph run shows: each channel decoded, with its schema and the sample's
+/// fields, from a plant that moved.
+#[track_caller]
+fn assert_decoded(run: &Run) {
     run.assert_ok();
     // bound on loopback, port printed
     run.assert_stdout(&["url ws://127.0.0.1:"]);
@@ -118,6 +158,49 @@ fn the_foxglove_bridge_refuses_a_non_loopback_bind() {
         run.assert_stdout(&["rc=2"]);
         run.assert_stderr(&[&format!("--host \"{host}\""), "127.0.0.1 only"]);
         assert!(!run.stdout.contains("serving"), "nothing served for {host}");
+    }
+}
+
+/// A port taken (by a listener of the test's own) ends the container with the bridge named and
+/// exit 2 before the controller or the plant starts: no sample, no recording file, no process
+/// left; the launcher, composed, stops there too.
+#[test]
+fn a_composed_bridge_on_a_taken_port_is_named_and_nothing_runs() {
+    let run = netns(
+        60,
+        r#"
+        python3 -c "import socket, sys, time
+s = socket.socket(); s.bind(('127.0.0.1', 0)); s.listen()
+print(s.getsockname()[1], flush=True); time.sleep(50)" > $TMP/port &
+        H=$!
+        for i in $(seq 100); do [ -s $TMP/port ] && break; sleep 0.1; done
+        PORT=$(cat $TMP/port)
+        echo "port $PORT"
+        timeout 30 $B/capsule_container --scene "$SCENE" --mode forward --until-s 5             --record-output $TMP/run.mcap --foxglove-port $PORT; echo "container rc=$?"
+        [ -e $TMP/run.mcap ] && echo "a recording was started"
+        timeout 30 $ROOT/launch_scripts/capsule_launch.sh --scene "$SCENE" --mode forward --until-s 5             --record-dir $TMP/runs --foxglove-port $PORT; echo "launcher rc=$?"
+        # our processes only: those of this network namespace
+        NS=$(ip netns identify $$)
+        for k in $(ip netns pids $NS); do
+            case $(cat /proc/$k/comm 2>/dev/null) in capsule_*) echo "left running: $k";; esac
+        done
+        kill $H
+        exit 0"#,
+    );
+    run.assert_ok();
+    let port = run.after("port ").trim();
+    assert!(port.parse::<u16>().is_ok_and(|p| p > 0), "{port}");
+    run.assert_stdout(&["container rc=2", "launcher rc=1"]);
+    run.assert_stderr(&[
+        &format!("capsule_container: error: capsule_foxglove: cannot serve on 127.0.0.1:{port}"),
+        "capsule_launch: container (plant + controller) failed (status 2)",
+    ]);
+    for never in ["serving", "a recording was started", "left running"] {
+        assert!(!run.stdout.contains(never), "{never}:\n{}", run.all());
+    }
+    // the loop never started: neither node announced itself
+    for node in ["node /capsule_plant", "node /capsule_controller"] {
+        assert!(!run.stderr.contains(node), "{node} started:\n{}", run.all());
     }
 }
 
