@@ -9,8 +9,23 @@ use std::os::unix::net::UnixStream;
 use std::time::{Duration, Instant};
 
 use capsule_device::{Decoded, Decoder, Frame};
-use nix::poll::{ppoll, PollFd, PollFlags};
-use nix::sys::time::TimeSpec;
+use nix::poll::{PollFd, PollFlags};
+
+/// Waits up to `left` for `fds`. ppoll where there is one: poll's whole milliseconds overslept a
+/// device's sub-millisecond deadline by up to a period, and its next samples then went out in a
+/// burst.
+#[cfg(any(target_os = "linux", target_os = "android", target_os = "freebsd"))]
+fn poll_for(fds: &mut [PollFd], left: Duration) -> nix::Result<nix::libc::c_int> {
+    let timeout = nix::sys::time::TimeSpec::from_duration(left);
+    nix::poll::ppoll(fds, Some(timeout), None)
+}
+
+/// Waits up to `left` (rounded up to whole milliseconds) for `fds`.
+#[cfg(not(any(target_os = "linux", target_os = "android", target_os = "freebsd")))]
+fn poll_for(fds: &mut [PollFd], left: Duration) -> nix::Result<nix::libc::c_int> {
+    let ms = u16::try_from(left.as_micros().div_ceil(1000)).unwrap_or(u16::MAX);
+    nix::poll::poll(fds, nix::poll::PollTimeout::from(ms))
+}
 
 /// Why a link cannot go on.
 #[derive(Debug, thiserror::Error)]
@@ -72,9 +87,7 @@ impl<S: Line> Link<S> {
     fn wait(&self, flags: PollFlags, until: Instant) -> Result<bool, LinkError> {
         let left = until.saturating_duration_since(Instant::now());
         let mut fds = [PollFd::new(self.file.as_fd(), flags)];
-        // ppoll, not poll: poll's whole milliseconds overslept a device's sub-millisecond
-        // deadline by up to a period, and its next samples then went out in a burst
-        match ppoll(&mut fds, Some(TimeSpec::from_duration(left)), None) {
+        match poll_for(&mut fds, left) {
             Ok(0) => Ok(false),
             Ok(_) => {
                 let got = fds[0].revents().unwrap_or(PollFlags::empty());
