@@ -20,6 +20,7 @@ mod rosidl;
 mod scenes;
 mod solver;
 mod stability;
+mod type_hashes;
 
 use capsule_plant::scene::Scene;
 use std::path::PathBuf;
