@@ -10,6 +10,7 @@ mod docs_links;
 mod examples;
 mod function_length;
 mod hard_cases;
+mod identify;
 mod import_circles;
 mod paper;
 mod python;
