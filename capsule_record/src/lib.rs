@@ -13,7 +13,7 @@
 //! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
 //!   file; `open` checks a file before reading it.
-//! - [`sample::state_message`]: a simulator sample as the `CapsuleState` the plant publishes.
+//! - [`sample::state_message`]: a hardware sample as the `CapsuleState` the plant publishes.
 //! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
 //!   old schema blocks ([`fix_schemas`]).
 //!
