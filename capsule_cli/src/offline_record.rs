@@ -2,6 +2,7 @@
 //! the same tools (Foxglove, `ros2 bag`, `capsule record info`) read simulations and live runs.
 
 use anyhow::{Context, Result};
+use capsule_hardware::Sample;
 use capsule_msgs::names::{default_topics, type_names};
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::{Header, Time};
@@ -51,7 +52,7 @@ pub fn write(
             stamp,
             frame_id: "odom".into(),
         };
-        let msg = state_message(s, p, header, seq as u64);
+        let msg = state_message(&Sample::from_snapshot(s, p), header, seq as u64);
         let seq32 = seq as u32;
         w.write(state_ch, seq32, log_time, log_time, &cdr::encode(&msg)?)?;
         w.write(

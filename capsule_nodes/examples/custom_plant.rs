@@ -1,6 +1,6 @@
 //! A custom plant source behind the plant node: the node (topics, command gate, watchdog,
 //! real-time and lock-step pacing, parameters, lifecycle, diagnostics, summary) runs any capsule
-//! that implements `capsule_nodes::hardware::CapsuleHardware`, in SI. Here a toy capsule of a
+//! that implements `capsule_hardware::CapsuleHardware`, in SI. Here a toy capsule of a
 //! few lines stands in for the exact simulator or a serial device: the inner mass on its spring
 //! and damper inside the shell, and a shell that sticks until the force on it passes a static
 //! friction threshold, then slides at a speed proportional to the excess.
@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use capsule_args::scene_file::SceneFile;
-use capsule_nodes::hardware::{CapsuleHardware, HardwareError, Reading, Sample};
+use capsule_hardware::{CapsuleHardware, HardwareError, Reading, Sample};
 use capsule_nodes::plant::{self, Pacing, PlantCore, PlantOptions};
 use capsule_nodes::plant_params::{self, PlantFlags};
 use capsule_plant::scene::PhysicalScale;
@@ -83,7 +83,6 @@ impl ToyCapsule {
             },
             contact_force: 0.0,
             actuator_force: self.force,
-            ..Sample::default()
         }
     }
 }

@@ -14,7 +14,7 @@
 
 use tracing::warn;
 
-use capsule_ros_base::throttle::Throttle;
+use capsule_hardware::throttle::Throttle;
 
 /// The default force limit in units of the friction threshold `P_f`: 100 `P_f` (10 N at the
 /// scenes' scale), more than ten times what the paper's law asks at the control point (drive

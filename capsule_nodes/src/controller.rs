@@ -34,12 +34,12 @@ use crate::{
     plant_identity::{PlantIdentity, Source},
     views::Diagnostics,
 };
+use capsule_hardware::throttle::Throttle;
 use capsule_ros_base::{
     clock::RosClock,
     conflicts::TopicRule,
     params::ParamTable,
     ros::{qos, subscribe, types, RosOptions, Wire},
-    throttle::Throttle,
 };
 
 /// How the controller node is set up (besides the ROS settings).

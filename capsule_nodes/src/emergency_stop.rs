@@ -18,7 +18,7 @@ use futures::StreamExt;
 use ros2_client::Node;
 use tracing::{info, warn};
 
-use crate::hardware::Stopper;
+use capsule_hardware::Stopper;
 
 /// The answer to a request to set the stop to `engage` when it was `was`.
 pub fn answer(engage: bool, was: bool) -> SetBoolResponse {

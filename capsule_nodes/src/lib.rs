@@ -11,14 +11,11 @@
 //!   parameters; [`controller_settings`]: its settings table
 //! - [`node_settings`]: a node's settings table as its flags and ROS parameters
 //! - [`plant`]: the plant node (lifecycle, pacing, hold, watchdog) around any
-//!   [`hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and latched
-//!   state
+//!   [`capsule_hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and
+//!   latched state
 //! - [`recorder`]: the recorder node (every topic to one MCAP file)
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description, /diagnostics)
 //! - [`foxglove_bridge`]: the graph live on a Foxglove WebSocket on loopback (`capsule_foxglove`)
-//! - [`hardware`]: the plant's hardware interface (SI, ros2_control's shape); [`sim`]: the
-//!   simulator of `capsule_plant` behind it (any method); [`device_driver`]: a device on a
-//!   serial line (`--source serial:PATH`)
 
 #![warn(missing_docs)]
 
@@ -30,10 +27,8 @@ pub mod controller_core;
 pub mod controller_diagnostics;
 pub mod controller_params;
 pub mod controller_settings;
-pub mod device_driver;
 pub mod emergency_stop;
 pub mod foxglove_bridge;
-pub mod hardware;
 pub mod intra_process;
 pub mod joint_commands;
 pub mod node_settings;
@@ -41,5 +36,8 @@ pub mod plant;
 pub mod plant_identity;
 pub mod plant_params;
 pub mod recorder;
-pub mod sim;
 pub mod views;
+
+// the plant's hardware interface, in a crate of its own (no DDS, no runtime); named here so
+// the plant's modules say `crate::hardware`
+use capsule_hardware as hardware;

@@ -33,9 +33,9 @@ use ros2_client::ParameterValue as V;
 use ros2_client::{qos::History, MessageTypeName, Node, Publisher, QosProfile};
 
 use crate::plant::LoopStats;
+use capsule_hardware::latency::LatencyHistogram;
 use capsule_ros_base::{
     graph::Graph,
-    latency::LatencyHistogram,
     params::{ParamSpec, ParamTable},
     ros::{qos, types, RosOptions},
 };

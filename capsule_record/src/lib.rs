@@ -14,7 +14,7 @@
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
 //!   file; `open` checks a file before reading it.
 //! - [`series::series`]: the states and force commands as time series, for identification.
-//! - [`sample::state_message`]: a simulator sample as the `CapsuleState` the plant publishes.
+//! - [`sample::state_message`]: a hardware sample as the `CapsuleState` the plant publishes.
 //! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
 //!   old schema blocks ([`fix_schemas`]).
 //!

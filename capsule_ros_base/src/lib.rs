@@ -10,8 +10,6 @@
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
-//! - [`latency`]: loop latency percentiles in constant memory
-//! - [`throttle`]: rate-limited logging of per-sample events
 //! - [`error`]: the nodes' error, [`error::NodeError`]
 
 #![warn(missing_docs)]
@@ -21,11 +19,9 @@ pub mod clock;
 pub mod conflicts;
 pub mod error;
 pub mod graph;
-pub mod latency;
 pub mod param_services;
 pub mod params;
 pub mod ports;
 pub mod ros;
 pub mod ros_args;
 pub mod security;
-pub mod throttle;

@@ -92,3 +92,59 @@ fn the_crate_table_in_architecture_md_matches_the_manifests() {
         );
     }
 }
+
+/// The crates in `krate`'s normal dependency tree, by name, as `cargo tree` resolves them
+/// from Cargo.lock (no network).
+fn dependency_tree(krate: &str) -> BTreeSet<String> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args([
+            "tree",
+            "--offline",
+            "--locked",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+            "-p",
+        ])
+        .arg(krate)
+        .current_dir(root())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run cargo tree: {e}"));
+    assert!(
+        out.status.success(),
+        "cargo tree -p {krate}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .collect()
+}
+
+#[test]
+fn the_hardware_interface_and_the_offline_tools_build_without_an_async_runtime_or_dds() {
+    let hardware = dependency_tree("capsule_hardware");
+    // what a driver for one's own capsule builds: the interface, the physics, the protocol
+    assert!(hardware.contains("capsule_plant") && hardware.contains("capsule_serial"));
+    for (krate, tree) in [
+        ("capsule_hardware", hardware),
+        ("capsule_cli", dependency_tree("capsule_cli")),
+    ] {
+        let found: Vec<&String> = tree
+            .iter()
+            .filter(|d| {
+                [
+                    "tokio",
+                    "rustdds",
+                    "ros2-client",
+                    "capsule_nodes",
+                    "capsule_ros_base",
+                ]
+                .contains(&d.as_str())
+            })
+            .collect();
+        assert!(found.is_empty(), "{krate} depends on {found:?}");
+    }
+}

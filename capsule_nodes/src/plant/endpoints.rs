@@ -3,6 +3,7 @@
 //! over DDS or, composed with the controller in one process, over the in-process link
 //! ([`crate::intra_process`]; the state's DDS copies then leave from a publisher thread).
 
+use capsule_hardware::throttle::Throttle;
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::{Clock, DiagnosticArray, JointState};
 use capsule_msgs::{ActuatorForce, CapsuleState};
@@ -11,7 +12,6 @@ use capsule_ros_base::{
     conflicts::TopicRule,
     graph::Graph,
     ros::{qos, subscribe, types, RosOptions},
-    throttle::Throttle,
 };
 use std::cell::RefCell;
 use std::collections::VecDeque;

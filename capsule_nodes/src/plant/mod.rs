@@ -44,7 +44,7 @@ mod recording;
 mod silence;
 mod stats;
 
-pub use crate::hardware::SourceHealth;
+pub use capsule_hardware::SourceHealth;
 pub use node::{run, run_in};
 pub use options::{Pacing, PlantOptions};
 pub use plant_core::{CommandOutcome, PlantCore};

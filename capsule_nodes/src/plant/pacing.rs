@@ -15,7 +15,7 @@ use super::loop_control::{Exit, LoopControl};
 use super::silence::{Silence, Verdict, Waiting};
 use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
-use capsule_ros_base::throttle::Throttle;
+use capsule_hardware::throttle::Throttle;
 
 /// What a pacing loop runs on: the plant, its endpoints and options, the lifecycle's control
 /// of the loop, and the in-plant recording when recording.

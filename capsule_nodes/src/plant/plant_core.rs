@@ -13,9 +13,8 @@ use tracing::info;
 
 use super::LoopStats;
 use crate::command_gate::{self, CommandGate, DEFAULT_MAX_FORCE_PF};
-use crate::hardware::{
-    unknown_sample, CapsuleHardware, HardwareError, Reading, Sample, SourceHealth,
-};
+use capsule_hardware::{CapsuleHardware, HardwareError, Reading, Sample, SourceHealth};
+use capsule_record::sample::state_message;
 
 /// Why a command was not taken.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,6 +55,8 @@ pub struct PlantCore<H: CapsuleHardware> {
     pub(super) gate: CommandGate,
     /// Engaged: zero force from the next step on (see [`crate::emergency_stop`]).
     pub(super) emergency_stop: Arc<AtomicBool>,
+    /// The hardware's [`capsule_hardware::Ready`] as the loop awaits it (a device's).
+    ready: Option<Arc<tokio::sync::Notify>>,
     /// Statistics of the loop.
     pub stats: LoopStats,
 }
@@ -68,9 +69,16 @@ impl<H: CapsuleHardware> PlantCore<H> {
     pub fn new(mut hw: H, scale: PhysicalScale, rate_hz: f64, command_timeout: f64) -> Self {
         let emergency_stop: Arc<AtomicBool> = Default::default();
         hw.zero_while(emergency_stop.clone());
+        let ready = hw.ready().map(|r| {
+            let woken = Arc::new(tokio::sync::Notify::new());
+            let wake = woken.clone();
+            r.on_ready(move || wake.notify_one());
+            woken
+        });
         PlantCore {
+            ready,
             hw,
-            current: unknown_sample(),
+            current: Sample::unknown(),
             active: false,
             written: false,
             rate_hz,
@@ -139,13 +147,14 @@ impl<H: CapsuleHardware> PlantCore<H> {
 
     /// Zeroes the actuator at once from another thread (the emergency stop's service), if the
     /// hardware can be reached outside the loop.
-    pub fn stopper(&self) -> Option<crate::hardware::Stopper> {
+    pub fn stopper(&self) -> Option<capsule_hardware::Stopper> {
         self.hw.stopper()
     }
 
-    /// `Some` when the hardware paces itself (a device): see [`CapsuleHardware::ready`].
+    /// `Some` when the hardware paces itself (a device): notified whenever it has something
+    /// to read (see [`CapsuleHardware::ready`]).
     pub fn ready(&self) -> Option<Arc<tokio::sync::Notify>> {
-        self.hw.ready()
+        self.ready.clone()
     }
 
     /// Whether the lifecycle has it active.
@@ -157,7 +166,7 @@ impl<H: CapsuleHardware> PlantCore<H> {
     /// once, a device's comes when it measures.
     pub fn configure(&mut self) -> Result<(), HardwareError> {
         self.hw.configure()?;
-        self.current = unknown_sample();
+        self.current = Sample::unknown();
         if self.stats.published > 0 {
             // configured again after a cleanup: a new sample, never a second seq k
             self.next_sample(Reading::Timeout);
@@ -224,11 +233,9 @@ impl<H: CapsuleHardware> PlantCore<H> {
             frame_id: self.frame_id.clone(),
         };
         CapsuleState {
-            header,
-            seq: self.step,
             command_stale: self.stale,
             rejected_commands: self.rejected,
-            ..self.current.clone()
+            ..state_message(&self.current, header, self.step)
         }
     }
 
@@ -365,62 +372,9 @@ mod tests {
     use super::*;
     use CommandOutcome as Outcome;
 
+    use capsule_hardware::mock::FreeMass;
+
     type Result<T> = std::result::Result<T, HardwareError>;
-
-    /// The mock hardware: the capsule is pinned, the mass (0.04 kg) moves under the written
-    /// force only, integrated exactly over each 0.01 s read; every write is kept. Enough to
-    /// check the node's bookkeeping and the lifecycle's gate.
-    #[derive(Default)]
-    struct FreeMass {
-        configured: bool,
-        x: f64,
-        v: f64,
-        force_n: f64,
-        reads: u64,
-        writes: Vec<f64>,
-    }
-
-    impl CapsuleHardware for FreeMass {
-        fn label(&self) -> String {
-            "mock".into()
-        }
-        fn configure(&mut self) -> Result<()> {
-            self.configured = true;
-            Ok(())
-        }
-        fn activate(&mut self) -> Result<()> {
-            Ok(())
-        }
-        fn deactivate(&mut self) -> Result<()> {
-            Ok(())
-        }
-        fn cleanup(&mut self) -> Result<()> {
-            self.configured = false;
-            Ok(())
-        }
-        fn read(&mut self, _deadline: Instant) -> Result<Reading> {
-            if !self.configured {
-                return Err(HardwareError::State("not configured".into()));
-            }
-            if self.reads > 0 {
-                let (h, a) = (0.01, self.force_n / 0.04);
-                self.x += self.v * h + 0.5 * a * h * h;
-                self.v += a * h;
-            }
-            self.reads += 1;
-            Ok(Reading::Sample(Sample {
-                mass_position: self.x,
-                mass_velocity: self.v,
-                actuator_force: self.force_n,
-                ..Sample::default()
-            }))
-        }
-        fn write(&mut self, force_n: f64) -> Result<()> {
-            self.force_n = force_n;
-            self.writes.push(force_n);
-            Ok(())
-        }
-    }
 
     fn scale() -> PhysicalScale {
         PhysicalScale {
@@ -661,7 +615,7 @@ mod lifecycle_gate {
     fn a_configure_that_cannot_build_says_why_and_reads_wait_for_one() {
         // the simulator's adapter, through the trait object as the node holds it
         let mut p: PlantCore<Box<dyn CapsuleHardware>> = PlantCore::new(
-            Box::new(crate::sim::SimulatedPlant::new(
+            Box::new(capsule_hardware::sim::SimulatedPlant::new(
                 Box::new(|| Err("no scene here".to_string())),
                 PhysicalScale {
                     m1_kg: 0.04,

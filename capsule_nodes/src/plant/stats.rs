@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 use capsule_msgs::CapsuleState;
 use serde::Serialize;
 
-use capsule_ros_base::latency::LatencyHistogram;
+use capsule_hardware::latency::LatencyHistogram;
 
 /// Loop statistics: for every published sample, whether and when a command answering it
 /// (same seq) arrived, also after the next sample went out.
@@ -216,7 +216,7 @@ struct LastSample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use capsule_ros_base::latency::LatencyHistogram;
+    use capsule_hardware::latency::LatencyHistogram;
 
     #[test]
     fn stats_split_startup_lost_and_late_answers() {

@@ -6,14 +6,15 @@ use std::time::Duration;
 
 use anyhow::{bail, Result};
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
+use capsule_hardware::{
+    serial_driver::{DeviceDriver, DriverOptions, Source},
+    sim::SimulatedPlant,
+    CapsuleHardware,
+};
 use capsule_nodes::{
-    device_driver::{DeviceDriver, DriverOptions, Source},
-    hardware::CapsuleHardware,
     plant::{InPlantRecordOptions, OnSilence, Pacing, PlantCore, PlantOptions},
     plant_params::{self, PlantFlags},
-    recorder,
-    sim::SimulatedPlant,
-    views,
+    recorder, views,
 };
 use capsule_plant::{Method, Simulator};
 use capsule_ros_base::{

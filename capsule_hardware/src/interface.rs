@@ -2,20 +2,21 @@
 //! lifecycle (configure, activate, deactivate, cleanup), a `read` that returns a sample, a
 //! timeout or a fault, and a `write` of the actuator force in newtons. Everything is SI; the
 //! simulator's adapter ([`crate::sim::SimulatedPlant`]) does the non-dimensional scaling, the
-//! serial device ([`crate::device_driver::DeviceDriver`]) speaks its protocol, and the tests
-//! put a mock behind it. The command gate, watchdog, diagnostics, recording and views stay
-//! above it, once ([`crate::plant::PlantCore`]).
+//! serial device ([`crate::serial_driver::DeviceDriver`]) speaks its protocol, and the tests
+//! put a mock behind it ([`crate::mock::FreeMass`]). The command gate, watchdog, diagnostics,
+//! recording and views stay above it, once, in the plant node.
 //!
 //! Two kinds of hardware: a simulator is paced by the node (each `read` integrates one sample
 //! period with the force last written, at once), a device paces itself (it measures on its own
 //! clock; `read` takes what it sent, and `write` sends at once). [`CapsuleHardware::ready`] says
-//! which.
+//! which. Nothing here needs an async runtime: a device wakes its reader through [`Ready`], a
+//! callback the node sets to whatever its runtime waits on.
 
 use std::sync::atomic::AtomicBool;
-
-use capsule_msgs::CapsuleState;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
+
+use crate::Sample;
 
 /// Why the hardware cannot do what was asked.
 #[derive(Debug, thiserror::Error)]
@@ -34,25 +35,6 @@ pub enum HardwareError {
     /// Asked in a lifecycle state where it makes no sense (e.g. `read` before `configure`).
     #[error("{0}")]
     State(String),
-}
-
-/// A sample as the hardware reads it: the plant's `CapsuleState` message in SI (NaN where a
-/// device does not measure); the node fills in the header, seq and its own flags.
-pub type Sample = CapsuleState;
-
-/// A sample of nothing measured yet: NaN everywhere.
-pub fn unknown_sample() -> Sample {
-    let nan = f64::NAN;
-    CapsuleState {
-        mass_position: nan,
-        mass_velocity: nan,
-        capsule_position: nan,
-        capsule_velocity: nan,
-        friction_force: nan,
-        contact_force: nan,
-        actuator_force: nan,
-        ..CapsuleState::default()
-    }
 }
 
 /// What a `read` brought.
@@ -82,6 +64,41 @@ pub struct SourceHealth {
 /// emergency stop calls.
 pub type Stopper = Arc<dyn Fn() + Send + Sync>;
 
+/// A callback from any thread.
+type Wake = Arc<dyn Fn() + Send + Sync>;
+
+/// What a device that paces itself calls whenever `read` has something new: set once by the
+/// node (to wake its loop, whichever runtime it runs on), called from the device's thread.
+#[derive(Clone, Default)]
+pub struct Ready {
+    wake: Arc<Mutex<Option<Wake>>>,
+}
+
+impl Ready {
+    /// From now on, [`Ready::notify`] calls `wake`.
+    pub fn on_ready(&self, wake: impl Fn() + Send + Sync + 'static) {
+        *self.wake.lock().unwrap_or_else(PoisonError::into_inner) = Some(Arc::new(wake));
+    }
+
+    /// Says that `read` has something (nothing happens before [`Ready::on_ready`]).
+    pub fn notify(&self) {
+        let wake = self
+            .wake
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        if let Some(wake) = wake {
+            wake();
+        }
+    }
+}
+
+impl std::fmt::Debug for Ready {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Ready")
+    }
+}
+
 /// A capsule the plant node can run: the simulator, a device on a serial line, a mock.
 pub trait CapsuleHardware: Send {
     /// What it is, for the log and `/diagnostics`.
@@ -105,7 +122,7 @@ pub trait CapsuleHardware: Send {
     fn write(&mut self, force_n: f64) -> Result<(), HardwareError>;
     /// `Some` for hardware that paces itself (a device): notified whenever `read` has
     /// something, so the node never blocks waiting for it; `None` for a simulator.
-    fn ready(&self) -> Option<Arc<tokio::sync::Notify>> {
+    fn ready(&self) -> Option<Ready> {
         None
     }
     /// Zeroes the actuator whenever `engaged` is set (the emergency stop's flag), also for
@@ -147,7 +164,7 @@ impl<H: CapsuleHardware + ?Sized> CapsuleHardware for Box<H> {
     fn write(&mut self, force_n: f64) -> Result<(), HardwareError> {
         (**self).write(force_n)
     }
-    fn ready(&self) -> Option<Arc<tokio::sync::Notify>> {
+    fn ready(&self) -> Option<Ready> {
         (**self).ready()
     }
     fn zero_while(&mut self, engaged: Arc<AtomicBool>) {

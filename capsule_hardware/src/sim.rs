@@ -4,12 +4,10 @@
 
 use std::time::Instant;
 
-use capsule_msgs::Header;
 use capsule_plant::scene::PhysicalScale;
 use capsule_plant::{ConstantForce, Simulator};
-use capsule_record::sample::state_message;
 
-use crate::hardware::{CapsuleHardware, HardwareError, Reading};
+use crate::{CapsuleHardware, HardwareError, Reading, Sample};
 
 /// Builds the scene's simulator (at configure, again after a cleanup).
 pub type Build = Box<dyn Fn() -> Result<Simulator, String> + Send>;
@@ -92,8 +90,10 @@ impl CapsuleHardware for SimulatedPlant {
             })?;
         }
         self.read += 1;
-        let si = state_message(&sim.snapshot(), &self.scale, Header::default(), 0);
-        Ok(Reading::Sample(si))
+        Ok(Reading::Sample(Sample::from_snapshot(
+            &sim.snapshot(),
+            &self.scale,
+        )))
     }
 
     fn write(&mut self, force_n: f64) -> Result<(), HardwareError> {

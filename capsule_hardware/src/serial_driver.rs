@@ -30,13 +30,12 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use capsule_device::{frame::measured, Decoded, Force, Frame, Hello, Measurement};
-use capsule_ros_base::latency::LatencyHistogram;
-use capsule_ros_base::throttle::Throttle;
 use capsule_serial::{open_line, Line, Link};
-use tokio::sync::Notify;
 use tracing::{info, warn};
 
-use crate::hardware::{CapsuleHardware, HardwareError, Reading, Sample, SourceHealth, Stopper};
+use crate::latency::LatencyHistogram;
+use crate::throttle::Throttle;
+use crate::{CapsuleHardware, HardwareError, Reading, Ready, Sample, SourceHealth, Stopper};
 
 /// The default baud rate of `serial:PATH`: a 1 kHz measurement stream needs 330 kbaud.
 pub const DEFAULT_BAUD: u32 = 921_600;
@@ -240,12 +239,12 @@ fn read_line<L: Line>(
     open: Opener<L>,
     out: Arc<Mutex<Out<L>>>,
     tx: Sender<Event>,
-    ready: Arc<Notify>,
+    ready: Ready,
     quit: Arc<AtomicBool>,
 ) {
     let send = |e: Event| {
         let ok = tx.send(e).is_ok();
-        ready.notify_one();
+        ready.notify();
         ok
     };
     // how often `quit` is looked at while waiting
@@ -312,7 +311,7 @@ pub struct DeviceDriver<L: Line = File> {
     open: Opener<L>,
     clock: Clock,
     out: Arc<Mutex<Out<L>>>,
-    ready: Arc<Notify>,
+    ready: Ready,
     reader: Option<Reader>,
     hello: Option<Hello>,
     /// The device time of the newest sample (a re-send repeats it).
@@ -375,7 +374,7 @@ impl<L: Line> DeviceDriver<L> {
             open,
             clock,
             out: Arc::new(Mutex::new(out)),
-            ready: Arc::new(Notify::new()),
+            ready: Ready::default(),
             reader: None,
             hello: None,
             last_t_us: None,
@@ -762,7 +761,7 @@ impl<L: Line> CapsuleHardware for DeviceDriver<L> {
         Ok(())
     }
 
-    fn ready(&self) -> Option<Arc<Notify>> {
+    fn ready(&self) -> Option<Ready> {
         Some(self.ready.clone())
     }
 
