@@ -22,6 +22,7 @@ mod joint_commands;
 mod lifecycle;
 mod lockstep;
 mod params;
+mod replies;
 mod security;
 mod switch;
 mod twin;

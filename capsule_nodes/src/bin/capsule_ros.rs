@@ -45,6 +45,13 @@ enum Cmd {
         timeout_s: f64,
         #[command(flatten)]
         pulse: PulseArgs,
+        /// Calls in a row on one client, each with its own timeout; a summary line after them,
+        /// [1, 100000]
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        repeat: u32,
+        /// Added to the gain at each repeat (answers of differing lengths), [-1e12, 1e12]
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = ranges::finite())]
+        gain_step: f64,
     },
     /// Ask a managed node for a lifecycle transition and print whether it was taken, as
     /// `ros2 lifecycle set NODE TRANSITION`; exit status 3 when refused or failed
@@ -159,6 +166,8 @@ async fn run(cli: Cli) -> Result<()> {
             at_s,
             timeout_s,
             pulse,
+            repeat,
+            gain_step,
         } => {
             let req = SetModeRequest {
                 mode: parse_mode(&mode)?,
@@ -169,6 +178,8 @@ async fn run(cli: Cli) -> Result<()> {
             let ask = Ask::SetMode {
                 service: cli.service,
                 req,
+                repeat,
+                gain_step,
             };
             ask_once(&settings, ask, timeout_s).await
         }
@@ -235,10 +246,13 @@ fn print_answer(resp: &capsule_msgs::SetModeResponse) {
 
 /// What a one-shot subcommand asks for.
 enum Ask {
-    /// `set-mode`: a set_mode request to the controller's mode service.
+    /// `set-mode`: a set_mode request to the controller's mode service, `repeat` times, the
+    /// gain `gain_step` higher each time.
     SetMode {
         service: String,
         req: SetModeRequest,
+        repeat: u32,
+        gain_step: f64,
     },
     /// `lifecycle-set`: a lifecycle transition of a managed node.
     Transition { managed: String, transition: String },
@@ -251,11 +265,36 @@ async fn ask_once(settings: &RosOptions, ask: Ask, timeout_s: f64) -> Result<()>
     let mut node = settings.node(&context)?;
     let timeout = Duration::from_secs_f64(timeout_s);
     let taken = match ask {
-        Ask::SetMode { service, req } => {
+        Ask::SetMode {
+            service,
+            req,
+            repeat,
+            gain_step,
+        } => {
             let client = ModeClient::new(&mut node, settings, &service)?;
-            let resp = client.call(&node, req, timeout).await?;
-            print_answer(&resp);
-            resp.accepted
+            let started = Instant::now();
+            let (mut accepted, mut slowest) = (true, 0.0_f64);
+            for i in 0..repeat {
+                let req = SetModeRequest {
+                    gain: req.gain + f64::from(i) * gain_step,
+                    ..req.clone()
+                };
+                let asked = Instant::now();
+                let resp = client
+                    .call(&node, req, timeout)
+                    .await
+                    .with_context(|| format!("call {} of {repeat}", i + 1))?;
+                slowest = slowest.max(asked.elapsed().as_secs_f64());
+                print_answer(&resp);
+                accepted &= resp.accepted;
+            }
+            if repeat > 1 {
+                println!(
+                    "answered {repeat} of {repeat} calls in {:.3} s, the slowest in {slowest:.3} s",
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            accepted
         }
         Ask::Transition {
             managed,

@@ -10,7 +10,9 @@
 //                                             NaN refused, zero after silence
 //   fastdds_peer set-mode MODE GAIN [--service S]
 //                                             call /capsule_controller/set_mode, print the answer
-//   fastdds_peer params --node N [--set NAME=DOUBLE]...
+//   fastdds_peer params --node N [--set NAME=DOUBLE]... [--late-s S]
+//                                             (--late-s: call set_mode first, make the parameter
+//                                             clients S s later, as a long-lived node would)
 //                                             list, get and set parameters as `ros2 param` does
 //   fastdds_peer lifecycle T... [--node N]  change_state by label (rmw_fastrtps's mapping, as
 //                                             `ros2 lifecycle set`), get_state after each; JSON
@@ -27,6 +29,7 @@
 // $ROS_SECURITY_KEYSTORE/enclaves$ROS_SECURITY_ENCLAVE_OVERRIDE.
 // Exit status 0 = the checks held; 1 = a check failed (the reason on stderr).
 
+#include <algorithm>
 #include <climits>
 #include <chrono>
 #include <cmath>
@@ -240,19 +243,21 @@ class Client {
     wait_matched(r_, timeout_, "rr/" + s + "Reply");
   }
 
-  /// Sends REQ (again every 0.5 s: a first write can race discovery) until its reply comes.
+  /// Sends REQ (again every 0.5 s: a first write can race discovery) until a reply to one of
+  /// the requests sent comes (the first's can come after the second was sent, on a loaded host).
   Rep call(Req req) {
     auto end = after(timeout_);
+    std::vector<eprosima::fastrtps::rtps::SequenceNumber_t> sent;
     while (Clock::now() < end) {
       WriteParams wp;
       wp.related_sample_identity().writer_guid(r_->guid());
       if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
-      auto sent = wp.sample_identity();
+      sent.push_back(wp.sample_identity().sequence_number());
       auto resend = std::min(end, after(0.5));
       Rep answer;
       auto answers_sent = [&](const Rep& rep, const auto& rel) {
         bool ours = rel.writer_guid() == r_->guid() || rel.writer_guid() == w_->guid();
-        bool answers = ours && rel.sequence_number() == sent.sequence_number();
+        bool answers = ours && std::find(sent.begin(), sent.end(), rel.sequence_number()) != sent.end();
         if (answers) answer = rep;
         return answers;
       };
@@ -460,7 +465,17 @@ static int cmd_params(int argc, char** argv) {
   std::string node = f.count("node") ? f["node"] : "/capsule_controller";
   if (node[0] == '/') node = node.substr(1);
   double timeout = flag(f, "timeout", 20);
+  double late = flag(f, "late-s", 0);
   Peer p;
+  if (late > 0) {
+    // a long-lived node that makes its parameter clients late: it calls set_mode first (its
+    // participant matched long before), then waits
+    Client<capsule_msgs::srv::SetMode_Request, capsule_msgs::srv::SetMode_Response> c(
+        p, "capsule_controller/set_mode", timeout);
+    print_set_mode(c.call(set_mode_request(2, 0.1)));
+    std::this_thread::sleep_for(std::chrono::duration<double>(late));
+  }
+  auto t0 = Clock::now();
   using namespace rcl_interfaces::srv;
   Client<ListParameters_Request, ListParameters_Response> list(p, node + "/list_parameters", timeout);
   Client<GetParameters_Request, GetParameters_Response> get(p, node + "/get_parameters", timeout);
@@ -493,7 +508,8 @@ static int cmd_params(int argc, char** argv) {
            (res[0].successful ? "true" : "false") + ", \"reason\": " + json_str(res[0].reason) +
            ", \"now\": " + (now.size() == 1 ? value_json(now[0]) : "null") + "}";
   }
-  std::printf("%s]}\n", out.c_str());
+  double answered = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::printf("%s], \"answered_s\": %s}\n", out.c_str(), num(answered).c_str());
   return 0;
 }
 
