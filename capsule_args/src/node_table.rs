@@ -143,8 +143,8 @@ mod tests {
         let n = read("[node]\nrate_hz = 500.0\n").unwrap_or_default();
         assert_eq!((n.rate_hz, n.command_timeout_s), (500.0, 0.1));
         assert_eq!(n.lockstep_give_up_s, 30.0);
-        let n = read("[node]\nlockstep_give_up_s = 2.5\n").unwrap_or_default();
-        assert_eq!(n.value("node.lockstep_give_up_s"), Some(2.5));
+        let g = read("[node]\nlockstep_give_up_s = 2.5\n").unwrap_or_default();
+        assert_eq!(g.value("node.lockstep_give_up_s"), Some(2.5));
         assert_eq!(
             (n.value("node.rate_hz"), n.value("drive.alpha")),
             (Some(500.0), None)
