@@ -10,6 +10,8 @@
 #     default): c++, the Fast DDS and Fast CDR headers and libraries
 #   - tests/peers/cyclone_peer.py: PyPI `cyclonedds` (ships its C library)
 #   - tests/peers/foxglove_ws_client.py: PyPI `websockets`, a WebSocket client that is not ours
+#   - tests/integration/ros/faults.rs: iptables (loss, duplicates, delay through NFQUEUE to
+#     tests/peers/nfqueue_delay.py, partitions: inside each test's own namespace)
 #   - tests/integration/ros/security.rs: tcpdump (captures the namespace's loopback, searched for
 #     plaintext); the keystore's openssl command comes with .ci/build-setup.sh;
 #     tests/peers/sros2_keystore.py (a keystore by sros2's method): PyPI `cryptography`
@@ -73,6 +75,7 @@ check_all() {
   have_lib libfastcdr.so || missing+=("library libfastcdr.so|libfastcdr-dev|apt")
   # the security test's capture of the loopback
   have_cmd tcpdump || missing+=("command tcpdump|tcpdump|apt")
+  have_cmd iptables || missing+=("command iptables|iptables|apt")
   # Python peers, run by the python3 on PATH
   if have_cmd python3; then
     have_py python3 cyclonedds || missing+=("module cyclonedds|cyclonedds==11.0.1|pip")

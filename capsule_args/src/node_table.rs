@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use capsule_plant::scene::{read_toml, SceneError};
 use serde::Deserialize;
 
-use crate::plant_settings::{COMMAND_TIMEOUT_S, PLANT, RATE_HZ};
+use crate::plant_settings::{COMMAND_TIMEOUT_S, LOCKSTEP_GIVE_UP_S, PLANT, RATE_HZ};
 use crate::settings::Setting;
 
 /// How the plant node runs the scene.
@@ -20,6 +20,8 @@ pub struct NodeTable {
     pub rate_hz: f64,
     /// After this long without a command the plant applies zero force \[s\].
     pub command_timeout_s: f64,
+    /// Lock-step: after this long without an answer the run ends \[s\].
+    pub lockstep_give_up_s: f64,
 }
 
 impl Default for NodeTable {
@@ -27,6 +29,7 @@ impl Default for NodeTable {
         NodeTable {
             rate_hz: RATE_HZ.default.unwrap_or(f64::NAN),
             command_timeout_s: COMMAND_TIMEOUT_S.default.unwrap_or(f64::NAN),
+            lockstep_give_up_s: LOCKSTEP_GIVE_UP_S.default.unwrap_or(f64::NAN),
         }
     }
 }
@@ -89,6 +92,8 @@ impl NodeTable {
             Some(self.rate_hz)
         } else if key == COMMAND_TIMEOUT_S.scene? {
             Some(self.command_timeout_s)
+        } else if key == LOCKSTEP_GIVE_UP_S.scene? {
+            Some(self.lockstep_give_up_s)
         } else {
             None
         }
@@ -121,6 +126,7 @@ impl NodeTable {
         Ok(NodeTable {
             rate_hz: get(&RATE_HZ, d.rate_hz),
             command_timeout_s: get(&COMMAND_TIMEOUT_S, d.command_timeout_s),
+            lockstep_give_up_s: get(&LOCKSTEP_GIVE_UP_S, d.lockstep_give_up_s),
         })
     }
 }
@@ -136,6 +142,9 @@ mod tests {
         assert_eq!(NodeTable::default().rate_hz, 1000.0);
         let n = read("[node]\nrate_hz = 500.0\n").unwrap_or_default();
         assert_eq!((n.rate_hz, n.command_timeout_s), (500.0, 0.1));
+        assert_eq!(n.lockstep_give_up_s, 30.0);
+        let n = read("[node]\nlockstep_give_up_s = 2.5\n").unwrap_or_default();
+        assert_eq!(n.value("node.lockstep_give_up_s"), Some(2.5));
         assert_eq!(
             (n.value("node.rate_hz"), n.value("drive.alpha")),
             (Some(500.0), None)
@@ -150,6 +159,11 @@ mod tests {
                 "[node]\ncommand_timeout_s = 1e9\n",
                 "node.command_timeout_s",
                 "must be in [1e-6, 1e6]",
+            ),
+            (
+                "[node]\nlockstep_give_up_s = 0\n",
+                "node.lockstep_give_up_s",
+                "must be in [1e-3, 1e6]",
             ),
             (
                 "[node]\nrate_hz = \"fast\"\n",

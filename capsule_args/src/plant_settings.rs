@@ -42,6 +42,20 @@ pub const COMMAND_TIMEOUT_S: Setting = Setting::new(
 .flag()
 .scene("node.command_timeout_s")
 .default(0.1);
+/// Lock-step: after this long without an answer the controller is gone and the run ends.
+pub const LOCKSTEP_GIVE_UP_S: Setting = Setting::new(
+    "lockstep_give_up_s",
+    "Lock-step: seconds of wall time without an answer to the current sample after which the \
+     controller is taken as gone and the run ends with an error (no step is ever taken \
+     without its answer, unless --lockstep-on-silence zero-force)",
+    Kind::Number {
+        min: 1e-3,
+        max: 1e6,
+    },
+)
+.flag()
+.scene("node.lockstep_give_up_s")
+.default(30.0);
 /// /clock with every N-th sample.
 pub const CLOCK_EVERY: Setting = Setting::new(
     "clock_every",
@@ -67,11 +81,12 @@ pub const JOINT_COMMANDS: Setting = Setting::new(
 
 /// The plant's settings, in the order `--help` and `ros2 param list` show them (with the
 /// physical scale and use_sim_time, which every node declares: `capsule_ros_base::params`).
-pub const PLANT: [Setting; 6] = [
+pub const PLANT: [Setting; 7] = [
     SCENE,
     PACING,
     RATE_HZ,
     COMMAND_TIMEOUT_S,
+    LOCKSTEP_GIVE_UP_S,
     CLOCK_EVERY,
     JOINT_COMMANDS,
 ];

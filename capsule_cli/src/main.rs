@@ -7,6 +7,7 @@ mod bench;
 mod continuation;
 mod emulate_device;
 mod figures;
+mod identify;
 mod offline_record;
 mod record;
 mod refused;
@@ -73,6 +74,9 @@ enum Command {
     /// A prototype on a pseudo-terminal: the scene's capsule behind its sensor and actuator
     /// models, speaking the device protocol (for capsule_plant --source serial:PATH).
     EmulateDevice(Deferred<emulate_device::Args>),
+    /// Fit a scene's numbers to a recorded run (a twin of the device), validate it on a run
+    /// it did not see, write the fitted scene.
+    Identify(Deferred<identify::Args>),
     /// Publish a recording back onto ROS 2 at its pace, or check the controller against it
     /// (runs capsule_replay, from capsule_nodes).
     Replay(Deferred<replay::Args>),
@@ -164,6 +168,7 @@ fn main() -> std::process::ExitCode {
         Command::Replay(Deferred(a)) => replay::main(a),
         Command::EmulateDevice(Deferred(a)) => emulate_device::main(a),
         Command::Robustness(Deferred(a)) => robustness::main(a),
+        Command::Identify(Deferred(a)) => identify::main(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -204,7 +209,7 @@ mod tests {
             assert!(built.get_arguments().count() > 0, "{}", sub.get_name());
             seen += 1;
         }
-        assert_eq!(seen, 11);
+        assert_eq!(seen, 12);
     }
 
     #[test]

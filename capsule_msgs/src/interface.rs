@@ -6,9 +6,9 @@ use crate::{
 };
 
 /// `builtin_interfaces/msg/Time` as rosidl defines it.
-pub const TIME_MSG: &str = "int32 sec\nuint32 nanosec\n";
+pub const TIME_MSG: &str = include_str!("../std_interfaces/builtin_interfaces/msg/Time.msg");
 /// `std_msgs/msg/Header` as rosidl defines it.
-pub const HEADER_MSG: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
+pub const HEADER_MSG: &str = include_str!("../std_interfaces/std_msgs/msg/Header.msg");
 /// The text of `srv/SetMode.srv`.
 pub const SET_MODE_SRV: &str = include_str!("../srv/SetMode.srv");
 

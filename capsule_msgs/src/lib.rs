@@ -11,9 +11,11 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod hashes;
 pub mod interface;
 pub mod names;
 pub mod std_types;
+pub mod type_hash;
 
 pub use interface::RosInterface;
 

@@ -195,6 +195,8 @@ fn main() -> std::process::ExitCode {
             until_s: Some(cli.until_s),
             retransmit: Duration::from_millis(20),
             startup_timeout: Duration::from_secs(30),
+            on_silence: plant::OnSilence::Wait,
+            lockstep_give_up_s: run.lockstep_give_up_s,
             wait_subscribers: cli.wait_subscribers,
             clock_every: 1,
             record: None,

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use capsule_msgs::std_types::{ChangeStateRequest, ChangeStateResponse, LifecycleTransition};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
-use capsule_ros_base::error::{bail, Context as _, Result};
+use capsule_ros_base::error::{bail, invalid, Context as _, Result};
 use ros2_client::{service::Client, Node};
 
 use capsule_ros_base::ros::{qos, subscribe, types, RosOptions, Wire};
@@ -98,8 +98,11 @@ impl LifecycleClient {
 }
 
 /// Calls `client`'s service, re-sending every 500 ms until a response comes or `timeout` passes
-/// (a first request can be lost while the reply path is still matching). Waits at most 2 s
-/// for the service to be matched first; a match event can be missed, so it does not rely on it.
+/// (a first request can be lost while the reply path is still matching). The answer to any of
+/// the requests sent counts: on a loaded host the first one's can come after the second was
+/// sent, and a repeat is not always harmless (a lifecycle transition asked again is refused
+/// once taken). Waits at most 2 s for the service to be matched first; a match event can be
+/// missed, so it does not rely on it.
 async fn call_with_retries<Q, A>(
     client: &Client<Wire<Q>, Wire<A>>,
     node: &Node,
@@ -118,19 +121,41 @@ where
     )
     .await;
     let retry = Duration::from_millis(500);
+    let mut sent = Vec::new();
     loop {
         let id = client
             .async_send_request(Wire(req.clone()))
             .await
             .with_context(|| format!("{what} request not sent"))?;
-        match tokio::time::timeout(retry, client.async_receive_response(id)).await {
-            Ok(Ok(Wire(resp))) => return Ok(resp),
-            Ok(Err(e)) => bail!("{what} response unreadable: {e:?}"),
-            Err(_) if tokio::time::Instant::now() < deadline => continue,
-            Err(_) => bail!("no {what} response within {timeout:?}"),
+        sent.push(id);
+        let resend = (tokio::time::Instant::now() + retry).min(deadline);
+        loop {
+            // every client of the service reads every reply: only ours count
+            while let Some((id, Wire(resp))) = client
+                .receive_response()
+                .map_err(|e| invalid!("{what} response unreadable: {e:?}"))?
+            {
+                if sent.contains(&id) {
+                    return Ok(resp);
+                }
+            }
+            if tokio::time::Instant::now() >= resend {
+                break;
+            }
+            tokio::time::sleep(REPLY_POLL).await;
+        }
+        if tokio::time::Instant::now() >= deadline {
+            bail!(
+                "no {what} response within {timeout:?} ({} requests sent)",
+                sent.len()
+            );
         }
     }
 }
+
+/// How often a call looks for its reply: a small part of a service's round trip on a loaded
+/// host, and of a core when nothing comes.
+const REPLY_POLL: Duration = Duration::from_millis(1);
 
 /// Progression of one demo segment.
 #[derive(Debug, Clone, PartialEq)]

@@ -477,9 +477,14 @@ impl Handlers {
         let ignored = core.ignored_samples();
         let answer = core.on_state(state, self.start.elapsed().as_secs_f64());
         if core.ignored_samples() > ignored && self.ignored_log.tick() {
+            let why = core
+                .ignored_why()
+                .map(|w| w.to_string())
+                .unwrap_or_default();
             warn!(
-                "state seq {} not used (position not finite: mass {} m, capsule {} m; or older than the last): {} so far",
-                state.seq, state.mass_position, state.capsule_position, core.ignored_samples()
+                "state seq {} not used ({why}): {} so far",
+                state.seq,
+                core.ignored_samples()
             );
         }
         let cmd = answer?;

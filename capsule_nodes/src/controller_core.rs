@@ -40,6 +40,8 @@ pub struct ControllerCore {
     commanding: bool,
     commands_sent: u64,
     ignored_samples: u64,
+    /// Why the last sample ignored was.
+    ignored_why: Option<Ignored>,
     /// Velocities the plant does not measure, from its positions (orbit watch and switch only).
     velocity: LineFit,
     feedback: CommandFeedback,
@@ -49,6 +51,40 @@ pub struct ControllerCore {
     switch: Option<(AttractorSwitch, Mode)>,
     /// The switch changed phase or started a pulse since the last [`ControllerCore::take_switch_event`].
     switch_event: bool,
+}
+
+/// Why a state sample was not used.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Ignored {
+    /// A position the law needs is not finite.
+    PositionNotFinite {
+        /// Mass position \[m\].
+        mass_m: f64,
+        /// Capsule position \[m\].
+        capsule_m: f64,
+    },
+    /// Older than the newest sample seen (out of order on the network).
+    Older {
+        /// The newest sample's seq.
+        last_seq: u64,
+    },
+    /// The law's force for it is not finite.
+    ForceNotFinite,
+}
+
+impl std::fmt::Display for Ignored {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Ignored::PositionNotFinite { mass_m, capsule_m } => write!(
+                f,
+                "position not finite: mass {mass_m} m, capsule {capsule_m} m"
+            ),
+            Ignored::Older { last_seq } => {
+                write!(f, "older than the last (seq {last_seq})")
+            }
+            Ignored::ForceNotFinite => f.write_str("the control law's force is not finite"),
+        }
+    }
 }
 
 impl ControllerCore {
@@ -76,6 +112,7 @@ impl ControllerCore {
             commanding: false,
             commands_sent: 0,
             ignored_samples: 0,
+            ignored_why: None,
             velocity: LineFit::for_period(law.period()),
             feedback: CommandFeedback::default(),
             switch_settings: SwitchConfig::DEFAULT,
@@ -182,6 +219,17 @@ impl ControllerCore {
         self.ignored_samples
     }
 
+    /// Why the last sample ignored was (`None`: none was).
+    pub fn ignored_why(&self) -> Option<Ignored> {
+        self.ignored_why
+    }
+
+    fn ignore(&mut self, why: Ignored) -> Option<ActuatorForce> {
+        self.ignored_samples += 1;
+        self.ignored_why = Some(why);
+        None
+    }
+
     /// Goes to `mode` with `kp` (ending an attractor switch in progress: cancelled).
     fn change_mode(&mut self, mode: Mode, kp: f64) {
         if let Some((sw, _)) = &mut self.switch {
@@ -284,8 +332,10 @@ impl ControllerCore {
         // positions are what the law needs; a velocity may be NaN (a device that does not
         // measure it) and is then estimated (capsule_controller::velocity)
         if !(s.mass_position.is_finite() && s.capsule_position.is_finite()) {
-            self.ignored_samples += 1;
-            return None;
+            return self.ignore(Ignored::PositionNotFinite {
+                mass_m: s.mass_position,
+                capsule_m: s.capsule_position,
+            });
         }
         if let Some((seq, t)) = self.last {
             if seq == s.seq && t == stamp {
@@ -293,8 +343,7 @@ impl ControllerCore {
                 return self.last_command.clone();
             }
             if stamp < t || (stamp == t && s.seq < seq) {
-                self.ignored_samples += 1;
-                return None;
+                return self.ignore(Ignored::Older { last_seq: seq });
             }
         }
         self.staleness.seen(now);
@@ -330,8 +379,7 @@ impl ControllerCore {
         }
         let f = self.law.force_at(tau, x1, x2);
         if !f.is_finite() {
-            self.ignored_samples += 1;
-            return None;
+            return self.ignore(Ignored::ForceNotFinite);
         }
         self.meter.sample(tau, x1, x2, f);
         let cmd = ActuatorForce {
@@ -515,6 +563,10 @@ mod tests {
         // a late, older sample: ignored, no command
         assert!(c.on_state(&state(0, 0.0, 0.0, 0.0), 0.011).is_none());
         assert_eq!(c.ignored_samples(), 1);
+        assert_eq!(
+            c.ignored_why().map(|w| w.to_string()).as_deref(),
+            Some("older than the last (seq 1)")
+        );
         assert!(c.on_state(&state(2, 0.02, 0.0, 0.0), 0.02).is_some());
         assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
     }
@@ -682,5 +734,9 @@ mod tests {
         s.capsule_position = f64::NAN;
         assert!(c.on_state(&s, 0.0).is_none());
         assert_eq!(c.ignored_samples(), 1);
+        assert_eq!(
+            c.ignored_why().map(|w| w.to_string()).as_deref(),
+            Some("position not finite: mass 0 m, capsule NaN m")
+        );
     }
 }

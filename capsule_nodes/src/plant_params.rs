@@ -23,6 +23,8 @@ pub mod names {
     pub const RATE_HZ: &str = s::RATE_HZ.name;
     /// Watchdog timeout \[s\].
     pub const COMMAND_TIMEOUT_S: &str = s::COMMAND_TIMEOUT_S.name;
+    /// Lock-step: wall seconds without an answer before the run ends.
+    pub const LOCKSTEP_GIVE_UP_S: &str = s::LOCKSTEP_GIVE_UP_S.name;
     /// /clock with every N-th sample.
     pub const CLOCK_EVERY: &str = s::CLOCK_EVERY.name;
     /// JointState commands on capsule/joint_commands (`--joint-commands`).
@@ -61,6 +63,8 @@ pub struct PlantParams {
     pub rate_hz: f64,
     /// Watchdog timeout \[s\].
     pub command_timeout_s: f64,
+    /// Lock-step: wall seconds without an answer before the run ends.
+    pub lockstep_give_up_s: f64,
     /// /clock with every N-th sample.
     pub clock_every: u64,
     /// JointState commands on capsule/joint_commands.
@@ -131,6 +135,7 @@ pub fn overridable(t: &ParamTable, started: &Fixed) -> Result<PlantParams, Strin
     Ok(PlantParams {
         rate_hz: t.double(RATE_HZ),
         command_timeout_s: t.double(COMMAND_TIMEOUT_S),
+        lockstep_give_up_s: t.double(LOCKSTEP_GIVE_UP_S),
         clock_every: u64::try_from(t.integer(CLOCK_EVERY)).unwrap_or(1).max(1),
         joint_commands: t.boolean(JOINT_COMMANDS),
     })
@@ -178,6 +183,7 @@ mod tests {
         let run = PlantParams {
             rate_hz: 500.0,
             command_timeout_s: 0.25,
+            lockstep_give_up_s: 30.0,
             clock_every: 4,
             joint_commands: false,
         };

@@ -11,6 +11,10 @@
 //! controller's force publisher has matched, and the launcher makes the plant wait for it
 //! (`--wait-subscribers`). Chunks close every `flush_period` of wall time and every 0.5 s of
 //! log time, so a SIGKILL loses at most that much; SIGINT / SIGTERM finish the file.
+//!
+//! Each state sample is recorded once: a lock-step plant re-sends an unanswered sample, and the
+//! re-sends (same writer, seq and stamp as the sample last recorded) are not written again, so
+//! `capsule record info` counts samples, not sends.
 
 use capsule_msgs::names::{topics, type_names};
 use capsule_msgs::std_types::{Clock, DiagnosticArray};
@@ -368,6 +372,35 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
     }
 }
 
+/// Takes every state sample `sub` holds into `rec`, each once: a lock-step plant's re-send of
+/// the sample last recorded (same writer, seq and stamp) is not written again; returns how many
+/// were written. `last`: the sample last written, kept between calls.
+fn drain_states(
+    sub: &ros2_client::Subscription<CapsuleState>,
+    rec: &mut GraphRecording,
+    last: &std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
+) -> Result<usize> {
+    let mut n = 0;
+    loop {
+        match sub.take() {
+            Ok(Some((msg, mi))) => {
+                let key = Some((mi.publisher_gid(), msg.seq, msg.header.stamp.to_nanos()));
+                if last.get() == key {
+                    continue;
+                }
+                last.set(key);
+                rec.write_received(Channel::State, &msg, &mi)?;
+                n += 1;
+            }
+            Ok(None) => return Ok(n),
+            Err(e) => {
+                warn!("bad {:?} sample: {e:?}", Channel::State);
+                return Ok(n);
+            }
+        }
+    }
+}
+
 /// The recorder's readers, one per topic of the graph.
 struct Readers {
     state: ros2_client::Subscription<CapsuleState>,
@@ -376,6 +409,8 @@ struct Readers {
     clock: ros2_client::Subscription<Clock>,
     event: ros2_client::Subscription<SetModeEvent>,
     diagnostics: ros2_client::Subscription<DiagnosticArray>,
+    /// The state sample last recorded (writer, seq, stamp): its re-sends are not recorded.
+    last_state: std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
 }
 
 impl Readers {
@@ -430,6 +465,7 @@ impl Readers {
             clock,
             event,
             diagnostics,
+            last_state: std::cell::Cell::default(),
         })
     }
 
@@ -438,7 +474,7 @@ impl Readers {
     /// is idle all the same).
     fn drain(&self, sink: &mut GraphRecording) -> Result<usize> {
         drain_into(&self.diagnostics, sink, Channel::Diagnostics)?;
-        Ok(drain_into(&self.state, sink, Channel::State)?
+        Ok(drain_states(&self.state, sink, &self.last_state)?
             + drain_into(&self.force, sink, Channel::Force)?
             + drain_into(&self.status, sink, Channel::Status)?
             + drain_into(&self.clock, sink, Channel::Clock)?

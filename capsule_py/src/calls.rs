@@ -418,3 +418,64 @@ pub fn lyapunov(py: Python<'_>, scene: &str) -> PyResult<String> {
     let (out, _) = interrupt::run(py, |_| capsule_analysis::lyapunov::lyapunov(&scene));
     to_json(&out.map_err(|e| SimulationError::new_err(format!("lyapunov: {e}")))?)
 }
+
+/// A twin identified from a recording ([`capsule_analysis::identify::identify_and_validate`],
+/// the recording read by [`capsule_record::series::series`]): the JSON of `capsule identify
+/// --json`. `segment`: `(t0, t1)` in seconds; `validate`: another recording.
+#[pyfunction]
+#[pyo3(signature = (recording, scene, free, segment=None, validate=None, patience=None))]
+pub fn identify(
+    py: Python<'_>,
+    recording: std::path::PathBuf,
+    scene: &str,
+    free: Vec<String>,
+    segment: Option<(f64, f64)>,
+    validate: Option<std::path::PathBuf>,
+    patience: Option<usize>,
+) -> PyResult<String> {
+    use capsule_analysis::identify::{self as id, Segment, Settings};
+    let scene = parse(scene)?;
+    id::free_keys(&scene, &free).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let read = |p: &std::path::Path| {
+        capsule_record::series::series(p).map_err(|e| PyValueError::new_err(e.to_string()))
+    };
+    let recorded = |s: capsule_record::series::Series| {
+        capsule_analysis::twin::Recorded::new(s.h_s, s.rel_m, s.x2_m, s.command_n)
+    };
+    let rec = read(&recording)?;
+    let forces = rec.forces.name();
+    let rec = recorded(rec);
+    let other = validate.as_deref().map(read).transpose()?.map(recorded);
+    let segment = match segment {
+        Some((t0_s, t1_s)) if t0_s >= 0.0 && t1_s > t0_s => Some(Segment { t0_s, t1_s }),
+        Some((a, b)) => {
+            return Err(PyValueError::new_err(format!(
+                "segment ({a}, {b}): give (t0, t1) in seconds, 0 <= t0 < t1"
+            )))
+        }
+        None => None,
+    };
+    let settings = Settings {
+        patience: patience
+            .unwrap_or(Settings::default().patience)
+            .clamp(1, 1000),
+        ..Settings::default()
+    };
+    let t0 = std::time::Instant::now();
+    let (out, _) = interrupt::run(py, |_| {
+        id::identify_and_validate(&scene, &rec, &free, segment, other.as_ref(), &settings)
+    });
+    let (_, outcome) = out.map_err(|e| match e {
+        id::IdentifyError::NoConvergence(_) | id::IdentifyError::Pinned { .. } => {
+            SimulationError::new_err(format!("identify: {e}"))
+        }
+        other => PyValueError::new_err(format!("{}: {other}", recording.display())),
+    })?;
+    to_json(&id::Printed {
+        recording: recording.display().to_string(),
+        forces: forces.to_string(),
+        outcome: &outcome,
+        out: None,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+    })
+}

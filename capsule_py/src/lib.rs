@@ -48,6 +48,7 @@ fn _capsule(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calls::continue_branch, m)?)?;
     m.add_function(wrap_pyfunction!(calls::floquet, m)?)?;
     m.add_function(wrap_pyfunction!(calls::lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(calls::identify, m)?)?;
     m.add_function(wrap_pyfunction!(calls::params, m)?)?;
     Ok(())
 }

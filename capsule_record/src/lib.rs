@@ -13,6 +13,7 @@
 //! - [`info::info`]: duration, topics, counts, mode changes and scene from the summary section
 //!   (no scan); [`messages::messages`] for replay; [`scan::scan`] reads every record of a
 //!   file; `open` checks a file before reading it.
+//! - [`series::series`]: the states and force commands as time series, for identification.
 //! - [`sample::state_message`]: a hardware sample as the `CapsuleState` the plant publishes.
 //! - [`recover::recover`]: rebuilds a damaged or cut file from every intact chunk and renames
 //!   old schema blocks ([`fix_schemas`]).
@@ -32,6 +33,7 @@ pub mod profile;
 pub mod recover;
 pub mod sample;
 pub mod scan;
+pub mod series;
 pub mod types;
 pub mod writer;
 

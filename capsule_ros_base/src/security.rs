@@ -169,7 +169,8 @@ fn enclave_dir(keystore: &Path, name: &str) -> Result<PathBuf, String> {
         let p = dir.join(f);
         match std::fs::metadata(&p) {
             Ok(m) if m.is_file() && m.len() > 0 => {}
-            Ok(_) => return Err(format!("{} is empty or not a file", p.display())),
+            Ok(m) if m.is_file() => return Err(format!("{} is empty", p.display())),
+            Ok(_) => return Err(format!("{} is not a file", p.display())),
             Err(e) => return Err(format!("cannot read {}: {e}", p.display())),
         }
     }

@@ -10,6 +10,7 @@ mod docs_links;
 mod examples;
 mod function_length;
 mod hard_cases;
+mod identify;
 mod import_circles;
 mod paper;
 mod python;
@@ -20,6 +21,7 @@ mod rosidl;
 mod scenes;
 mod solver;
 mod stability;
+mod type_hashes;
 
 use capsule_plant::scene::Scene;
 use std::path::PathBuf;

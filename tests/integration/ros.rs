@@ -24,4 +24,5 @@ mod lockstep;
 mod params;
 mod security;
 mod switch;
+mod twin;
 mod views;

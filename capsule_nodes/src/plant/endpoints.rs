@@ -220,6 +220,11 @@ impl Endpoints {
         }
     }
 
+    /// Remote writers matched on the force topic now (`None` in-process: no graph to ask).
+    pub(super) fn force_publishers(&self) -> Option<usize> {
+        self.force_sub().map(|s| self.graph.publishers(s.guid()))
+    }
+
     /// In-process: what became of the state's DDS copies.
     pub(super) fn copies(&self) -> Option<Arc<CopyCounts>> {
         match &self.state_force {

@@ -15,8 +15,10 @@
 //! - **lock-step**: sample `k` is published and the plant waits for the command that answers
 //!   seq `k` (re-sending the sample every `retransmit` until it comes), then integrates one step
 //!   with it. The run is then a function of the scene and the controller only: reproducible bit
-//!   for bit, as fast as the loop allows. If no answer comes within the command timeout, that
-//!   step runs with zero force and the plant says so.
+//!   for bit, as fast as the loop allows. No step is taken without its answer: when the
+//!   controller is gone (it left the graph, or no answer came for `lockstep_give_up_s`) the run
+//!   ends with an error (`silence`; `--lockstep-on-silence zero-force` asks for the old zero-force
+//!   step after the command timeout instead).
 //!
 //! Time on the wire is simulation time (starting at 0), also published on `/clock` while anyone
 //! subscribes to it (a write without readers still costs DDS's thread a wake-up per sample).
@@ -25,7 +27,8 @@
 //! (loop statistics and the summary), `options`, `recording` (in-plant MCAP), `endpoints` (the
 //! DDS endpoints), `node` ([`run`]: build, wait for the graph, run the loop, finish),
 //! `loop_control` (what reaches the loop's thread), `pacing` (the simulator's two loops),
-//! `paced` (the loop of a device, which paces itself), [`lifecycle`] (the managed node's state
+//! `paced` (the loop of a device, which paces itself), `silence` (what an unanswered lock-step
+//! sample leads to), [`lifecycle`] (the managed node's state
 //! machine) and `lifecycle_services` (its services).
 
 mod endpoints;
@@ -38,6 +41,7 @@ mod paced;
 mod pacing;
 mod plant_core;
 mod recording;
+mod silence;
 mod stats;
 
 pub use capsule_hardware::SourceHealth;
@@ -45,4 +49,5 @@ pub use node::{run, run_in};
 pub use options::{Pacing, PlantOptions};
 pub use plant_core::{CommandOutcome, PlantCore};
 pub use recording::{InPlantRecordOptions, InPlantRecording};
+pub use silence::OnSilence;
 pub use stats::{summary_json, DdsCopyStats, LoopStats};

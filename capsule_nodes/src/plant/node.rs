@@ -326,11 +326,12 @@ async fn finish<H: CapsuleHardware>(
     let stats = core.stats.clone();
     match stats.percentiles() {
         Some((p50, p99, max)) => info!(
-            "loop: {} samples ({} before the first answer), {} lost, {} answered late, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused, {} saturated at {} N",
+            "loop: {} samples ({} before the first answer), {} lost, {} answered late, {} re-sent, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused, {} saturated at {} N",
             stats.published,
             stats.before_first_answer,
             stats.unanswered,
             stats.late_answers,
+            stats.resent,
             p50 * 1e3,
             p99 * 1e3,
             max * 1e3,

@@ -1,6 +1,6 @@
 //! How the plant node runs: pacing and options.
 
-use super::InPlantRecordOptions;
+use super::{InPlantRecordOptions, OnSilence};
 use std::time::Duration;
 
 /// How the plant paces its steps.
@@ -23,6 +23,11 @@ pub struct PlantOptions {
     pub retransmit: Duration,
     /// Lock-step: how long to wait for the very first command (and for the subscribers).
     pub startup_timeout: Duration,
+    /// Lock-step: what an unanswered sample leads to (see [`OnSilence`]).
+    pub on_silence: OnSilence,
+    /// Lock-step, [`OnSilence::Wait`]: after this long without an answer the controller is
+    /// taken as gone and the run ends with an error \[s\].
+    pub lockstep_give_up_s: f64,
     /// Publish the first sample only once this many subscribers matched the state topic.
     pub wait_subscribers: usize,
     /// Publish /clock with every this many samples (1: every sample).

@@ -6,8 +6,8 @@
 //!
 //! - real time: every measurement is a sample; commands answering the current one are written at
 //!   once (older ones are held, as the simulator's pacing holds them, and not written);
-//! - lock-step: the next measurement is taken only once the current sample is answered (or the
-//!   command timeout gave it zero force); the sample is re-published every `retransmit`.
+//! - lock-step: the next measurement is taken only once the current sample is answered; the
+//!   sample is re-published every `retransmit` (what comes of a silent controller: `silence`).
 //!
 //! While the device sends nothing (no line, no hello, silent), samples go on at the node's rate
 //! with the last measurement, so `/diagnostics` and the summary say what is wrong; before the
@@ -16,7 +16,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::error::{bail, Context as _, Result};
 use futures::StreamExt;
 use tokio::sync::Notify;
 use tracing::warn;
@@ -27,6 +27,7 @@ use super::pacing::{
     commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs,
     SampleLoop, Wall,
 };
+use super::silence::{Silence, Verdict, Waiting};
 use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
 
@@ -125,34 +126,42 @@ impl Paced<'_> {
         self.publish(core, rec)
     }
 
-    /// Lock-step: no answer yet; re-publish, or answer with zero after the timeout.
+    /// Lock-step: no answer yet; re-publish (not recorded again), or what [`Silence`] says.
     fn unanswered<H: CapsuleHardware>(
         &mut self,
         core: &mut PlantCore<H>,
         rec: Option<&mut InPlantRecording>,
     ) -> Result<()> {
-        let waited = self.waited_from.elapsed().as_secs_f64();
-        let limit = if self.ever_commanded {
-            core.command_timeout
-        } else {
-            self.opts.startup_timeout.as_secs_f64()
-        };
-        if waited > limit {
-            if core.force_stale() || !self.ever_commanded {
-                warn!(
-                    "no command for seq {} within {limit:.3} s: applying zero force",
-                    core.seq()
-                );
-            }
-            self.ever_commanded = true;
-            return core.answer().context("the plant's hardware");
+        if !core.active() {
+            // the wait counts from activation
+            self.waited_from = Instant::now();
         }
-        let state = core.state();
+        let waiting = Waiting {
+            seq: core.seq(),
+            waited_s: self.waited_from.elapsed().as_secs_f64(),
+            ever_commanded: self.ever_commanded,
+            publishers: self.io.force_publishers(),
+        };
+        match Silence::of(self.opts, core.command_timeout).judge(waiting) {
+            Verdict::ZeroForce if core.active() => {
+                if core.force_stale() || !self.ever_commanded {
+                    warn!(
+                        "no command for seq {} within {:.3} s: applying zero force (--lockstep-on-silence zero-force)",
+                        core.seq(),
+                        waiting.waited_s
+                    );
+                }
+                self.ever_commanded = true;
+                return core.answer().context("the plant's hardware");
+            }
+            Verdict::GiveUp(e) if core.active() => bail!("{e}"),
+            _ => {}
+        }
+        core.stats.resent += 1;
         if let Some(r) = rec {
-            r.published(&state, None)?;
             r.poll()?;
         }
-        self.io.send_state(state);
+        self.io.send_state(core.state());
         Ok(())
     }
 

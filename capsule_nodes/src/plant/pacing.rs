@@ -6,12 +6,13 @@ use std::time::{Duration, Instant};
 
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::CapsuleState;
-use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::error::{bail, Context as _, Result};
 use futures::StreamExt;
 use tracing::{info, warn};
 
 use super::endpoints::{log_refused, log_undecodable, Endpoints};
 use super::loop_control::{Exit, LoopControl};
+use super::silence::{Silence, Verdict, Waiting};
 use super::{CommandOutcome, InPlantRecording, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
 use capsule_hardware::throttle::Throttle;
@@ -235,7 +236,8 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
     }
 
     /// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
-    /// every `retransmit`), step with it; zero force after the command timeout.
+    /// every `retransmit`), step with it; never a step without its answer unless
+    /// `--lockstep-on-silence zero-force` asks (see [`super::silence`]).
     pub(super) async fn lockstep(mut self) -> Result<Exit> {
         let start = Instant::now();
         let steady = move || start.elapsed().as_secs_f64();
@@ -244,6 +246,7 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
         let woken = self.control.woken.clone();
         let until_nanos = self.opts.until_s.map(|s| (s * 1e9).round() as i64);
         let mut wait_started = steady();
+        let silence = Silence::of(self.opts, self.core.command_timeout);
         let mut resend = tokio::time::interval(self.opts.retransmit);
         resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         let mut ever_commanded = false;
@@ -310,27 +313,52 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
                     Err(e) => log_undecodable(&mut undecodable, &e),
                 },
                 _ = resend.tick() => {
-                    let waited = steady() - wait_started;
-                    let limit = if ever_commanded { self.core.command_timeout } else { self.opts.startup_timeout.as_secs_f64() };
-                    if waited > limit && self.core.active() {
-                        if self.core.force_stale() || !ever_commanded {
-                            warn!("no command for seq {} within {:.3} s: applying zero force", self.core.seq(), limit);
+                    if !self.core.active() {
+                        // sim time stands still while inactive: the wait counts from activation
+                        wait_started = steady();
+                    }
+                    let waiting = Waiting {
+                        seq: self.core.seq(),
+                        waited_s: steady() - wait_started,
+                        ever_commanded,
+                        publishers: self.io.force_publishers(),
+                    };
+                    // a node that is ending (a signal) ends at the next turn, without an error
+                    let ending = self.control.halt.load(std::sync::atomic::Ordering::SeqCst);
+                    match silence.judge(waiting) {
+                        _ if !self.core.active() || ending => {
+                            send_again(self.core, self.io, self.rec.as_deref_mut()).await?;
                         }
-                        ever_commanded = true;
-                        self.core.step().context("the plant's hardware")?;
-                        need_publish = true;
-                    } else {
-                        let state = self.core.state();
-                        if let Some(r) = self.rec.as_deref_mut() {
-                            r.published(&state, None)?;
-                            r.poll()?;
+                        Verdict::Resend => send_again(self.core, self.io, self.rec.as_deref_mut()).await?,
+                        Verdict::ZeroForce => {
+                            if self.core.force_stale() || !ever_commanded {
+                                warn!("no command for seq {} within {:.3} s: applying zero force (--lockstep-on-silence zero-force)", self.core.seq(), waiting.waited_s);
+                            }
+                            ever_commanded = true;
+                            self.core.step().context("the plant's hardware")?;
+                            need_publish = true;
                         }
-                        self.io.send_state_async(state).await;
+                        Verdict::GiveUp(e) => bail!("{e}"),
                     }
                 }
             }
         }
     }
+}
+
+/// Lock-step: sends the current sample again (not recorded again: a recording holds each sample
+/// once), and polls the recording's other readers meanwhile.
+async fn send_again<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Endpoints,
+    rec: Option<&mut InPlantRecording>,
+) -> Result<()> {
+    core.stats.resent += 1;
+    if let Some(r) = rec {
+        r.poll()?;
+    }
+    io.send_state_async(core.state()).await;
+    Ok(())
 }
 
 /// The commands DDS delivers (none in-process: the answers come with each sample sent).

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use capsule_msgs::std_types::{Clock, DiagnosticArray};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::types::SetModeEvent;
-use capsule_ros_base::error::Result;
+use capsule_ros_base::error::{NodeError, Result};
 
 use crate::recorder::{drain_into, Channel, GraphRecording};
 
@@ -143,19 +143,22 @@ impl InPlantRecording {
     }
 
     /// Ends the recording after a run that ended with `result`: the controller's last status
-    /// and service events in, the file closed (or, after an error, kept as far as it got).
+    /// and service events in, the file closed, also after an error of the run (a lock-step
+    /// controller gone, the hardware): the recording then ends with the last sample. After an
+    /// error of the recording itself the file is kept as far as it got.
     pub(super) fn finish(self, result: Result<()>) -> Result<()> {
         let mut rec = self.rec;
-        let ended = result.and_then(|()| {
-            drain_into(&self.status_sub, &mut rec, Channel::Status)?;
-            drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent)
-        });
-        match ended {
+        if let Err(e @ NodeError::Record(_)) = result {
+            return Err(rec.abandon(e));
+        }
+        let drained = drain_into(&self.status_sub, &mut rec, Channel::Status)
+            .and_then(|_| drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent));
+        match drained {
             Ok(_) => {
                 let report = rec.finish()?;
                 let total: u64 = report.per_topic.values().sum();
                 tracing::info!("recorded {total} messages to {}", report.path.display());
-                Ok(())
+                result
             }
             Err(e) => Err(rec.abandon(e)),
         }

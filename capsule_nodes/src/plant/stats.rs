@@ -23,6 +23,8 @@ pub struct LoopStats {
     pub unanswered: u64,
     /// Answers that arrived after the next sample was out (applied one sample late).
     pub late_answers: u64,
+    /// Lock-step: samples sent again while unanswered (one per `retransmit`).
+    pub resent: u64,
     /// Commands beyond the force limit, applied saturated at it.
     pub saturated_commands: u64,
     /// Graph conflicts seen (another plant, a foreign type on our topics): [`capsule_ros_base::conflicts`].
@@ -126,6 +128,7 @@ pub fn summary_json(stats: &LoopStats, last: &CapsuleState, wall_s: f64) -> Stri
         before_first_answer: stats.before_first_answer,
         unanswered: stats.unanswered,
         late_answers: stats.late_answers,
+        resent: stats.resent,
         latency_p50_s: p50,
         latency_p99_s: p99,
         latency_max_s: max,
@@ -168,6 +171,8 @@ struct Summary {
     before_first_answer: u64,
     unanswered: u64,
     late_answers: u64,
+    /// Lock-step: re-sends of unanswered samples.
+    resent: u64,
     latency_p50_s: Option<f64>,
     latency_p99_s: Option<f64>,
     latency_max_s: Option<f64>,

@@ -59,12 +59,13 @@
 //!
 //! The files, one job each: `types.rs` (the validated scene), `file.rs` (the file as written
 //! and what it means), `text.rs` (a scene from text and back), `toml_reader.rs` (TOML with the
-//! key's path and line, also the nodes' `[node]` reader), `validate.rs`, `rule.rs` (what a
-//! number must be) and `error.rs` (why a scene is refused). The physical scale is
+//! key's path and line, also the nodes' `[node]` reader), `validate.rs`, `number.rs` (a number by its
+//! key), `rule.rs` (what a number must be) and `error.rs` (why a scene is refused). The physical scale is
 //! [`crate::physical`]'s.
 
 mod error;
 mod file;
+mod number;
 mod rule;
 mod text;
 mod toml_reader;
@@ -73,6 +74,7 @@ mod validate;
 
 pub use crate::physical::PhysicalScale;
 pub use error::{Fault, Invalid, SceneError};
+pub use number::KeyError;
 pub use rule::Rule;
 pub use toml_reader::read_toml;
 pub use types::{Control, Drive, Horizon, Scene};

@@ -38,6 +38,7 @@ __all__ = [
     "continue_branch",
     "floquet",
     "lyapunov",
+    "identify",
     "PARAMS",
     "SCENE_KEYWORDS",
     "HISTORY_COLUMNS",
@@ -322,6 +323,24 @@ def lyapunov(scene: SceneLike = None, **overrides: Any) -> Dict[str, Any]:
     command's JSON writes it ``null``), ``per_period``, ``largest_half_run``, ``periods``."""
     toml_text = _scene(scene, overrides)
     return _spectrum(json.loads(_capsule.lyapunov(toml_text)))
+
+
+def identify(recording: Union[str, "os.PathLike[str]"], free: Sequence[str],
+             scene: SceneLike = None, *, segment: Optional[Tuple[float, float]] = None,
+             validate: Optional[Union[str, "os.PathLike[str]"]] = None,
+             patience: Optional[int] = None, **overrides: Any) -> Dict[str, Any]:
+    """A twin of the recorded device: the scene keys ``free`` (``"capsule.gamma"``, ...) fitted
+    so that the scene's capsule, driven by the recorded force, reproduces the recorded
+    positions; ``segment=(t0, t1)`` fits only those seconds (the rest validates), ``validate``
+    another recording. The same dict as ``capsule identify --json``: ``report`` (values,
+    standard errors, residual RMS, what cannot be told apart) and ``validation``. Refused
+    input raises ``ValueError``, a fit that does not converge or ends at a bound
+    :class:`SimulationError`."""
+    toml_text = _scene(scene, overrides)
+    seg = None if segment is None else (float(segment[0]), float(segment[1]))
+    return json.loads(_capsule.identify(os.fspath(recording), toml_text, [str(k) for k in free],
+                                        seg, None if validate is None else os.fspath(validate),
+                                        patience))
 
 
 def study(*args: Any, **kwargs: Any):

@@ -48,6 +48,10 @@ def continue_branch(param: str, to: float, scene: SceneLike = None, *, arc_step:
 def floquet(scene: SceneLike = None, *, x: Optional[Sequence[float]] = None,
             period: Optional[int] = None, **overrides: Any) -> Dict[str, Any]: ...
 def lyapunov(scene: SceneLike = None, **overrides: Any) -> Dict[str, Any]: ...
+def identify(recording: Union[str, "os.PathLike[str]"], free: Sequence[str],
+             scene: SceneLike = None, *, segment: Optional[Tuple[float, float]] = None,
+             validate: Optional[Union[str, "os.PathLike[str]"]] = None,
+             patience: Optional[int] = None, **overrides: Any) -> Dict[str, Any]: ...
 def study(store: Union[str, os.PathLike], *, kind: str = "simulate",
           grid: Optional[Dict[str, Sequence[float]]] = None,
           points: Optional[Sequence[Dict[str, float]]] = None, scene: SceneLike = None,

@@ -1,7 +1,7 @@
 //! Bad input and faults: refused mode requests, bad scenes and flags, a plant or controller
 //! that goes away, clean shutdown on SIGTERM.
 
-use super::harness::{assert_contains, json_number, json_raw, netns};
+use super::harness::{assert_contains, json_number, json_raw, last_sample, netns, Run};
 
 #[test]
 fn bad_mode_requests_are_refused_with_a_reason_and_change_nothing() {
@@ -209,3 +209,195 @@ fn namespaces_remaps_and_help_work_end_to_end() {
     assert_eq!(json_number(json, "samples"), Some(501.0), "{json}");
     assert_eq!(json_number(json, "unanswered"), Some(0.0), "{json}");
 }
+
+/// [`netns`] with the network faults of tests/peers/net_faults.sh (`lossy`, `dupes`, `delayed`,
+/// `partition`, `heal`, `unfault`, `wait_log`); fails with the set-up command when iptables is
+/// missing.
+fn with_faults(timeout_s: u32, script: &str) -> Run {
+    let ok = std::process::Command::new("iptables")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "iptables needed for the network faults: run .ci/ros-setup.sh"
+    );
+    netns(
+        timeout_s,
+        &format!(". \"$ROOT/tests/peers/net_faults.sh\"\n{script}"),
+    )
+}
+
+/// A summary's number, or a failure with the run's output.
+#[track_caller]
+fn number(run: &Run, json: &str, key: &str) -> f64 {
+    json_number(json, key).unwrap_or_else(|| panic!("no {key} in {json}\n{}", run.all()))
+}
+
+#[test]
+fn lockstep_under_loss_delay_reordering_duplicates_and_an_outage_ends_on_the_clean_runs_sample() {
+    // separate processes; the default `--lockstep-on-silence wait`, the scene's 0.1 s command
+    // timeout (which used to give a silent sample a zero-force step)
+    let run = with_faults(
+        300,
+        r#"
+        once() {
+            start_controller --mode forward 2> "$TMP/$1.ctl.log"
+            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 1 --wait-subscribers 1 \
+                --summary-json "$TMP/$1.json" 2> "$TMP/$1.plant.log" & P=$!
+            if [ "$1" = OUTAGE ]; then
+                # 0.5 s with nothing getting through, as soon as the loop runs (1,000 steps
+                # can take as little as 0.3 s)
+                wait_log "$TMP/$1.plant.log" "subscribers matched: starting" || exit 1
+                partition; sleep 0.5; heal
+            fi
+            wait $P || { echo "$1 plant failed"; cat "$TMP/$1.plant.log" >&2; exit 1; }
+            stop $C
+            grep -h "applying zero force\|not used" "$TMP/$1.plant.log" "$TMP/$1.ctl.log" >&2
+            echo "$1 $(cat $TMP/$1.json)"
+        }
+        once CLEAN
+        lossy 0.10; dupes 0.01; delayed 1 1 0.05
+        once LOSSY
+        unfault; echo "NFQUEUE $(cat $TMP/nfq.json)"
+        once OUTAGE"#,
+    );
+    run.assert_ok();
+    let clean = last_sample(&run, "CLEAN");
+    assert_moved_to_seq_1000(&clean, &run);
+    for tag in ["LOSSY", "OUTAGE"] {
+        assert_eq!(
+            last_sample(&run, tag),
+            clean,
+            "{tag} differs\n{}",
+            run.all()
+        );
+    }
+    // the faults were there: the lossy run re-sent samples, the queue delayed packets and
+    // reordered some, the outage held one sample for most of its 0.5 s
+    let lossy = run.line("LOSSY");
+    assert!(number(&run, lossy, "resent") >= 10.0, "{lossy}");
+    let queue = run.after("NFQUEUE ");
+    assert!(number(&run, queue, "packets") > 1000.0, "{queue}");
+    assert!(number(&run, queue, "reordered") > 10.0, "{queue}");
+    let outage = run.line("OUTAGE");
+    assert!(number(&run, outage, "resent") >= 15.0, "{outage}");
+    assert!(!run.stderr.contains("applying zero force"), "{}", run.all());
+}
+
+/// Panics unless `last` is seq 1000 of a capsule that moved (1 s at the scene's 1 kHz).
+#[track_caller]
+fn assert_moved_to_seq_1000(last: &str, run: &Run) {
+    assert_eq!(json_raw(last, "seq"), Some("1000"), "{last}\n{}", run.all());
+    assert_ne!(json_raw(last, "capsule_position"), Some("0.0"), "{last}");
+}
+
+#[test]
+fn a_lockstep_plant_whose_controller_is_gone_ends_with_an_error_and_a_complete_recording() {
+    // a controller that exits leaves the graph (seen at once); one killed stays in discovery
+    // until its lease ends, and the plant gives up after --lockstep-give-up-s
+    let run = with_faults(
+        180,
+        r#"
+        once() { # TAG SIGNAL GIVE_UP_S
+            start_controller --mode forward
+            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 100 --wait-subscribers 1 \
+                --lockstep-give-up-s $3 --record-output "$TMP/$1.mcap" 2> "$TMP/$1.log" & P=$!
+            wait_log "$TMP/$1.log" "subscribers matched: starting" || exit 1
+            sleep 1; t0=$(date +%s.%N)
+            kill -$2 $C; wait $C
+            wait $P; rc=$?
+            echo "$1 plant rc=$rc after $(awk "BEGIN { print $(date +%s.%N) - $t0 }") s"
+            grep "lock-step:" "$TMP/$1.log" | sed "s/^/$1 /"
+            $B/capsule record info "$TMP/$1.mcap" > "$TMP/$1.info" || echo "$1 info failed"
+            grep "capsule/state " "$TMP/$1.info" | sed "s/^/$1 info /"
+            python3 "$ROOT/tests/peers/mcap_decode.py" "$TMP/$1.mcap" --reader mcap > "$TMP/$1.rec.json" || exit 1
+            python3 - "$TMP/$1.rec.json" $1 <<'PY'
+import json, sys
+t = json.load(open(sys.argv[1]))["mcap"]["topics"]
+seqs = [r[0] for r in t["/capsule/state"]["rows"]]
+forces = sorted(set(r[0] for r in t["/capsule/actuator_force"]["rows"]))
+print(sys.argv[2], "RECORDED", json.dumps({"states": len(seqs), "last": seqs[-1],
+      "once_each": seqs == list(range(seqs[0], seqs[-1] + 1)),
+      "answered_but_last": forces == seqs[:-1]}))
+PY
+        }
+        once LEFT TERM 60
+        once KILLED KILL 2"#,
+    );
+    run.assert_ok();
+    for (tag, why, within_s) in [
+        ("LEFT", "the controller is gone (no publisher", 10.0),
+        ("KILLED", "lockstep_give_up_s = 2 s", 12.0),
+    ] {
+        let rc = run.line(&format!("{tag} plant rc="));
+        assert!(!rc.contains("rc=0 "), "{rc}\n{}", run.all());
+        let secs: f64 = rc
+            .rsplit("after ")
+            .next()
+            .and_then(|s| s.trim_end_matches(" s").parse().ok())
+            .unwrap_or(f64::NAN);
+        assert!(secs < within_s, "{tag}: {secs} s\n{}", run.all());
+        assert!(
+            run.stdout
+                .lines()
+                .any(|l| l.starts_with(tag) && l.contains(why)),
+            "{tag}: no {why:?}\n{}",
+            run.all()
+        );
+        let rec = run.after(&format!("{tag} RECORDED "));
+        assert_eq!(json_raw(rec, "once_each"), Some("true"), "{rec}");
+        assert_eq!(json_raw(rec, "answered_but_last"), Some("true"), "{rec}");
+        assert!(number(&run, rec, "states") > 100.0, "{rec}");
+        // record info counts the samples, each once
+        let info = run.line(&format!("{tag} info "));
+        let states = number(&run, rec, "states") as u64;
+        assert!(info.contains(&format!("count {states} ")), "{info}\n{rec}");
+    }
+}
+
+#[test]
+fn real_time_keeps_moving_at_5_percent_loss_and_resumes_after_a_partition() {
+    let run = with_faults(
+        120,
+        r#"
+        lossy 0.05
+        start_controller --mode forward 2> "$TMP/ctl.log"
+        $B/capsule_plant --scene "$SCENE" --until-s 5 --wait-subscribers 1 \
+            --summary-json "$TMP/rt.json" 2> "$TMP/rt.log" & P=$!
+        wait_log "$TMP/rt.log" "subscribers matched: starting" || exit 1
+        # 2 s at 5 % loss, then 1 s partitioned, then 2 s at 5 % loss again
+        sleep 2; partition; echo "PARTITIONED"; sleep 1; heal
+        wait $P; echo "plant rc=$?"
+        stop $C
+        echo "RT $(cat $TMP/rt.json)"
+        grep -o "applying zero force\|command received (seq [0-9]*): applying commanded force" "$TMP/rt.log" | sed "s/^/LOG /""#,
+    );
+    run.assert_ok();
+    run.assert_stdout(&["plant rc=0", "PARTITIONED"]);
+    let rt = run.line("RT ");
+    let samples = number(&run, rt, "samples");
+    let unanswered = number(&run, rt, "unanswered");
+    // the partition's second unanswered, and the loss around it, but most samples answered
+    assert!(unanswered > 800.0 && unanswered < 0.5 * samples, "{rt}");
+    // the watchdog fell back during the partition, and commands applied again after it
+    let log = run.lines_starting("LOG ");
+    let zero = log.iter().position(|l| l.contains("applying zero force"));
+    let resumed = log
+        .iter()
+        .rposition(|l| l.contains("applying commanded force"));
+    assert!(
+        zero.is_some() && resumed > zero,
+        "no fall-back and resumption: {log:?}\n{}",
+        run.all()
+    );
+    let last = last_sample(&run, "RT ");
+    assert_eq!(json_raw(&last, "command_stale"), Some("false"), "{last}");
+    // moving forward: 4 of the 5 s at 5 % loss (a partition-free clean run covers CLEAN_5S_M)
+    let x = json_number(&last, "capsule_position").unwrap_or(f64::NAN);
+    assert!(x > 0.4 * CLEAN_5S_M, "capsule at {x} m: {last}");
+}
+
+/// Where a clean real-time FORWARD run of 5 s leaves the capsule \[m\] (docs/perf/faults.md:
+/// 0.0850 m; 0.0546 m with 5 % loss and a 1 s partition).
+const CLEAN_5S_M: f64 = 0.085;

@@ -12,7 +12,7 @@ use capsule_hardware::{
     CapsuleHardware,
 };
 use capsule_nodes::{
-    plant::{InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
+    plant::{InPlantRecordOptions, OnSilence, Pacing, PlantCore, PlantOptions},
     plant_params::{self, PlantFlags},
     recorder, views,
 };
@@ -62,6 +62,12 @@ pub struct Cli {
     /// Lock-step: seconds to wait for the first command and for --wait-subscribers, (0, 1e6]
     #[arg(long, default_value_t = 30.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
     startup_timeout_s: f64,
+    /// Lock-step: what an unanswered sample leads to. wait: re-send it while sim time stands
+    /// still, and end the run with an error once the controller is gone (it left the graph, or
+    /// no answer for --lockstep-give-up-s); zero-force: after --command-timeout-s step at zero
+    /// force (the run then depends on the wall clock: a loaded host or a lossy network changes it)
+    #[arg(long, value_enum, default_value = "wait")]
+    lockstep_on_silence: OnSilence,
     /// Publish the first sample once this many subscribers matched the state topic, 0 to 1000
     #[arg(long, default_value_t = 0, value_parser = ranges::count_usize(0, ranges::MAX_SUBSCRIBERS as usize))]
     wait_subscribers: usize,
@@ -89,7 +95,7 @@ pub struct Cli {
     #[arg(long)]
     pub check: bool,
     // the plant's settings table (capsule_args::plant_settings): --rate-hz, --command-timeout-s,
-    // --clock-every, --joint-commands
+    // --lockstep-give-up-s, --clock-every, --joint-commands
     #[command(flatten)]
     settings: PlantFlags,
     /// Configure and activate at once (true, the default: the node runs as it starts), or
@@ -187,6 +193,8 @@ pub fn build(
         until_s: cli.until_s,
         retransmit: Duration::from_millis(cli.retransmit_ms),
         startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
+        on_silence: cli.lockstep_on_silence,
+        lockstep_give_up_s: run.lockstep_give_up_s,
         wait_subscribers: cli.wait_subscribers,
         clock_every: run.clock_every,
         record: record_options(cli, &file)?,

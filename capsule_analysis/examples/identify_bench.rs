@@ -1,0 +1,81 @@
+//! Times `capsule_analysis::identify` on its acceptance case: four keys (gamma, beta, delta,
+//! xi) from 30 s of 1 kHz positions-only data of the typical device, FORWARD at the control
+//! point, the device's capsule off the nominal one by 10-30 %. Prints the fit, the truth and
+//! the wall time (docs/perf/identify.md has the figures).
+//!
+//! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS]`
+
+use capsule_analysis::identify::{identify, Settings};
+use capsule_analysis::twin::emulated_run;
+use capsule_plant::device::DeviceModel;
+use capsule_plant::scene::Scene;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let seconds: f64 = std::env::args()
+        .nth(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(30.0);
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/control_point.toml"),
+    )?;
+    let mut nominal = Scene::from_toml_str(&text, "control_point")?;
+    let device = DeviceModel::typical(&nominal.physical);
+    nominal.device = Some(device);
+    let mut truth = nominal.clone();
+    let factors = [1.2, 0.8, 1.3, 1.15];
+    let keys = [
+        "capsule.gamma",
+        "capsule.beta",
+        "capsule.delta",
+        "capsule.xi",
+    ];
+    for (k, f) in keys.iter().zip(factors) {
+        truth.set_number(k, nominal.number(k)? * f)?;
+    }
+    let t0 = std::time::Instant::now();
+    let rec = emulated_run(&truth, 0.2, &device, 1000.0, seconds)?;
+    let made = t0.elapsed().as_secs_f64();
+    let keys: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+    let t1 = std::time::Instant::now();
+    let fit = identify(&nominal, &rec, &keys, &Settings::default())?;
+    let wall = t1.elapsed().as_secs_f64();
+    println!(
+        "{} samples ({seconds} s at 1 kHz) made in {made:.2} s; {} threads",
+        rec.len(),
+        rayon::current_num_threads()
+    );
+    for e in &fit.report.parameters {
+        let t = truth.number(&e.key)?;
+        let v = e.value.unwrap_or(f64::NAN);
+        let sd = e.std_error.unwrap_or(f64::NAN);
+        println!(
+            "{:<14} true {:.6} fitted {:.6} +- {:.6} (textbook {:.6}): error {:+.2} %, {:.2} s.e.",
+            e.key,
+            t,
+            v,
+            sd,
+            e.textbook_std_error,
+            100.0 * (v / t - 1.0),
+            (v - t) / sd
+        );
+    }
+    let d = &fit.report.delay;
+    println!(
+        "delay          {:.3} ms +- {:.3} ms (device latency {} ms)",
+        d.raw_value * 1e3,
+        d.std_error.unwrap_or(f64::NAN) * 1e3,
+        device.latency_s * 1e3
+    );
+    println!(
+        "residual RMS {:.2} um; {} windows; {} evaluations ({}); identify took {wall:.2} s",
+        fit.report.residual_rms_m * 1e6,
+        fit.report.windows,
+        fit.report.evaluations,
+        fit.report.termination
+    );
+    for s in &fit.report.statements {
+        println!("statement: {s}");
+    }
+    Ok(())
+}

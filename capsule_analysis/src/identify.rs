@@ -1,0 +1,772 @@
+//! Identification: the free numbers of a scene that make its capsule, driven by a recorded
+//! force, reproduce the recorded positions.
+//!
+//! The method (impacts and stick-slip make a fit over the whole record hopeless: a small change
+//! of a parameter moves an impact, and after a few periods the response has nothing to do with
+//! the parameter any more):
+//!
+//! - The recording is cut into windows of one drive period. Each window restarts the twin
+//!   from a state of its own, fitted to the window's positions (four nuisance numbers per
+//!   window: the device measures positions only, and a restart from a noisy measured position
+//!   and a differentiated velocity would put the noise into the parameters).
+//! - The free keys and the measurement delay are fitted to all windows together by
+//!   Levenberg-Marquardt (`levenberg-marquardt`) on the residuals with the window states
+//!   projected out (variable projection, Kaufman's Jacobian: `(I - J_s J_s^+) J_p` per window,
+//!   `J_s` and `J_p` by forward differences of the exact simulator).
+//! - Uncertainty: the standard error from the projected Jacobian at the optimum, as a
+//!   cluster-robust ("sandwich") estimate with the windows as clusters,
+//!   `A^-1 (sum_w J_w^T r_w r_w^T J_w) A^-1` with `A = J^T J`: the residuals within a window are
+//!   correlated (jitter, the delay's jumps, what the twin lacks) and their spread varies with
+//!   the speed, which the textbook `(J^T J)^-1 sigma^2` assumes away; the larger of the two is
+//!   reported.
+//! - Identifiability: the correlation matrix of the estimates, and the singular values of the
+//!   column-scaled Jacobian; a pair correlated beyond 0.95, or a direction whose singular value
+//!   is under 1e-3 of the largest, is reported in words and its numbers are not.
+
+use crate::twin::{fit_window, state_jacobian, Forcing, Recorded, Twin};
+use capsule_plant::scene::{KeyError, Scene};
+use capsule_plant::State;
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::OnceLock;
+use thiserror::Error;
+
+/// Keys whose numbers the twin uses (the drive, the control gain, the solver and the device's
+/// sensor are not: the force is recorded, the device is taken as the scene describes it).
+const TWIN_TABLES: [&str; 3] = ["capsule.", "friction.", "physical."];
+
+/// A free value stays within this factor of its nominal value; ending at the bound is refused.
+pub const BOUND_FACTOR: f64 = 4.0;
+
+/// Windows needed per fitted number (the free keys and the delay).
+pub const WINDOWS_PER_NUMBER: usize = 5;
+
+/// Correlation beyond which two estimates are reported as not told apart.
+pub const STRONG_CORRELATION: f64 = 0.95;
+
+/// Singular value (of the column-scaled Jacobian, relative to the largest) under which a
+/// direction is reported as flat.
+pub const FLAT: f64 = 1e-3;
+
+/// How to identify.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Window length in drive periods of the nominal scene.
+    pub window_periods: f64,
+    /// Levenberg-Marquardt's patience: at most this many evaluations per fitted number + 1.
+    pub patience: usize,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            window_periods: 1.0,
+            patience: 30,
+        }
+    }
+}
+
+/// Why an identification is refused or failed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum IdentifyError {
+    /// A free key names no number of the scene.
+    #[error("--free {0}")]
+    Key(#[from] KeyError),
+    /// A free key the twin does not use.
+    #[error("--free {0}: the twin driven by the recorded force does not use it (free keys: capsule.*, friction.<constant>, physical.*)")]
+    NotInTwin(String),
+    /// A key given twice.
+    #[error("--free {0}: given twice")]
+    Twice(String),
+    /// No key.
+    #[error("--free: no key given")]
+    NoKeys,
+    /// No measured positions.
+    #[error("the recording has no measured positions (x1 - x2 and x2)")]
+    NoPositions,
+    /// Too few windows for the numbers asked.
+    #[error("the recording is too short for {numbers} fitted numbers ({keys} keys and the delay): {windows} windows of {samples} samples (one drive period), at least {needed} needed ({per} per number); record longer or free fewer keys")]
+    TooShort {
+        /// Free keys.
+        keys: usize,
+        /// Keys and the delay.
+        numbers: usize,
+        /// Windows found.
+        windows: usize,
+        /// Samples per window.
+        samples: usize,
+        /// Windows needed.
+        needed: usize,
+        /// Per number.
+        per: usize,
+    },
+    /// The fit did not converge.
+    #[error("the fit did not converge ({0}); try a nominal scene closer to the device, fewer free keys or a longer recording")]
+    NoConvergence(String),
+    /// A value ended at its bound.
+    #[error("{key} ended at its bound {bound} (nominal {nominal}, bounds within a factor {BOUND_FACTOR}): the data push it out of the range a fit can trust; check the nominal scene and the recording's units")]
+    Pinned {
+        /// The key.
+        key: String,
+        /// The bound.
+        bound: f64,
+        /// The nominal value.
+        nominal: f64,
+    },
+    /// The fitted scene is not a valid scene.
+    #[error("the fitted scene is refused: {0}")]
+    Invalid(String),
+}
+
+/// A free key: its nominal value and the range it may take.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Free {
+    /// The key, as in a scene file.
+    pub key: String,
+    /// The nominal scene's value.
+    pub nominal: f64,
+    /// Lower bound.
+    pub lo: f64,
+    /// Upper bound.
+    pub hi: f64,
+}
+
+impl Free {
+    /// Unit of the fitted number: the nominal value, or 1 where it is zero.
+    fn scale(&self) -> f64 {
+        if self.nominal != 0.0 {
+            self.nominal.abs()
+        } else {
+            1.0
+        }
+    }
+}
+
+/// The free keys of `scene` named in `keys`, checked.
+pub fn free_keys(scene: &Scene, keys: &[String]) -> Result<Vec<Free>, IdentifyError> {
+    if keys.is_empty() {
+        return Err(IdentifyError::NoKeys);
+    }
+    let mut out: Vec<Free> = Vec::new();
+    for key in keys {
+        let nominal = scene.number(key)?;
+        if !TWIN_TABLES.iter().any(|t| key.starts_with(t)) {
+            return Err(IdentifyError::NotInTwin(key.clone()));
+        }
+        if out.iter().any(|f| &f.key == key) {
+            return Err(IdentifyError::Twice(key.clone()));
+        }
+        let (lo, hi) = if nominal > 0.0 {
+            (nominal / BOUND_FACTOR, nominal * BOUND_FACTOR)
+        } else {
+            (0.0, 1.0)
+        };
+        out.push(Free {
+            key: key.clone(),
+            nominal,
+            lo,
+            hi,
+        });
+    }
+    Ok(out)
+}
+
+/// One fitted number.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Estimate {
+    /// The key (`delay_s` for the measurement delay).
+    pub key: String,
+    /// The nominal value.
+    pub nominal: f64,
+    /// The fitted value; `None` where the data cannot tell it (see `statement`).
+    pub value: Option<f64>,
+    /// Standard error (one sigma): the larger of the cluster-robust and the textbook one.
+    pub std_error: Option<f64>,
+    /// The textbook standard error `sqrt(sigma^2 (J^T J)^-1)`, for comparison.
+    pub textbook_std_error: f64,
+    /// The fitted value (also where not identified), for the record.
+    pub raw_value: f64,
+    /// Why no number, in words.
+    pub statement: Option<String>,
+}
+
+/// What an identification found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The free keys, in the order given.
+    pub parameters: Vec<Estimate>,
+    /// The measurement delay (measurement `k` is the capsule at `t_k - delay`): fitted, not
+    /// written to the scene.
+    pub delay: Estimate,
+    /// RMS of the position residuals (`x1 - x2` and `x2` together) \[m\].
+    pub residual_rms_m: f64,
+    /// Of `x1 - x2` alone \[m\].
+    pub residual_rms_displacement_m: f64,
+    /// Of `x2` alone \[m\].
+    pub residual_rms_capsule_m: f64,
+    /// Windows fitted.
+    pub windows: usize,
+    /// Samples per window.
+    pub window_samples: usize,
+    /// Positions compared.
+    pub residuals: usize,
+    /// Evaluations of all windows.
+    pub evaluations: usize,
+    /// Why the optimiser stopped.
+    pub termination: String,
+    /// Correlation of the estimates (keys, then the delay).
+    pub correlation: Vec<Vec<f64>>,
+    /// Singular values of the column-scaled Jacobian, relative to the largest.
+    pub singular_values: Vec<f64>,
+    /// What the data cannot tell apart, in words (empty: everything identified).
+    pub statements: Vec<String>,
+    /// How the uncertainty is computed.
+    pub uncertainty: String,
+}
+
+/// A scene fitted to a recording.
+#[derive(Debug, Clone)]
+pub struct Identified {
+    /// The nominal scene with the fitted values (nominal where not identified).
+    pub scene: Scene,
+    /// The measurement delay fitted \[s\].
+    pub delay_s: f64,
+    /// The report.
+    pub report: Report,
+}
+
+/// The windows of a recording: their first samples, `n` intervals each, each with enough
+/// measured samples (three quarters).
+pub fn windows(rec: &Recorded, n: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut a = 0;
+    while n > 0 && a + n < rec.len() {
+        let measured = (a..=a + n).filter(|k| rec.measured(*k)).count();
+        if 4 * measured >= 3 * (n + 1) && rec.measured(a) {
+            out.push(a);
+        }
+        a += n;
+    }
+    out
+}
+
+/// Samples in a window of `periods` drive periods of `scene`.
+pub fn window_samples(scene: &Scene, h_s: f64, periods: f64) -> usize {
+    let period_s = scene.drive.period() * scene.physical.time_s();
+    ((periods * period_s / h_s).round() as usize).max(4)
+}
+
+/// The outer problem: the free numbers (scaled) and the delay (in samples).
+struct Outer<'a> {
+    base: &'a Scene,
+    free: &'a [Free],
+    forcing: &'a Forcing,
+    rec: &'a Recorded,
+    starts: &'a [usize],
+    n: usize,
+    p: DVector<f64>,
+    states: Vec<State>,
+    /// The window states of the best parameters so far and their sum of squares: every trial
+    /// starts its windows from them (a rejected wild trial must not move the next one's start).
+    best: Option<(f64, Vec<State>)>,
+    res: Vec<Vec<f64>>,
+    evaluations: usize,
+    jac: OnceLock<DMatrix<f64>>,
+}
+
+impl Outer<'_> {
+    /// The scene and delay of parameters `p` (clamped to the bounds).
+    fn candidate(&self, p: &DVector<f64>) -> (Scene, f64) {
+        let mut s = self.base.clone();
+        for (i, f) in self.free.iter().enumerate() {
+            let v = (p[i] * f.scale()).clamp(f.lo, f.hi);
+            // every free key was read from this scene: setting it cannot fail
+            let _ = s.set_number(&f.key, v);
+        }
+        let h = self.rec.h_s;
+        let delay = (p[self.free.len()] * h).clamp(-2.0 * h, 100.0 * h);
+        (s, delay)
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.p = x.clone();
+        self.jac = OnceLock::new();
+        self.evaluations += 1;
+        let (scene, delay_s) = self.candidate(x);
+        let twin = Twin {
+            scene: &scene,
+            forcing: self.forcing,
+            delay_s,
+        };
+        let (rec, n) = (self.rec, self.n);
+        let from = self.best.as_ref().map_or(&self.states, |b| &b.1);
+        let fits: Vec<_> = self
+            .starts
+            .par_iter()
+            .zip(from.par_iter())
+            .map(|(a, s)| fit_window(&twin, rec, *a, n, *s))
+            .collect();
+        self.states = fits.iter().map(|f| f.state).collect();
+        self.res = fits.into_iter().map(|f| f.residuals).collect();
+        let ss: f64 = self.res.iter().flatten().map(|r| r * r).sum();
+        if self.best.as_ref().is_none_or(|b| ss < b.0) {
+            self.best = Some((ss, self.states.clone()));
+        }
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.p.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(DVector::from_iterator(
+            self.res.iter().map(Vec::len).sum(),
+            self.res.iter().flatten().copied(),
+        ))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        Some(self.jac.get_or_init(|| self.projected_jacobian()).clone())
+    }
+}
+
+/// Forward-difference step of the scaled parameters.
+const PARAM_STEP: f64 = 1e-6;
+
+impl Outer<'_> {
+    /// Kaufman's Jacobian of the projected residuals, window by window.
+    fn projected_jacobian(&self) -> DMatrix<f64> {
+        let np = self.p.len();
+        let (base_scene, base_delay) = self.candidate(&self.p);
+        let blocks: Vec<DMatrix<f64>> = self
+            .starts
+            .par_iter()
+            .zip(self.states.par_iter().zip(self.res.par_iter()))
+            .map(|(a, (s, r0))| {
+                let twin = Twin {
+                    scene: &base_scene,
+                    forcing: self.forcing,
+                    delay_s: base_delay,
+                };
+                let js = state_jacobian(&twin, self.rec, *a, self.n, *s, Some(r0));
+                let mut jp = DMatrix::zeros(r0.len(), np);
+                for c in 0..np {
+                    let mut p = self.p.clone();
+                    let step = PARAM_STEP * p[c].abs().max(1.0);
+                    p[c] += step;
+                    let (scene, delay_s) = self.candidate(&p);
+                    let t = Twin {
+                        scene: &scene,
+                        forcing: self.forcing,
+                        delay_s,
+                    };
+                    let r = t.residuals(self.rec, *a, self.n, *s);
+                    for (i, (ri, r0i)) in r.iter().zip(r0).enumerate() {
+                        jp[(i, c)] = (ri - r0i) / step;
+                    }
+                }
+                // project out the window's state: (I - J_s J_s^+) J_p
+                let js = DMatrix::from_iterator(js.nrows(), 4, js.iter().copied());
+                match js.clone().svd(true, true).solve(&jp, 1e-12) {
+                    Ok(x) => &jp - js * x,
+                    Err(_) => jp,
+                }
+            })
+            .collect();
+        let rows: usize = blocks.iter().map(|b| b.nrows()).sum();
+        let mut j = DMatrix::zeros(rows, np);
+        let mut at = 0;
+        for b in blocks {
+            j.view_mut((at, 0), (b.nrows(), np)).copy_from(&b);
+            at += b.nrows();
+        }
+        j
+    }
+}
+
+/// Fits `keys` of `scene` to `rec` (the scene's `[device]` as the actuator, ideal without one).
+pub fn identify(
+    scene: &Scene,
+    rec: &Recorded,
+    keys: &[String],
+    settings: &Settings,
+) -> Result<Identified, IdentifyError> {
+    let free = free_keys(scene, keys)?;
+    if !(0..rec.len()).any(|k| rec.measured(k)) {
+        return Err(IdentifyError::NoPositions);
+    }
+    let n = window_samples(scene, rec.h_s, settings.window_periods);
+    let starts = windows(rec, n);
+    let numbers = free.len() + 1;
+    let needed = WINDOWS_PER_NUMBER * numbers;
+    if starts.len() < needed {
+        return Err(IdentifyError::TooShort {
+            keys: free.len(),
+            numbers,
+            windows: starts.len(),
+            samples: n,
+            needed,
+            per: WINDOWS_PER_NUMBER,
+        });
+    }
+    let forcing = Forcing::new(rec, scene.device.as_ref());
+    let delay0 = scene.device.map_or(0.0, |d| d.latency_s);
+    let mut p0: Vec<f64> = free.iter().map(|f| f.nominal / f.scale()).collect();
+    p0.push(delay0 / rec.h_s);
+    let twin0 = Twin {
+        scene,
+        forcing: &forcing,
+        delay_s: delay0,
+    };
+    let half = (n / 16).max(3);
+    let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
+    let mut outer = Outer {
+        base: scene,
+        free: &free,
+        forcing: &forcing,
+        rec,
+        starts: &starts,
+        n,
+        p: DVector::from_vec(p0.clone()),
+        states,
+        best: None,
+        res: Vec::new(),
+        evaluations: 0,
+        jac: OnceLock::new(),
+    };
+    outer.set_params(&DVector::from_vec(p0));
+    let (outer, report) = LevenbergMarquardt::new()
+        .with_ftol(1e-10)
+        .with_xtol(1e-8)
+        .with_gtol(1e-10)
+        .with_patience(settings.patience)
+        .minimize(outer);
+    if !report.termination.was_successful() {
+        return Err(IdentifyError::NoConvergence(format!(
+            "{:?} after {} evaluations",
+            report.termination, outer.evaluations
+        )));
+    }
+    let (fitted, delay_s) = outer.candidate(&outer.p);
+    for f in &free {
+        let v = fitted.number(&f.key)?;
+        for bound in [f.lo, f.hi] {
+            if (v - bound).abs() <= 1e-6 * f.scale() {
+                return Err(IdentifyError::Pinned {
+                    key: f.key.clone(),
+                    bound,
+                    nominal: f.nominal,
+                });
+            }
+        }
+    }
+    let report = summarise(
+        &outer,
+        &free,
+        &fitted,
+        delay_s,
+        format!("{:?}", report.termination),
+    );
+    let mut scene = fitted;
+    for e in &report.parameters {
+        if e.value.is_none() {
+            let _ = scene.set_number(&e.key, e.nominal);
+        }
+    }
+    scene
+        .validate()
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    Ok(Identified {
+        scene,
+        delay_s,
+        report,
+    })
+}
+
+/// The report at the optimum: estimates, uncertainties, identifiability.
+fn summarise(
+    outer: &Outer,
+    free: &[Free],
+    fitted: &Scene,
+    delay_s: f64,
+    termination: String,
+) -> Report {
+    let j = outer.projected_jacobian();
+    let np = j.ncols();
+    let (mut ss, mut ss_rel, mut ss_x2, mut count) = (0.0, 0.0, 0.0, 0usize);
+    for w in &outer.res {
+        for (i, r) in w.iter().enumerate() {
+            if *r != 0.0 {
+                count += 1;
+            }
+            ss += r * r;
+            if i % 2 == 0 {
+                ss_rel += r * r;
+            } else {
+                ss_x2 += r * r;
+            }
+        }
+    }
+    let count = count.max(1);
+    let windows = outer.starts.len();
+    let dof = count.saturating_sub(np + 4 * windows).max(1);
+    let sigma2 = ss / dof as f64;
+    let a = j.transpose() * &j;
+    let ainv = a
+        .clone()
+        .pseudo_inverse(1e-14 * a.norm())
+        .unwrap_or_else(|_| DMatrix::zeros(np, np));
+    // the sandwich, with the windows as clusters
+    let mut meat = DMatrix::zeros(np, np);
+    let mut at = 0;
+    for w in &outer.res {
+        let jw = j.rows(at, w.len());
+        let g = jw.transpose() * DVector::from_column_slice(w);
+        meat += &g * g.transpose();
+        at += w.len();
+    }
+    let correction = windows as f64 / (windows as f64 - 1.0).max(1.0) * count as f64 / dof as f64;
+    let robust = &ainv * meat * &ainv * correction;
+    let textbook = &ainv * sigma2;
+    // correlations from the robust estimate (the textbook one where it is degenerate)
+    let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
+        robust.clone()
+    } else {
+        textbook.clone()
+    };
+    let sd: Vec<f64> = (0..np)
+        .map(|i| robust[(i, i)].max(textbook[(i, i)]).max(0.0).sqrt())
+        .collect();
+    let correlation: Vec<Vec<f64>> = (0..np)
+        .map(|r| {
+            (0..np)
+                .map(|c| {
+                    let d = (cov[(r, r)] * cov[(c, c)]).sqrt();
+                    if d > 0.0 {
+                        cov[(r, c)] / d
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    // column-scaled Jacobian: its singular values say which directions the data fix
+    let norms: Vec<f64> = (0..np).map(|c| j.column(c).norm()).collect();
+    let scaled = DMatrix::from_fn(j.nrows(), np, |r, c| {
+        if norms[c] > 0.0 {
+            j[(r, c)] / norms[c]
+        } else {
+            0.0
+        }
+    });
+    let svd = scaled.svd(false, true);
+    let smax = svd.singular_values.max().max(f64::MIN_POSITIVE);
+    let mut order: Vec<usize> = (0..np).collect();
+    order.sort_by(|x, y| svd.singular_values[*y].total_cmp(&svd.singular_values[*x]));
+    let singular_values: Vec<f64> = order
+        .iter()
+        .map(|i| svd.singular_values[*i] / smax)
+        .collect();
+    let name = |i: usize| {
+        if i < free.len() {
+            free[i].key.clone()
+        } else {
+            "the measurement delay".to_string()
+        }
+    };
+    let mut statements = Vec::new();
+    let mut unknown = vec![false; np];
+    for (i, norm) in norms.iter().enumerate() {
+        if *norm == 0.0 {
+            statements.push(format!(
+                "{} changes nothing the device measured: the recording cannot tell its value",
+                name(i)
+            ));
+            unknown[i] = true;
+        }
+    }
+    for r in 0..np {
+        for c in r + 1..np {
+            let rho = correlation[r][c];
+            if rho.abs() > STRONG_CORRELATION {
+                statements.push(format!(
+                    "{} and {} cannot be told apart from this recording (correlation {rho:+.3}): the data fix a combination of them, not each; free one of them only, or record a run that moves them differently",
+                    name(r),
+                    name(c)
+                ));
+                unknown[r] = true;
+                unknown[c] = true;
+            }
+        }
+    }
+    if let Some(vt) = svd.v_t.as_ref() {
+        for (k, i) in order.iter().enumerate() {
+            if singular_values[k] < FLAT {
+                let row = vt.row(*i);
+                let parts: Vec<String> = (0..np)
+                    .filter(|c| row[*c].abs() > 0.1)
+                    .map(|c| {
+                        unknown[c] = true;
+                        format!("{:+.2} {}", row[c], name(c))
+                    })
+                    .collect();
+                statements.push(format!(
+                    "the data leave a direction flat (relative singular value {:.1e}): {} can change together without changing the fit",
+                    singular_values[k],
+                    parts.join(" ")
+                ));
+            }
+        }
+    }
+    let estimate = |i: usize, key: String, nominal: f64, value: f64, scale: f64| Estimate {
+        key,
+        nominal,
+        value: (!unknown[i]).then_some(value),
+        std_error: (!unknown[i]).then_some(sd[i] * scale),
+        textbook_std_error: textbook[(i, i)].max(0.0).sqrt() * scale,
+        raw_value: value,
+        statement: unknown[i].then(|| {
+            statements
+                .iter()
+                .find(|s| s.contains(&name(i)))
+                .cloned()
+                .unwrap_or_default()
+        }),
+    };
+    let parameters = free
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let v = fitted.number(&f.key).unwrap_or(f64::NAN);
+            estimate(i, f.key.clone(), f.nominal, v, f.scale())
+        })
+        .collect();
+    let nominal_delay = outer.base.device.map_or(0.0, |d| d.latency_s);
+    let delay = estimate(
+        free.len(),
+        "delay_s".into(),
+        nominal_delay,
+        delay_s,
+        outer.rec.h_s,
+    );
+    let half = count as f64 / 2.0;
+    Report {
+        parameters,
+        delay,
+        residual_rms_m: (ss / count as f64).sqrt(),
+        residual_rms_displacement_m: (ss_rel / half).sqrt(),
+        residual_rms_capsule_m: (ss_x2 / half).sqrt(),
+        windows,
+        window_samples: outer.n,
+        residuals: count,
+        evaluations: outer.evaluations,
+        termination,
+        correlation,
+        singular_values,
+        statements,
+        uncertainty: "one standard error: the larger of the cluster-robust (sandwich, windows as clusters) and the textbook sigma^2 (J^T J)^-1 estimate, J the Jacobian with the window states projected out".into(),
+    }
+}
+
+/// Samples `[t0, t1)` of a recording, in seconds from its first sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Segment {
+    /// Start \[s\].
+    pub t0_s: f64,
+    /// End \[s\].
+    pub t1_s: f64,
+}
+
+impl Segment {
+    /// The sample range of the segment in a recording of `len` samples `h_s` apart.
+    pub fn range(&self, h_s: f64, len: usize) -> (usize, usize) {
+        let at = |t: f64| ((t / h_s).round().max(0.0) as usize).min(len);
+        (at(self.t0_s), at(self.t1_s))
+    }
+}
+
+/// An identification and its validation.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Outcome {
+    /// Samples in the recording.
+    pub samples: usize,
+    /// Sample spacing \[s\].
+    pub h_s: f64,
+    /// The samples fitted (a `--segment`, or all).
+    pub fitted_samples: [usize; 2],
+    /// The fit.
+    pub report: Report,
+    /// The validation (another recording, or what `--segment` left out); `None` without one.
+    pub validation: Option<crate::twin_validation::Validation>,
+    /// What was validated on: `"other recording"`, `"left out by --segment"` or `"none"`.
+    pub validated_on: String,
+}
+
+/// What `capsule identify --json` prints and `capsule.identify` returns: the outcome with
+/// where it came from.
+#[derive(Debug, Serialize)]
+pub struct Printed<'a> {
+    /// The recording fitted.
+    pub recording: String,
+    /// Where its forces came from (`commands`, `applied force`).
+    pub forces: String,
+    /// The fit and the validation.
+    #[serde(flatten)]
+    pub outcome: &'a Outcome,
+    /// The fitted scene's file, if written.
+    pub out: Option<String>,
+    /// Wall time of the fit and the validation \[s\].
+    pub wall_time_s: f64,
+}
+
+/// Identifies `keys` of `scene` on `rec` (within `segment`), validates on `other` or on what
+/// the segment left out (its longer side).
+pub fn identify_and_validate(
+    scene: &Scene,
+    rec: &Recorded,
+    keys: &[String],
+    segment: Option<Segment>,
+    other: Option<&Recorded>,
+    settings: &Settings,
+) -> Result<(Identified, Outcome), IdentifyError> {
+    let (a, b) = segment.map_or((0, rec.len()), |s| s.range(rec.h_s, rec.len()));
+    let part = rec.segment(a, b);
+    let identified = identify(scene, &part, keys, settings)?;
+    let left_out = if a > rec.len() - b {
+        rec.segment(0, a)
+    } else {
+        rec.segment(b, rec.len())
+    };
+    let (check, validated_on) = match other {
+        Some(o) => (Some(o), "other recording"),
+        None if segment.is_some() && !left_out.is_empty() => {
+            (Some(&left_out), "left out by --segment")
+        }
+        None => (None, "none"),
+    };
+    let validation = check
+        .and_then(|c| crate::twin_validation::validate(&identified.scene, identified.delay_s, c));
+    let outcome = Outcome {
+        samples: rec.len(),
+        h_s: rec.h_s,
+        fitted_samples: [a, b],
+        report: identified.report.clone(),
+        validated_on: if validation.is_some() {
+            validated_on
+        } else {
+            "none"
+        }
+        .to_string(),
+        validation,
+    };
+    Ok((identified, outcome))
+}

@@ -1,0 +1,492 @@
+//! The twin: a scene's capsule driven by a recorded force, restarted from a state at any
+//! sample of the recording, and the state that makes it follow a stretch of measured
+//! positions best. What `identify` fits and what its validation predicts with.
+//!
+//! The device between the recorded command and the capsule is modelled as the emulator models
+//! it (`capsule_plant::device`): the command answering sample `k` is held from sample `k` to
+//! `k + 1`, through the actuator's dead band, saturation and the coil's first-order lag (the
+//! scene's `[device]`; an ideal actuator without one). The measurement of sample `k` is the
+//! capsule at `t_k - delay`: the delay (the sensor's latency and how the device picks its
+//! samples) is a number of the twin, fitted beside the scene's keys.
+
+use capsule_plant::device::actuator::Actuator;
+use capsule_plant::device::DeviceModel;
+use capsule_plant::scene::Scene;
+use capsule_plant::{ConstantForce, SimError, Simulator, State};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn, Vector4, U4};
+
+/// A recorded run on its sample grid, SI: the positions the device measured (NaN where it
+/// measured nothing) and the force commanded after each sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recorded {
+    /// Sample spacing \[s\].
+    pub h_s: f64,
+    /// `x1 - x2` at each sample \[m\].
+    pub rel_m: Vec<f64>,
+    /// `x2` at each sample \[m\].
+    pub x2_m: Vec<f64>,
+    /// The force commanded from each sample to the next \[N\].
+    pub command_n: Vec<f64>,
+}
+
+impl Recorded {
+    /// A recording of these series (each as long as `x2_m`: what is missing is not measured).
+    pub fn new(h_s: f64, rel_m: Vec<f64>, x2_m: Vec<f64>, command_n: Vec<f64>) -> Recorded {
+        let n = x2_m.len();
+        let fit = |mut v: Vec<f64>, fill: f64| {
+            v.resize(n, fill);
+            v
+        };
+        Recorded {
+            h_s,
+            rel_m: fit(rel_m, f64::NAN),
+            command_n: fit(command_n, 0.0),
+            x2_m,
+        }
+    }
+
+    /// Samples in the recording.
+    pub fn len(&self) -> usize {
+        self.x2_m.len()
+    }
+
+    /// Whether it has no sample.
+    pub fn is_empty(&self) -> bool {
+        self.x2_m.is_empty()
+    }
+
+    /// Whether sample `k` has both positions.
+    pub fn measured(&self, k: usize) -> bool {
+        self.rel_m[k].is_finite() && self.x2_m[k].is_finite()
+    }
+
+    /// Samples `a..b` (clamped to the recording).
+    pub fn segment(&self, a: usize, b: usize) -> Recorded {
+        let b = b.min(self.len());
+        let a = a.min(b);
+        Recorded {
+            h_s: self.h_s,
+            rel_m: self.rel_m[a..b].to_vec(),
+            x2_m: self.x2_m[a..b].to_vec(),
+            command_n: self.command_n[a..b].to_vec(),
+        }
+    }
+}
+
+/// The force on the mass over the recording: the commands through the actuator (target and
+/// coil force at the start of each hold), integrated exactly over any interval.
+#[derive(Debug, Clone)]
+pub struct Forcing {
+    h_s: f64,
+    lag_s: f64,
+    target: Vec<f64>,
+    coil: Vec<f64>,
+}
+
+impl Forcing {
+    /// The force of `rec`'s commands through `device`'s actuator (`None`: ideal).
+    pub fn new(rec: &Recorded, device: Option<&DeviceModel>) -> Forcing {
+        let (lag_s, target): (f64, Vec<f64>) = match device {
+            Some(d) => {
+                let a = Actuator::new(d);
+                (
+                    d.lag_s,
+                    rec.command_n.iter().map(|c| a.target(*c)).collect(),
+                )
+            }
+            None => (
+                0.0,
+                rec.command_n
+                    .iter()
+                    .map(|c| if c.is_finite() { *c } else { 0.0 })
+                    .collect(),
+            ),
+        };
+        let decay = if lag_s > 0.0 {
+            (-rec.h_s / lag_s).exp()
+        } else {
+            0.0
+        };
+        let mut coil = Vec::with_capacity(target.len());
+        let mut f = 0.0;
+        for t in &target {
+            coil.push(f);
+            f = t + (f - t) * decay;
+        }
+        Forcing {
+            h_s: rec.h_s,
+            lag_s,
+            target,
+            coil,
+        }
+    }
+
+    /// The coil's time constant \[s\].
+    pub fn lag_s(&self) -> f64 {
+        self.lag_s
+    }
+
+    /// The integral of the force over `[a, b]` \[N s\] (times from the first sample; zero
+    /// before it, the last command held after the end).
+    pub fn integral(&self, a: f64, b: f64) -> f64 {
+        let (h, n) = (self.h_s, self.target.len());
+        if n == 0 || b <= a {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        let first = (a / h).floor().max(0.0) as usize;
+        let mut j = first;
+        loop {
+            let t0 = j as f64 * h;
+            if t0 >= b {
+                break;
+            }
+            let last = j + 1 >= n;
+            let t1 = if last { f64::INFINITY } else { t0 + h };
+            let (u, v) = (a.max(t0), b.min(t1));
+            if v > u && b > 0.0 {
+                let k = j.min(n - 1);
+                let (target, f0) = (self.target[k], self.coil[k]);
+                sum += target * (v - u);
+                if self.lag_s > 0.0 {
+                    let gap = f0 - target;
+                    sum += gap
+                        * self.lag_s
+                        * ((-(u - t0) / self.lag_s).exp() - (-(v - t0) / self.lag_s).exp());
+                }
+            }
+            if last {
+                break;
+            }
+            j += 1;
+        }
+        sum
+    }
+}
+
+/// A candidate twin: a scene, the recording's force, the measurement delay.
+pub struct Twin<'a> {
+    /// The capsule, friction, solver and scale.
+    pub scene: &'a Scene,
+    /// The recorded force through the actuator.
+    pub forcing: &'a Forcing,
+    /// Measurement `k` is the capsule at `t_k - delay_s`.
+    pub delay_s: f64,
+}
+
+/// Constant-force pieces per sample interval, each at the exact mean force: at most half the
+/// coil's lag (the emulator cuts its holds at a quarter; half changed the fitted numbers of
+/// docs/perf/identify.md's case by under 0.1 of their standard errors, at half the cost).
+fn pieces(h_s: f64, lag_s: f64) -> usize {
+    if lag_s > 0.0 {
+        ((2.0 * h_s / lag_s).ceil() as usize).clamp(1, 8)
+    } else {
+        1
+    }
+}
+
+impl Twin<'_> {
+    /// Simulates from `s0` (non-dimensional) at sample `a` over `n` sample intervals, pushing
+    /// `[x1 - x2, x2]` \[m\] at samples `a ..= a + n` onto `out`; returns the state at `a + n`.
+    pub fn run(
+        &self,
+        a: usize,
+        n: usize,
+        s0: State,
+        out: &mut Vec<[f64; 2]>,
+    ) -> Result<State, SimError> {
+        let p = &self.scene.physical;
+        let (l, ts, fs) = (p.length_m(), p.time_s(), p.force_n());
+        let h = self.forcing.h_s;
+        let mut sim = Simulator::new(self.scene.model(), s0, 0.0, self.scene.solver())?;
+        let push = |s: State, out: &mut Vec<[f64; 2]>| out.push([(s.x1 - s.x2) * l, s.x2 * l]);
+        push(s0, out);
+        let q = pieces(h, self.forcing.lag_s);
+        // the hold boundaries, in the measurement's time, fall `delay mod h` after a sample
+        let offset = self.delay_s.rem_euclid(h);
+        let mut cuts: Vec<f64> = (0..=q).map(|i| h * i as f64 / q as f64).collect();
+        if offset > 1e-9 * h && h - offset > 1e-9 * h {
+            cuts.push(offset);
+            cuts.sort_by(f64::total_cmp);
+        }
+        for k in 0..n {
+            let t_k = (a + k) as f64 * h;
+            for w in cuts.windows(2) {
+                let (u, v) = (t_k + w[0], t_k + w[1]);
+                if v - u <= 1e-12 * h {
+                    continue;
+                }
+                let mean = self.forcing.integral(u - self.delay_s, v - self.delay_s) / (v - u);
+                let tau_end = (v - a as f64 * h) / ts;
+                sim.advance(&ConstantForce(mean / fs), tau_end)?;
+            }
+            push(sim.state(), out);
+        }
+        Ok(sim.state())
+    }
+
+    /// Residuals of a run from `s0` at `a` over `n` intervals against `rec`, \[m\]: `x1 - x2`
+    /// then `x2` of each sample, zero where nothing was measured. A failed run gives 1 m.
+    pub fn residuals(&self, rec: &Recorded, a: usize, n: usize, s0: State) -> Vec<f64> {
+        let mut out = Vec::with_capacity(n + 1);
+        let ok = self.run(a, n, s0, &mut out).is_ok();
+        let mut r = Vec::with_capacity(2 * (n + 1));
+        for i in 0..=n {
+            let k = a + i;
+            let [rel, x2] = if ok { out[i] } else { [f64::NAN; 2] };
+            for (sim, meas) in [(rel, rec.rel_m[k]), (x2, rec.x2_m[k])] {
+                r.push(if !meas.is_finite() {
+                    0.0
+                } else if sim.is_finite() {
+                    sim - meas
+                } else {
+                    1.0
+                });
+            }
+        }
+        r
+    }
+
+    /// A first guess of the state at sample `a` from the positions around it: a quadratic
+    /// through the measured samples within `half` of it, its value and slope at `a`.
+    pub fn guess(&self, rec: &Recorded, a: usize, half: usize) -> State {
+        let p = &self.scene.physical;
+        let (l, v) = (p.length_m(), p.velocity_m_per_s());
+        let lo = a.saturating_sub(half);
+        let hi = (a + half + 1).min(rec.len());
+        let fit = |y: &[f64]| -> (f64, f64) {
+            let pts: Vec<(f64, f64)> = (lo..hi)
+                .filter(|k| rec.measured(*k))
+                .map(|k| ((k as f64 - a as f64) * rec.h_s, y[k]))
+                .collect();
+            quadratic_at_zero(&pts)
+        };
+        let (rel, drel) = fit(&rec.rel_m);
+        let (x2, dx2) = fit(&rec.x2_m);
+        State {
+            x1: (rel + x2) / l,
+            y1: (drel + dx2) / v,
+            x2: x2 / l,
+            y2: dx2 / v,
+        }
+    }
+}
+
+/// Value and slope at 0 of the least-squares quadratic through `pts` (a line through fewer
+/// than four points, the point itself through one).
+fn quadratic_at_zero(pts: &[(f64, f64)]) -> (f64, f64) {
+    match pts.len() {
+        0 => (0.0, 0.0),
+        1 => (pts[0].1, 0.0),
+        n => {
+            let cols = if n >= 4 { 3 } else { 2 };
+            let a = DMatrix::from_fn(n, cols, |i, j| pts[i].0.powi(j as i32));
+            let b = DVector::from_iterator(n, pts.iter().map(|p| p.1));
+            match a.svd(true, true).solve(&b, 1e-18) {
+                Ok(c) => (c[0], c[1]),
+                Err(_) => (pts[0].1, 0.0),
+            }
+        }
+    }
+}
+
+/// Column scales of the window state: positions and velocities are O(1) non-dimensional.
+const STATE_STEP: f64 = 1e-7;
+
+/// The state at `a` that makes `twin` follow `rec`'s positions over `n` intervals best
+/// (least squares from `guess`), its residuals, and their Jacobian in the state.
+pub struct WindowFit {
+    /// The state at the window's first sample.
+    pub state: State,
+    /// Residuals \[m\].
+    pub residuals: Vec<f64>,
+}
+
+struct WindowProblem<'a, 'b> {
+    twin: &'a Twin<'b>,
+    rec: &'a Recorded,
+    a: usize,
+    n: usize,
+    s: Vector4<f64>,
+}
+
+fn state_of(s: &Vector4<f64>) -> State {
+    State::from_array([s[0], s[1], s[2], s[3]])
+}
+
+impl LeastSquaresProblem<f64, Dyn, U4> for WindowProblem<'_, '_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, U4>;
+    type ParameterStorage = Owned<f64, U4>;
+
+    fn set_params(&mut self, x: &Vector4<f64>) {
+        self.s = *x;
+    }
+
+    fn params(&self) -> Vector4<f64> {
+        self.s
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(DVector::from_vec(self.twin.residuals(
+            self.rec,
+            self.a,
+            self.n,
+            state_of(&self.s),
+        )))
+    }
+
+    fn jacobian(&self) -> Option<nalgebra::OMatrix<f64, Dyn, U4>> {
+        Some(state_jacobian(
+            self.twin,
+            self.rec,
+            self.a,
+            self.n,
+            state_of(&self.s),
+            None,
+        ))
+    }
+}
+
+/// The Jacobian of the window's residuals in its start state (forward differences; `base`:
+/// the residuals at `s0` if known).
+pub fn state_jacobian(
+    twin: &Twin,
+    rec: &Recorded,
+    a: usize,
+    n: usize,
+    s0: State,
+    base: Option<&[f64]>,
+) -> nalgebra::OMatrix<f64, Dyn, U4> {
+    let own;
+    let r0 = match base {
+        Some(b) => b,
+        None => {
+            own = twin.residuals(rec, a, n, s0);
+            &own
+        }
+    };
+    let mut j = nalgebra::OMatrix::<f64, Dyn, U4>::zeros(r0.len());
+    let arr = s0.to_array();
+    for c in 0..4 {
+        let step = STATE_STEP * arr[c].abs().max(1.0);
+        let mut s = arr;
+        s[c] += step;
+        let r = twin.residuals(rec, a, n, State::from_array(s));
+        for (i, (ri, r0i)) in r.iter().zip(r0).enumerate() {
+            j[(i, c)] = (ri - r0i) / step;
+        }
+    }
+    j
+}
+
+/// Fits the state at sample `a` over `n` intervals, from `guess`.
+pub fn fit_window(twin: &Twin, rec: &Recorded, a: usize, n: usize, guess: State) -> WindowFit {
+    let problem = WindowProblem {
+        twin,
+        rec,
+        a,
+        n,
+        s: Vector4::from(guess.to_array()),
+    };
+    let (problem, _) = LevenbergMarquardt::new()
+        .with_ftol(1e-9)
+        .with_xtol(1e-9)
+        .with_patience(20)
+        .minimize(problem);
+    let state = state_of(&problem.s);
+    let residuals = twin.residuals(rec, a, n, state);
+    WindowFit { state, residuals }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(commands: Vec<f64>) -> Recorded {
+        let n = commands.len();
+        Recorded {
+            h_s: 1e-3,
+            rel_m: vec![0.0; n],
+            x2_m: vec![0.0; n],
+            command_n: commands,
+        }
+    }
+
+    #[test]
+    fn the_force_integral_follows_the_coil_exactly() {
+        let r = rec(vec![1.0, 1.0, 0.0]);
+        let ideal = Forcing::new(&r, None);
+        assert!((ideal.integral(0.0, 2e-3) - 2e-3).abs() < 1e-15);
+        assert!((ideal.integral(0.5e-3, 2.5e-3) - 1.5e-3).abs() < 1e-15);
+        assert_eq!(ideal.integral(-1.0, 0.0), 0.0);
+        let d = DeviceModel {
+            lag_s: 1e-3,
+            ..DeviceModel::ideal(&Default::default())
+        };
+        let lagged = Forcing::new(&r, Some(&d));
+        // f(t) = 1 - exp(-t / lag) from rest: its integral over [0, 2 ms]
+        let want = 2e-3 - 1e-3 * (1.0 - (-2.0f64).exp());
+        assert!((lagged.integral(0.0, 2e-3) - want).abs() < 1e-15);
+        // split anywhere, the same
+        let split = lagged.integral(0.0, 0.7e-3) + lagged.integral(0.7e-3, 2e-3);
+        assert!((split - want).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_quadratic_is_read_back_with_its_slope() {
+        let pts: Vec<(f64, f64)> = (-5..=5)
+            .map(|i| {
+                let t = f64::from(i) * 0.1;
+                (t, 2.0 + 3.0 * t - t * t)
+            })
+            .collect();
+        let (v, s) = quadratic_at_zero(&pts);
+        assert!(
+            (v - 2.0).abs() < 1e-12 && (s - 3.0).abs() < 1e-12,
+            "{v} {s}"
+        );
+    }
+}
+
+/// A run as the plant records it in front of a device, made offline: `truth`'s capsule behind
+/// `device` (`robustness::closed_loop_observed`, the emulator's prototype in lock-step), under
+/// the law with gain `kp` at `rate_hz` for `seconds`; the device's readings and the commands.
+/// For tests and benchmarks of identification without the ROS graph.
+pub fn emulated_run(
+    truth: &Scene,
+    kp: f64,
+    device: &DeviceModel,
+    rate_hz: f64,
+    seconds: f64,
+) -> Result<Recorded, SimError> {
+    use crate::robustness::{closed_loop_observed, controller_window, LoopCase, Mismatch};
+    let period_s = truth.drive.period() * truth.physical.time_s();
+    let periods = (seconds / period_s).ceil() as u32;
+    let case = LoopCase {
+        kp,
+        device: *device,
+        mismatch: Mismatch::NONE,
+        rate_hz,
+        transient: 0,
+        periods,
+        velocity_window: controller_window(period_s, rate_hz),
+        orbit_tolerance: 0.1,
+    };
+    let n = (seconds * rate_hz).round() as usize;
+    let mut rec = Recorded {
+        h_s: 1.0 / rate_hz,
+        rel_m: Vec::with_capacity(n),
+        x2_m: Vec::with_capacity(n),
+        command_n: Vec::with_capacity(n),
+    };
+    closed_loop_observed(truth, &case, &mut |s| {
+        if rec.x2_m.len() < n {
+            rec.rel_m.push(s.reading.displacement_m);
+            rec.x2_m.push(s.reading.capsule_m);
+            rec.command_n.push(s.command_n);
+        }
+    })?;
+    Ok(rec)
+}

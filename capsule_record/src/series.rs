@@ -1,0 +1,185 @@
+//! The plant's states and the force commands of a recording as time series on the sample
+//! grid, SI: what `capsule identify` fits a twin to. One file or a split recording.
+//!
+//! The force after each sample is the command answering it (`/capsule/actuator_force`, keyed
+//! by the state's `seq`; a sample without an answer gets zero, as the plant answers it). A
+//! recording without commands (`capsule simulate --record`) gives the force the states say was
+//! applied, the mean of two consecutive samples' `actuator_force` (the simulator's law is
+//! continuous: the mean is its value over the interval to second order).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use capsule_msgs::names::default_topics;
+use capsule_msgs::{ActuatorForce, CapsuleState};
+
+use crate::bag::bag_files;
+use crate::{cdr, messages, RecordError};
+
+/// Where the forces of a [`Series`] came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum ForceSource {
+    /// The commands on `/capsule/actuator_force`, each held after the sample it answers.
+    Commands,
+    /// The states' `actuator_force`, averaged over each interval.
+    Applied,
+}
+
+impl ForceSource {
+    /// What the forces are, in words.
+    pub fn name(self) -> &'static str {
+        match self {
+            ForceSource::Commands => "commands",
+            ForceSource::Applied => "applied force",
+        }
+    }
+}
+
+/// A recording's samples, SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Sample spacing \[s\] (the median of the stamps' steps).
+    pub h_s: f64,
+    /// `x1 - x2` \[m\] (NaN: not measured).
+    pub rel_m: Vec<f64>,
+    /// `x2` \[m\] (NaN: not measured).
+    pub x2_m: Vec<f64>,
+    /// The force after each sample \[N\].
+    pub command_n: Vec<f64>,
+    /// Where the forces came from.
+    pub forces: ForceSource,
+    /// Samples dropped as repeats of the one before (a late device: the plant stepped on with
+    /// the last measurement); the series is on the device's own sample grid.
+    pub repeated: usize,
+}
+
+/// Why a recording gives no series.
+#[derive(Debug, thiserror::Error)]
+pub enum SeriesError {
+    /// The recording could not be read.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// It holds no state.
+    #[error("{}: no states ({} holds no capsule_msgs/msg/CapsuleState): record the plant's state topic", .0.display(), default_topics::STATE)]
+    NoStates(PathBuf),
+    /// It holds no force.
+    #[error("{}: no forces: neither commands on {} nor an applied force in the states", .0.display(), default_topics::FORCE)]
+    NoForces(PathBuf),
+    /// The samples are not evenly spaced.
+    #[error("{}: the states are not evenly spaced in time ({bad} of {n} steps differ from {h_s} s by over 10 %): identification needs a sampled run", path.display())]
+    Uneven {
+        /// The file.
+        path: PathBuf,
+        /// Steps off the grid.
+        bad: usize,
+        /// Steps.
+        n: usize,
+        /// The median step.
+        h_s: f64,
+    },
+}
+
+/// The files of a recording: a split recording's (its directory or `metadata.yaml`), or the
+/// file itself.
+fn files(path: &Path) -> Result<Vec<PathBuf>, RecordError> {
+    if path.is_dir() || path.file_name().is_some_and(|n| n == "metadata.yaml") {
+        bag_files(path)
+    } else {
+        Ok(vec![path.to_path_buf()])
+    }
+}
+
+/// The series of the recording at `path`.
+pub fn series(path: &Path) -> Result<Series, SeriesError> {
+    let mut states: Vec<CapsuleState> = Vec::new();
+    let mut answers: BTreeMap<u64, f64> = BTreeMap::new();
+    for f in files(path)? {
+        for m in messages(&f)? {
+            if m.topic == default_topics::STATE {
+                states.push(cdr::decode(&m.data)?);
+            } else if m.topic == default_topics::FORCE {
+                let c: ActuatorForce = cdr::decode(&m.data)?;
+                answers.insert(c.state_seq, c.force);
+            }
+        }
+    }
+    if states.is_empty() {
+        return Err(SeriesError::NoStates(path.to_path_buf()));
+    }
+    states.sort_by_key(|s| s.seq);
+    states.dedup_by_key(|s| s.seq);
+    let t_s: Vec<f64> = states
+        .iter()
+        .map(|s| s.header.stamp.as_secs_f64())
+        .collect();
+    let mut steps: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let h_s = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+    let bad = t_s
+        .windows(2)
+        .filter(|w| ((w[1] - w[0]) - h_s).abs() > 0.1 * h_s)
+        .count();
+    if !(h_s > 0.0) || bad * 100 > steps.len() {
+        return Err(SeriesError::Uneven {
+            path: path.to_path_buf(),
+            bad,
+            n: steps.len(),
+            h_s,
+        });
+    }
+    // a plant whose device was late steps on with the last measurement: such a sample is no
+    // sample of the device (the same positions to the bit, nothing else measured), dropped
+    let stale = |a: &CapsuleState, b: &CapsuleState| {
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
+        same(a.mass_position, b.mass_position)
+            && same(a.capsule_position, b.capsule_position)
+            && same(a.mass_velocity, b.mass_velocity)
+            && same(a.capsule_velocity, b.capsule_velocity)
+            && a.mass_velocity.is_nan()
+    };
+    let before = states.len();
+    let mut kept: Vec<CapsuleState> = Vec::with_capacity(before);
+    for s in states {
+        if kept.last().is_some_and(|p| stale(p, &s)) {
+            continue;
+        }
+        kept.push(s);
+    }
+    let states = kept;
+    let repeated = before - states.len();
+    let (command_n, forces) = if !answers.is_empty() {
+        let c = states
+            .iter()
+            .map(|s| answers.get(&s.seq).copied().unwrap_or(0.0))
+            .collect();
+        (c, ForceSource::Commands)
+    } else {
+        let f: Vec<f64> = states.iter().map(|s| s.actuator_force).collect();
+        if !f.iter().any(|v| v.is_finite()) {
+            return Err(SeriesError::NoForces(path.to_path_buf()));
+        }
+        let c = (0..f.len())
+            .map(|k| {
+                let next = f.get(k + 1).copied().unwrap_or(f[k]);
+                let v = 0.5 * (f[k] + next);
+                if v.is_finite() {
+                    v
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        (c, ForceSource::Applied)
+    };
+    Ok(Series {
+        h_s,
+        rel_m: states
+            .iter()
+            .map(|s| s.mass_position - s.capsule_position)
+            .collect(),
+        x2_m: states.iter().map(|s| s.capsule_position).collect(),
+        command_n,
+        forces,
+        repeated,
+    })
+}

@@ -1,0 +1,72 @@
+//! The REP-2016 hashes capsule_msgs computes at build time, against rosbags' (PyPI), an
+//! independent implementation with its own .msg parser, its own definitions of the standard
+//! messages and its own hashing (tests/peers/type_hashes.py; installed by .ci/record-setup.sh).
+
+use std::process::Command;
+
+use capsule_msgs::hashes::{self, TYPE_HASHES};
+use capsule_msgs::names::type_names;
+
+use crate::root;
+
+#[test]
+fn every_type_hash_is_the_one_an_independent_implementation_computes() {
+    let mut cmd = Command::new("python3");
+    cmd.arg(root().join("tests/peers/type_hashes.py"))
+        .arg(root().join("capsule_msgs"));
+    cmd.args(TYPE_HASHES.iter().map(|(name, _)| name));
+    let out = cmd
+        .output()
+        .expect("run python3 tests/peers/type_hashes.py");
+    assert!(
+        out.status.success(),
+        "type_hashes.py (run .ci/record-setup.sh): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let peer: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_slice(&out.stdout).expect("type_hashes.py prints a JSON object");
+    let differ: Vec<String> = TYPE_HASHES
+        .iter()
+        .filter(|(name, hash)| peer.get(*name).and_then(|v| v.as_str()) != Some(*hash))
+        .map(|(name, hash)| format!("{name}: ours {hash}, rosbags {:?}", peer.get(*name)))
+        .collect();
+    assert!(
+        differ.is_empty(),
+        "{} of {} differ:\n{}",
+        differ.len(),
+        TYPE_HASHES.len(),
+        differ.join("\n")
+    );
+    assert!(
+        TYPE_HASHES.len() >= 50,
+        "only {} types hashed",
+        TYPE_HASHES.len()
+    );
+}
+
+#[test]
+fn every_type_the_graph_uses_has_a_hash() {
+    let used = [
+        type_names::STATE,
+        type_names::FORCE,
+        type_names::STATUS,
+        type_names::SET_MODE,
+        type_names::CLOCK,
+        type_names::JOINT_STATE,
+        type_names::DIAGNOSTIC_ARRAY,
+        type_names::BOOL,
+        type_names::SET_BOOL,
+        "tf2_msgs/msg/TFMessage",
+        "std_msgs/msg/String",
+        "lifecycle_msgs/msg/TransitionEvent",
+        "lifecycle_msgs/srv/ChangeState",
+        "lifecycle_msgs/srv/GetState",
+        "lifecycle_msgs/srv/GetAvailableStates",
+        "lifecycle_msgs/srv/GetAvailableTransitions",
+    ];
+    let missing: Vec<&str> = used
+        .into_iter()
+        .filter(|t| hashes::of(t).is_none())
+        .collect();
+    assert!(missing.is_empty(), "no hash for {missing:?}");
+}
