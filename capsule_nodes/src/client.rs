@@ -97,8 +97,11 @@ impl LifecycleClient {
     }
 }
 
-/// Calls `client`'s service, re-sending every 500 ms until a response comes or `timeout` passes
-/// (a first request can be lost while the reply path is still matching). The answer to any of
+/// Calls `client`'s service, re-sending after 0.5 s, then 1, 2 and every 4 s, until a response
+/// comes or `timeout` passes (a first request can be lost while the reply path is still
+/// matching; a server busy for seconds on a loaded host gets a few repeats, not one every
+/// 0.5 s whose burst of answers could push the first out of the reply reader's history of
+/// 10). The answer to any of
 /// the requests sent counts: on a loaded host the first one's can come after the second was
 /// sent, and a repeat is not always harmless (a lifecycle transition asked again is refused
 /// once taken). Waits at most 2 s for the service to be matched first; a match event can be
@@ -120,7 +123,7 @@ where
         client.wait_for_service(node),
     )
     .await;
-    let retry = Duration::from_millis(500);
+    let mut retry = Duration::from_millis(500);
     let mut sent = Vec::new();
     loop {
         let id = client
@@ -144,6 +147,7 @@ where
             }
             tokio::time::sleep(REPLY_POLL).await;
         }
+        retry = (retry * 2).min(Duration::from_secs(4));
         if tokio::time::Instant::now() >= deadline {
             bail!(
                 "no {what} response within {timeout:?} ({} requests sent)",

@@ -243,17 +243,20 @@ class Client {
     wait_matched(r_, timeout_, "rr/" + s + "Reply");
   }
 
-  /// Sends REQ (again every 0.5 s: a first write can race discovery) until a reply to one of
-  /// the requests sent comes (the first's can come after the second was sent, on a loaded host).
+  /// Sends REQ (again after 0.5 s, then 1, 2 and every 4 s: a first write can race discovery)
+  /// until a reply to one of the requests sent comes (the first's can come after the second
+  /// was sent, on a loaded host).
   Rep call(Req req) {
     auto end = after(timeout_);
     std::vector<eprosima::fastrtps::rtps::SequenceNumber_t> sent;
+    double wait = 0.5;
     while (Clock::now() < end) {
       WriteParams wp;
       wp.related_sample_identity().writer_guid(r_->guid());
       if (!w_->write(&req, wp)) fail("cannot write a " + service_ + " request");
       sent.push_back(wp.sample_identity().sequence_number());
-      auto resend = std::min(end, after(0.5));
+      auto resend = std::min(end, after(wait));
+      wait = std::min(2 * wait, 4.0);
       Rep answer;
       auto answers_sent = [&](const Rep& rep, const auto& rel) {
         bool ours = rel.writer_guid() == r_->guid() || rel.writer_guid() == w_->guid();
@@ -508,8 +511,11 @@ static int cmd_params(int argc, char** argv) {
            (res[0].successful ? "true" : "false") + ", \"reason\": " + json_str(res[0].reason) +
            ", \"now\": " + (now.size() == 1 ? value_json(now[0]) : "null") + "}";
   }
-  double answered = std::chrono::duration<double>(Clock::now() - t0).count();
-  std::printf("%s], \"answered_s\": %s}\n", out.c_str(), num(answered).c_str());
+  out += "]";
+  // with --late-s, how long the late clients took from their making to the last answer [s]
+  if (late > 0)
+    out += ", \"answered_s\": " + num(std::chrono::duration<double>(Clock::now() - t0).count());
+  std::printf("%s}\n", out.c_str());
   return 0;
 }
 
