@@ -24,5 +24,4 @@ mod lockstep;
 mod params;
 mod security;
 mod switch;
-mod twin;
 mod views;
