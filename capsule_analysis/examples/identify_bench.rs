@@ -3,7 +3,8 @@
 //! point, the device's capsule off the nominal one by 10-30 %. Prints the fit, the truth and
 //! the wall time (docs/perf/identify.md has the figures).
 //!
-//! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS]`
+//! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS [G B D X]]`
+//! (G B D X: the factors on gamma, beta, delta and xi)
 
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::emulated_run;
@@ -23,7 +24,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let device = DeviceModel::typical(&nominal.physical);
     nominal.device = Some(device);
     let mut truth = nominal.clone();
-    let factors = [1.2, 0.8, 1.3, 1.15];
+    // the factors on gamma, beta, delta, xi: arguments 2 to 5, or the acceptance case's
+    let mut factors = [1.2, 0.8, 1.3, 1.15];
+    for (i, a) in std::env::args().skip(2).take(4).enumerate() {
+        factors[i] = a.parse()?;
+    }
     let keys = [
         "capsule.gamma",
         "capsule.beta",

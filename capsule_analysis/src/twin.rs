@@ -230,11 +230,13 @@ impl Twin<'_> {
     /// then `x2` of each sample, zero where nothing was measured. A failed run gives 1 m.
     pub fn residuals(&self, rec: &Recorded, a: usize, n: usize, s0: State) -> Vec<f64> {
         let mut out = Vec::with_capacity(n + 1);
-        let ok = self.run(a, n, s0, &mut out).is_ok();
+        if self.run(a, n, s0, &mut out).is_err() {
+            out.clear();
+        }
+        out.resize(n + 1, [f64::NAN; 2]);
         let mut r = Vec::with_capacity(2 * (n + 1));
-        for i in 0..=n {
+        for (i, &[rel, x2]) in out.iter().enumerate() {
             let k = a + i;
-            let [rel, x2] = if ok { out[i] } else { [f64::NAN; 2] };
             for (sim, meas) in [(rel, rec.rel_m[k]), (x2, rec.x2_m[k])] {
                 r.push(if !meas.is_finite() {
                     0.0
@@ -400,6 +402,47 @@ pub fn fit_window(twin: &Twin, rec: &Recorded, a: usize, n: usize, guess: State)
     WindowFit { state, residuals }
 }
 
+/// A run as the plant records it in front of a device, made offline: `truth`'s capsule behind
+/// `device` (`robustness::closed_loop_observed`, the emulator's prototype in lock-step), under
+/// the law with gain `kp` at `rate_hz` for `seconds`; the device's readings and the commands.
+/// For tests and benchmarks of identification without the ROS graph.
+pub fn emulated_run(
+    truth: &Scene,
+    kp: f64,
+    device: &DeviceModel,
+    rate_hz: f64,
+    seconds: f64,
+) -> Result<Recorded, SimError> {
+    use crate::robustness::{closed_loop_observed, controller_window, LoopCase, Mismatch};
+    let period_s = truth.drive.period() * truth.physical.time_s();
+    let periods = (seconds / period_s).ceil() as u32;
+    let case = LoopCase {
+        kp,
+        device: *device,
+        mismatch: Mismatch::NONE,
+        rate_hz,
+        transient: 0,
+        periods,
+        velocity_window: controller_window(period_s, rate_hz),
+        orbit_tolerance: 0.1,
+    };
+    let n = (seconds * rate_hz).round() as usize;
+    let mut rec = Recorded {
+        h_s: 1.0 / rate_hz,
+        rel_m: Vec::with_capacity(n),
+        x2_m: Vec::with_capacity(n),
+        command_n: Vec::with_capacity(n),
+    };
+    closed_loop_observed(truth, &case, &mut |s| {
+        if rec.x2_m.len() < n {
+            rec.rel_m.push(s.reading.displacement_m);
+            rec.x2_m.push(s.reading.capsule_m);
+            rec.command_n.push(s.command_n);
+        }
+    })?;
+    Ok(rec)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -448,45 +491,4 @@ mod tests {
             "{v} {s}"
         );
     }
-}
-
-/// A run as the plant records it in front of a device, made offline: `truth`'s capsule behind
-/// `device` (`robustness::closed_loop_observed`, the emulator's prototype in lock-step), under
-/// the law with gain `kp` at `rate_hz` for `seconds`; the device's readings and the commands.
-/// For tests and benchmarks of identification without the ROS graph.
-pub fn emulated_run(
-    truth: &Scene,
-    kp: f64,
-    device: &DeviceModel,
-    rate_hz: f64,
-    seconds: f64,
-) -> Result<Recorded, SimError> {
-    use crate::robustness::{closed_loop_observed, controller_window, LoopCase, Mismatch};
-    let period_s = truth.drive.period() * truth.physical.time_s();
-    let periods = (seconds / period_s).ceil() as u32;
-    let case = LoopCase {
-        kp,
-        device: *device,
-        mismatch: Mismatch::NONE,
-        rate_hz,
-        transient: 0,
-        periods,
-        velocity_window: controller_window(period_s, rate_hz),
-        orbit_tolerance: 0.1,
-    };
-    let n = (seconds * rate_hz).round() as usize;
-    let mut rec = Recorded {
-        h_s: 1.0 / rate_hz,
-        rel_m: Vec::with_capacity(n),
-        x2_m: Vec::with_capacity(n),
-        command_n: Vec::with_capacity(n),
-    };
-    closed_loop_observed(truth, &case, &mut |s| {
-        if rec.x2_m.len() < n {
-            rec.rel_m.push(s.reading.displacement_m);
-            rec.x2_m.push(s.reading.capsule_m);
-            rec.command_n.push(s.command_n);
-        }
-    })?;
-    Ok(rec)
 }

@@ -25,5 +25,4 @@ mod params;
 mod replies;
 mod security;
 mod switch;
-mod twin;
 mod views;
