@@ -11,7 +11,7 @@
 //! types of their own (`S_Request`, `S_Event`, `A_SendGoal`, ...), as rosidl defines them.
 //!
 //! No I/O and no dependency but SHA-256: `build.rs` includes this file to compute the table of
-//! hashes that [`crate::type_hashes`] serves, and the crate's tests include it to check it.
+//! hashes that [`crate::hashes`] serves, and the crate's tests include it to check it.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
