@@ -23,7 +23,7 @@
 //!   column-scaled Jacobian; a pair correlated beyond 0.95, or a direction whose singular value
 //!   is under 1e-3 of the largest, is reported in words and its numbers are not.
 
-use crate::twin::{fit_window, state_jacobian, Forcing, Recorded, Twin};
+use crate::twin::{fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, Twin};
 use capsule_plant::scene::{KeyError, Scene};
 use capsule_plant::State;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
@@ -235,27 +235,6 @@ pub struct Identified {
     pub delay_s: f64,
     /// The report.
     pub report: Report,
-}
-
-/// The windows of a recording: their first samples, `n` intervals each, each with enough
-/// measured samples (three quarters).
-pub fn windows(rec: &Recorded, n: usize) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut a = 0;
-    while n > 0 && a + n < rec.len() {
-        let measured = (a..=a + n).filter(|k| rec.measured(*k)).count();
-        if 4 * measured >= 3 * (n + 1) && rec.measured(a) {
-            out.push(a);
-        }
-        a += n;
-    }
-    out
-}
-
-/// Samples in a window of `periods` drive periods of `scene`.
-pub fn window_samples(scene: &Scene, h_s: f64, periods: f64) -> usize {
-    let period_s = scene.drive.period() * scene.physical.time_s();
-    ((periods * period_s / h_s).round() as usize).max(4)
 }
 
 /// The outer problem: the free numbers (scaled) and the delay (in samples).
@@ -491,16 +470,9 @@ pub fn identify(
     })
 }
 
-/// The report at the optimum: estimates, uncertainties, identifiability.
-fn summarise(
-    outer: &Outer,
-    free: &[Free],
-    fitted: &Scene,
-    delay_s: f64,
-    termination: String,
-) -> Report {
-    let j = outer.projected_jacobian();
-    let np = j.ncols();
+/// Sums of squared residuals at the optimum: all, of the displacement `x1 - x2` (even rows),
+/// of the capsule (odd rows), and how many residuals are not zero.
+fn residual_sums(outer: &Outer) -> (f64, f64, f64, usize) {
     let (mut ss, mut ss_rel, mut ss_x2, mut count) = (0.0, 0.0, 0.0, 0usize);
     for w in &outer.res {
         for (i, r) in w.iter().enumerate() {
@@ -515,16 +487,26 @@ fn summarise(
             }
         }
     }
-    let count = count.max(1);
+    (ss, ss_rel, ss_x2, count.max(1))
+}
+
+/// The textbook `sigma^2 (J^T J)^-1` and the cluster-robust (sandwich, windows as clusters)
+/// covariances of the estimates.
+fn covariances(
+    outer: &Outer,
+    j: &DMatrix<f64>,
+    ss: f64,
+    count: usize,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let np = j.ncols();
     let windows = outer.starts.len();
     let dof = count.saturating_sub(np + 4 * windows).max(1);
     let sigma2 = ss / dof as f64;
-    let a = j.transpose() * &j;
+    let a = j.transpose() * j;
     let ainv = a
         .clone()
         .pseudo_inverse(1e-14 * a.norm())
         .unwrap_or_else(|_| DMatrix::zeros(np, np));
-    // the sandwich, with the windows as clusters
     let mut meat = DMatrix::zeros(np, np);
     let mut at = 0;
     for w in &outer.res {
@@ -536,16 +518,13 @@ fn summarise(
     let correction = windows as f64 / (windows as f64 - 1.0).max(1.0) * count as f64 / dof as f64;
     let robust = &ainv * meat * &ainv * correction;
     let textbook = &ainv * sigma2;
-    // correlations from the robust estimate (the textbook one where it is degenerate)
-    let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
-        robust.clone()
-    } else {
-        textbook.clone()
-    };
-    let sd: Vec<f64> = (0..np)
-        .map(|i| robust[(i, i)].max(textbook[(i, i)]).max(0.0).sqrt())
-        .collect();
-    let correlation: Vec<Vec<f64>> = (0..np)
+    (textbook, robust)
+}
+
+/// The correlation matrix of a covariance.
+fn correlation_of(cov: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    let np = cov.ncols();
+    (0..np)
         .map(|r| {
             (0..np)
                 .map(|c| {
@@ -558,7 +537,17 @@ fn summarise(
                 })
                 .collect()
         })
-        .collect();
+        .collect()
+}
+
+/// What the data cannot tell: plain statements, which estimates they leave unknown, and the
+/// column-scaled Jacobian's singular values relative to the largest, largest first.
+fn identifiability(
+    j: &DMatrix<f64>,
+    correlation: &[Vec<f64>],
+    name: &dyn Fn(usize) -> String,
+) -> (Vec<String>, Vec<bool>, Vec<f64>) {
+    let np = j.ncols();
     // column-scaled Jacobian: its singular values say which directions the data fix
     let norms: Vec<f64> = (0..np).map(|c| j.column(c).norm()).collect();
     let scaled = DMatrix::from_fn(j.nrows(), np, |r, c| {
@@ -576,13 +565,6 @@ fn summarise(
         .iter()
         .map(|i| svd.singular_values[*i] / smax)
         .collect();
-    let name = |i: usize| {
-        if i < free.len() {
-            free[i].key.clone()
-        } else {
-            "the measurement delay".to_string()
-        }
-    };
     let mut statements = Vec::new();
     let mut unknown = vec![false; np];
     for (i, norm) in norms.iter().enumerate() {
@@ -627,6 +609,39 @@ fn summarise(
             }
         }
     }
+    (statements, unknown, singular_values)
+}
+
+/// The report at the optimum: estimates, uncertainties, identifiability.
+fn summarise(
+    outer: &Outer,
+    free: &[Free],
+    fitted: &Scene,
+    delay_s: f64,
+    termination: String,
+) -> Report {
+    let j = outer.projected_jacobian();
+    let np = j.ncols();
+    let (ss, ss_rel, ss_x2, count) = residual_sums(outer);
+    let (textbook, robust) = covariances(outer, &j, ss, count);
+    // correlations from the robust estimate (the textbook one where it is degenerate)
+    let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
+        &robust
+    } else {
+        &textbook
+    };
+    let sd: Vec<f64> = (0..np)
+        .map(|i| robust[(i, i)].max(textbook[(i, i)]).max(0.0).sqrt())
+        .collect();
+    let correlation = correlation_of(cov);
+    let name = |i: usize| {
+        if i < free.len() {
+            free[i].key.clone()
+        } else {
+            "the measurement delay".to_string()
+        }
+    };
+    let (statements, unknown, singular_values) = identifiability(&j, &correlation, &name);
     let estimate = |i: usize, key: String, nominal: f64, value: f64, scale: f64| Estimate {
         key,
         nominal,
@@ -665,7 +680,7 @@ fn summarise(
         residual_rms_m: (ss / count as f64).sqrt(),
         residual_rms_displacement_m: (ss_rel / half).sqrt(),
         residual_rms_capsule_m: (ss_x2 / half).sqrt(),
-        windows,
+        windows: outer.starts.len(),
         window_samples: outer.n,
         residuals: count,
         evaluations: outer.evaluations,

@@ -443,6 +443,27 @@ pub fn emulated_run(
     Ok(rec)
 }
 
+/// The windows of a recording: their first samples, `n` intervals each, each with enough
+/// measured samples (three quarters).
+pub fn windows(rec: &Recorded, n: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut a = 0;
+    while n > 0 && a + n < rec.len() {
+        let measured = (a..=a + n).filter(|k| rec.measured(*k)).count();
+        if 4 * measured >= 3 * (n + 1) && rec.measured(a) {
+            out.push(a);
+        }
+        a += n;
+    }
+    out
+}
+
+/// Samples in a window of `periods` drive periods of `scene`.
+pub fn window_samples(scene: &Scene, h_s: f64, periods: f64) -> usize {
+    let period_s = scene.drive.period() * scene.physical.time_s();
+    ((periods * period_s / h_s).round() as usize).max(4)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

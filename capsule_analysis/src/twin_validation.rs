@@ -3,8 +3,7 @@
 //! start measured, the progression per period recorded against predicted, and where the twin
 //! errs most.
 
-use crate::identify::{window_samples, windows};
-use crate::twin::{fit_window, Forcing, Recorded, Twin};
+use crate::twin::{fit_window, window_samples, windows, Forcing, Recorded, Twin};
 use capsule_plant::scene::Scene;
 use capsule_plant::State;
 use rayon::prelude::*;
@@ -70,6 +69,74 @@ fn rms(v: &[f64]) -> f64 {
     }
 }
 
+/// Predictions of `len` samples from their starts: (start sample, [x1 - x2, x2] per sample).
+type Runs = [(usize, Vec<[f64; 2]>)];
+
+/// The error of the predictions `hp` drive periods (`n` samples each) from their starts.
+fn horizon_error(hp: usize, n: usize, runs: &Runs, rec: &Recorded) -> HorizonError {
+    let len = hp * n;
+    let (mut end_x2, mut end_rel, mut all_x2, mut all_rel) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut pred, mut meas, mut count) = (0.0, 0.0, 0usize);
+    for (start, out) in runs {
+        if out.len() <= len || !rec.measured(start + len) || !rec.measured(*start) {
+            continue;
+        }
+        for (i, p) in out.iter().enumerate().take(len + 1) {
+            let k = start + i;
+            if rec.measured(k) {
+                all_rel.push(p[0] - rec.rel_m[k]);
+                all_x2.push(p[1] - rec.x2_m[k]);
+            }
+        }
+        end_rel.push(out[len][0] - rec.rel_m[start + len]);
+        end_x2.push(out[len][1] - rec.x2_m[start + len]);
+        pred += out[len][1] - out[0][1];
+        meas += rec.x2_m[start + len] - rec.x2_m[*start];
+        count += 1;
+    }
+    let per = (count * hp).max(1) as f64;
+    HorizonError {
+        periods: hp,
+        starts: count,
+        capsule_end_m: rms(&end_x2),
+        displacement_end_m: rms(&end_rel),
+        capsule_rms_m: rms(&all_x2),
+        displacement_rms_m: rms(&all_rel),
+        predicted_progression_m: pred / per,
+        recorded_progression_m: meas / per,
+    }
+}
+
+/// Where the one-period predictions err: the RMS by eighth of the drive period, and the errors
+/// in contact and free.
+fn errors_by_phase(
+    runs: &Runs,
+    n: usize,
+    rec: &Recorded,
+    gap_m: f64,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut by_phase = vec![Vec::new(); 8];
+    let (mut contact, mut free) = (Vec::new(), Vec::new());
+    for (start, out) in runs {
+        for (i, p) in out.iter().enumerate().take(n + 1) {
+            let k = start + i;
+            if !rec.measured(k) {
+                continue;
+            }
+            let e = p[0] - rec.rel_m[k];
+            let phase = ((k % n) * 8 / n).min(7);
+            by_phase[phase].push(e);
+            if rec.rel_m[k] >= gap_m {
+                contact.push(e);
+            } else {
+                free.push(e);
+            }
+        }
+    }
+    (by_phase.iter().map(|v| rms(v)).collect(), contact, free)
+}
+
 /// Validates `scene` (with measurement delay `delay_s`) on `rec`. `None` when the recording is
 /// shorter than two drive periods.
 pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validation> {
@@ -102,40 +169,7 @@ pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validatio
         .collect();
     let horizons = HORIZONS
         .iter()
-        .map(|&hp| {
-            let len = hp * n;
-            let (mut end_x2, mut end_rel, mut all_x2, mut all_rel) =
-                (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-            let (mut pred, mut meas, mut count) = (0.0, 0.0, 0usize);
-            for (start, out) in &runs {
-                if out.len() <= len || !rec.measured(start + len) || !rec.measured(*start) {
-                    continue;
-                }
-                for (i, p) in out.iter().enumerate().take(len + 1) {
-                    let k = start + i;
-                    if rec.measured(k) {
-                        all_rel.push(p[0] - rec.rel_m[k]);
-                        all_x2.push(p[1] - rec.x2_m[k]);
-                    }
-                }
-                end_rel.push(out[len][0] - rec.rel_m[start + len]);
-                end_x2.push(out[len][1] - rec.x2_m[start + len]);
-                pred += out[len][1] - out[0][1];
-                meas += rec.x2_m[start + len] - rec.x2_m[*start];
-                count += 1;
-            }
-            let per = (count * hp).max(1) as f64;
-            HorizonError {
-                periods: hp,
-                starts: count,
-                capsule_end_m: rms(&end_x2),
-                displacement_end_m: rms(&end_rel),
-                capsule_rms_m: rms(&all_x2),
-                displacement_rms_m: rms(&all_rel),
-                predicted_progression_m: pred / per,
-                recorded_progression_m: meas / per,
-            }
-        })
+        .map(|&hp| horizon_error(hp, n, &runs, rec))
         .collect();
     // the whole recording from its first measured period's state
     let a0 = starts[0];
@@ -155,25 +189,7 @@ pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validatio
     };
     // where the one-period predictions err: by drive phase, in contact or not
     let gap_m = scene.model.capsule.delta * scene.physical.length_m();
-    let mut by_phase = vec![Vec::new(); 8];
-    let (mut contact, mut free) = (Vec::new(), Vec::new());
-    for (start, out) in &runs {
-        for (i, p) in out.iter().enumerate().take(n + 1) {
-            let k = start + i;
-            if !rec.measured(k) {
-                continue;
-            }
-            let e = p[0] - rec.rel_m[k];
-            let phase = ((k % n) * 8 / n).min(7);
-            by_phase[phase].push(e);
-            if rec.rel_m[k] >= gap_m {
-                contact.push(e);
-            } else {
-                free.push(e);
-            }
-        }
-    }
-    let error_by_phase_m: Vec<f64> = by_phase.iter().map(|v| rms(v)).collect();
+    let (error_by_phase_m, contact, free) = errors_by_phase(&runs, n, rec, gap_m);
     let progression_error = predicted / recorded - 1.0;
     let horizons: Vec<HorizonError> = horizons;
     let findings = findings(

@@ -46,8 +46,7 @@ mod stats;
 
 pub use capsule_hardware::SourceHealth;
 pub use node::{run, run_in};
-pub use options::{Pacing, PlantOptions};
+pub use options::{OnSilence, Pacing, PlantOptions};
 pub use plant_core::{CommandOutcome, PlantCore};
 pub use recording::{InPlantRecordOptions, InPlantRecording};
-pub use silence::OnSilence;
 pub use stats::{summary_json, DdsCopyStats, LoopStats};

@@ -1,7 +1,17 @@
 //! How the plant node runs: pacing and options.
 
-use super::{InPlantRecordOptions, OnSilence};
+use super::InPlantRecordOptions;
 use std::time::Duration;
+
+/// What a lock-step plant does with a sample nobody answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum OnSilence {
+    /// Re-send and wait; end the run with an error when the controller is gone.
+    #[default]
+    Wait,
+    /// After the command timeout, step at zero force (the run then depends on wall time).
+    ZeroForce,
+}
 
 /// How the plant paces its steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

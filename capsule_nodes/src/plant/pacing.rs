@@ -235,6 +235,24 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
         }
     }
 
+    /// Lock-step: publishes the current sample, its clock and views, and records it.
+    async fn publish_current(&mut self, now_s: f64) -> Result<()> {
+        let (state, clock) = outgoing(self.core, self.opts, self.rec.as_deref_mut())?;
+        if let Some(c) = clock.filter(|_| self.io.clock_wanted()) {
+            let _ = self.io.clock_pub.async_publish(c).await;
+        }
+        let copy = self.io.views.per_sample.is_some().then(|| state.clone());
+        self.io.send_state_async(state).await;
+        if let (Some(d), Some(r)) = (
+            self.io.views_of(copy, &self.core.stats),
+            self.rec.as_deref_mut(),
+        ) {
+            r.diagnostics(&d)?;
+        }
+        self.core.published(now_s);
+        Ok(())
+    }
+
     /// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
     /// every `retransmit`), step with it; never a step without its answer unless
     /// `--lockstep-on-silence zero-force` asks (see [`super::silence`]).
@@ -255,19 +273,7 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
         let mut need_publish = true;
         loop {
             if need_publish {
-                let (state, clock) = outgoing(self.core, self.opts, self.rec.as_deref_mut())?;
-                if let Some(c) = clock.filter(|_| self.io.clock_wanted()) {
-                    let _ = self.io.clock_pub.async_publish(c).await;
-                }
-                let copy = self.io.views.per_sample.is_some().then(|| state.clone());
-                self.io.send_state_async(state).await;
-                if let (Some(d), Some(r)) = (
-                    self.io.views_of(copy, &self.core.stats),
-                    self.rec.as_deref_mut(),
-                ) {
-                    r.diagnostics(&d)?;
-                }
-                self.core.published(steady());
+                self.publish_current(steady()).await?;
                 need_publish = false;
                 wait_started = steady();
                 resend.reset();

@@ -5,15 +5,7 @@
 //! asked for by name: after the command timeout the step runs at zero force, and the run then
 //! depends on the wall clock.
 
-/// What a lock-step plant does with a sample nobody answers.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum OnSilence {
-    /// Re-send and wait; end the run with an error when the controller is gone.
-    #[default]
-    Wait,
-    /// After the command timeout, step at zero force (the run then depends on wall time).
-    ZeroForce,
-}
+use super::options::OnSilence;
 
 /// What to do at a re-send tick.
 #[derive(Debug, Clone, PartialEq)]
