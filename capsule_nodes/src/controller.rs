@@ -22,7 +22,7 @@ use capsule_msgs::{
 use capsule_record::types::{ServiceEventInfo, SetModeEvent};
 use capsule_ros_base::error::{Context as _, Result};
 use futures::StreamExt;
-use ros2_client::{Gid, Node, Publisher, RmwRequestId, Server, Subscription};
+use ros2_client::{Gid, Node, Publisher, RmwRequestId, Subscription};
 use std::sync::{Arc, Mutex, MutexGuard};
 use tracing::{info, warn};
 
@@ -38,8 +38,10 @@ use capsule_hardware::throttle::Throttle;
 use capsule_ros_base::{
     clock::RosClock,
     conflicts::TopicRule,
+    graph::Graph,
     params::ParamTable,
     ros::{qos, subscribe, types, RosOptions, Wire},
+    service::Service,
 };
 
 /// How the controller node is set up (besides the ROS settings).
@@ -78,6 +80,7 @@ pub async fn run_in(
     let (handle, applied) = capsule_ros_base::param_services::serve(
         context,
         &mut node,
+        &graph,
         &settings,
         opts.params,
         controller_params::rules,
@@ -87,7 +90,7 @@ pub async fn run_in(
         },
     )?;
     let in_process = matches!(transport, Transport::InProcess(_));
-    let mut inputs = Inputs::build(&settings, &mut node, applied, in_process)?;
+    let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
     let handlers = Arc::new(Mutex::new(Handlers::new(
         opts.core, handle, clock, &settings,
     )));
@@ -133,7 +136,7 @@ struct Inputs {
     /// In-process: the statuses of attractor-switch events, to publish.
     switch_status: Option<tokio::sync::mpsc::UnboundedReceiver<ControllerStatus>>,
     /// The mode service (its responses go back through it).
-    server: Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
+    server: Service<Wire<SetModeRequest>, Wire<SetModeResponse>>,
     /// Remote parameter sets the parameter services' task accepted.
     applied: tokio::sync::mpsc::UnboundedReceiver<ParamTable>,
 }
@@ -142,6 +145,7 @@ impl Inputs {
     fn build(
         settings: &RosOptions,
         node: &mut Node,
+        graph: &Graph,
         applied: tokio::sync::mpsc::UnboundedReceiver<ParamTable>,
         in_process: bool,
     ) -> Result<Inputs> {
@@ -151,8 +155,9 @@ impl Inputs {
                 .then(|| subscribe::<CapsuleState>(node, &state_topic, &qos::data_reader()))
                 .transpose()?,
             switch_status: None,
-            server: settings.server::<SetModeRequest, SetModeResponse>(
+            server: settings.server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
                 node,
+                graph,
                 topics::SET_MODE,
                 &types::set_mode(),
             )?,
@@ -276,7 +281,7 @@ impl Outputs {
     async fn answer_request(
         &self,
         h: &Mutex<Handlers>,
-        server: &Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
+        server: &Service<Wire<SetModeRequest>, Wire<SetModeResponse>>,
         id: RmwRequestId,
         req: SetModeRequest,
     ) {
@@ -305,9 +310,7 @@ impl Outputs {
         if let Err(e) = self.events.async_publish(sent).await {
             warn!("service event not sent: {e:?}");
         }
-        if let Err(e) = server.async_send_response(id, Wire(resp)).await {
-            warn!("set_mode response not sent: {e:?}");
-        }
+        server.answer(id, Wire(resp));
         let status = {
             let mut guard = lock(h);
             let g = &mut *guard;
@@ -355,7 +358,7 @@ async fn run_loop(
     };
     tokio::pin!(states);
     let mut switch_status = switch_status;
-    let mut requests = server.receive_request_stream();
+    let mut requests = server.requests();
     let mut tick = tokio::time::interval(status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     tokio::pin!(end);

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::{Bool, SetBoolRequest, SetBoolResponse};
 use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::graph::Graph;
 use capsule_ros_base::ros::{qos, types, RosOptions, Wire};
 use futures::StreamExt;
 use ros2_client::Node;
@@ -39,12 +40,14 @@ pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
 /// so the answer never waits for it.
 pub fn serve(
     node: &mut Node,
+    graph: &Graph,
     settings: &RosOptions,
     engaged: Arc<AtomicBool>,
     stopper: Option<Stopper>,
 ) -> Result<()> {
-    let server = settings.server::<SetBoolRequest, SetBoolResponse>(
+    let server = settings.server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
         node,
+        graph,
         topics::EMERGENCY_STOP_SERVICE,
         &types::set_bool(),
     )?;
@@ -57,7 +60,7 @@ pub fn serve(
         warn!("emergency stop state not sent: {e:?}");
     }
     tokio::spawn(async move {
-        let mut requests = server.receive_request_stream();
+        let mut requests = server.requests();
         while let Some(rq) = requests.next().await {
             let (id, Wire(req)) = match rq {
                 Ok(r) => r,
@@ -79,9 +82,7 @@ pub fn serve(
             if let Err(e) = state.async_publish(Bool { data: req.data }).await {
                 warn!("emergency stop state not sent: {e:?}");
             }
-            if let Err(e) = server.async_send_response(id, Wire(resp)).await {
-                warn!("emergency_stop response not sent: {e:?}");
-            }
+            server.answer(id, Wire(resp));
         }
     });
     Ok(())

@@ -198,6 +198,44 @@ impl Graph {
         v
     }
 
+    /// How many remote writers (`writers`) or readers on the DDS topic `topic`, of the
+    /// participant whose GUID begins with `participant`, have matched our endpoints.
+    pub fn matched_from(&self, topic: &str, participant: &[u8], writers: bool) -> usize {
+        let m = self.lock();
+        let matched = if writers {
+            &m.writers_of
+        } else {
+            &m.readers_of
+        };
+        m.remote
+            .values()
+            .filter(|e| {
+                e.writer == writers
+                    && e.topic == topic
+                    && e.guid.to_bytes().starts_with(participant)
+                    && matched.values().any(|s| s.contains(&e.guid))
+            })
+            .count()
+    }
+
+    /// Waits until the participant whose GUID begins with `participant` has as many readers
+    /// on `replies` as writers on `requests` matched, and at least one: each of its clients'
+    /// reply readers, as far as the graph can tell ([`crate::service`]); false after `timeout`.
+    pub async fn wait_client_readers(
+        &self,
+        requests: &str,
+        replies: &str,
+        participant: &[u8],
+        timeout: Duration,
+    ) -> bool {
+        self.wait(1, timeout, |g| {
+            let writers = g.matched_from(requests, participant, true);
+            let readers = g.matched_from(replies, participant, false);
+            usize::from(readers >= writers.max(1))
+        })
+        .await
+    }
+
     /// A receiver that changes whenever the graph does.
     pub fn changes(&self) -> watch::Receiver<u64> {
         self.changed.clone()

@@ -10,6 +10,7 @@
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
+//! - [`service`]: service servers whose answers wait for the client's reply reader
 //! - [`error`]: the nodes' error, [`error::NodeError`]
 
 #![warn(missing_docs)]
@@ -25,3 +26,4 @@ pub mod ports;
 pub mod ros;
 pub mod ros_args;
 pub mod security;
+pub mod service;

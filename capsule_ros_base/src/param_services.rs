@@ -17,15 +17,17 @@ use futures::StreamExt;
 use ros2_client::{
     parameters::raw,
     qos::{Durability, History, WhenFull},
-    rcl_interfaces as rcl, Context, Message, Node, ParameterValue, Publisher, QosProfile, Server,
+    rcl_interfaces as rcl, Context, Message, Node, ParameterValue, Publisher, QosProfile,
     ServiceTypeName,
 };
 use tokio::sync::mpsc;
 use tracing::{info, warn};
 
 use crate::{
+    graph::Graph,
     params::{event, Param, ParamTable, Rules},
-    ros::{qos, RosOptions},
+    ros::RosOptions,
+    service::Service,
 };
 
 /// `/parameter_events` as rclcpp publishes it (`rmw_qos_profile_parameter_events`): reliable,
@@ -74,12 +76,13 @@ impl ParamHandle {
 pub fn serve(
     context: &Context,
     node: &mut Node,
+    graph: &Graph,
     settings: &RosOptions,
     table: ParamTable,
     rules: Rules,
     now: impl Fn() -> Time + Send + Sync + 'static,
 ) -> Result<(ParamHandle, mpsc::UnboundedReceiver<ParamTable>)> {
-    let servers = Servers::create(node, settings)?;
+    let servers = Servers::create(node, graph, settings)?;
     let events = node
         .create_publisher::<raw::ParameterEvent>(
             &context.get_parameter_events_topic(),
@@ -107,24 +110,37 @@ pub fn serve(
 
 /// The six rcl_interfaces services of a node.
 struct Servers {
-    list: Server<rcl::ListParametersRequest, rcl::ListParametersResponse>,
-    describe: Server<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
-    get: Server<rcl::GetParametersRequest, rcl::GetParametersResponse>,
-    types: Server<rcl::GetParameterTypesRequest, rcl::GetParameterTypesResponse>,
-    set: Server<rcl::SetParametersRequest, rcl::SetParametersResponse>,
-    set_atomic: Server<rcl::SetParametersRequest, rcl::SetParametersAtomicallyResponse>,
+    list: Service<rcl::ListParametersRequest, rcl::ListParametersResponse>,
+    describe: Service<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
+    get: Service<rcl::GetParametersRequest, rcl::GetParametersResponse>,
+    types: Service<rcl::GetParameterTypesRequest, rcl::GetParameterTypesResponse>,
+    set: Service<rcl::SetParametersRequest, rcl::SetParametersResponse>,
+    set_atomic: Service<rcl::SetParametersRequest, rcl::SetParametersAtomicallyResponse>,
 }
 
 impl Servers {
-    fn create(node: &mut Node, settings: &RosOptions) -> Result<Servers> {
+    fn create(node: &mut Node, graph: &Graph, settings: &RosOptions) -> Result<Servers> {
         Ok(Servers {
-            list: server(node, settings, "list_parameters", "ListParameters")?,
-            describe: server(node, settings, "describe_parameters", "DescribeParameters")?,
-            get: server(node, settings, "get_parameters", "GetParameters")?,
-            types: server(node, settings, "get_parameter_types", "GetParameterTypes")?,
-            set: server(node, settings, "set_parameters", "SetParameters")?,
+            list: server(node, graph, settings, "list_parameters", "ListParameters")?,
+            describe: server(
+                node,
+                graph,
+                settings,
+                "describe_parameters",
+                "DescribeParameters",
+            )?,
+            get: server(node, graph, settings, "get_parameters", "GetParameters")?,
+            types: server(
+                node,
+                graph,
+                settings,
+                "get_parameter_types",
+                "GetParameterTypes",
+            )?,
+            set: server(node, graph, settings, "set_parameters", "SetParameters")?,
             set_atomic: server(
                 node,
+                graph,
                 settings,
                 "set_parameters_atomically",
                 "SetParametersAtomically",
@@ -136,22 +152,23 @@ impl Servers {
 /// The node's service `~/NAME` of type `rcl_interfaces/srv/TYPE`, in its service mapping.
 fn server<Q, R>(
     node: &mut Node,
+    graph: &Graph,
     settings: &RosOptions,
     name: &str,
     ty: &str,
-) -> Result<Server<Q, R>>
+) -> Result<Service<Q, R>>
 where
-    Q: Message + Clone + 'static,
-    R: Message + 'static,
+    Q: Message + Clone + Send + Sync + 'static,
+    R: Message + Send + Sync + 'static,
 {
-    node.create_server(
-        settings.mapping.into(),
-        &settings.ros_name(&format!("~/{name}"))?,
-        &ServiceTypeName::new("rcl_interfaces", ty),
-        qos::service(),
-        qos::service(),
-    )
-    .with_context(|| format!("{name} service"))
+    settings
+        .server(
+            node,
+            graph,
+            &format!("~/{name}"),
+            &ServiceTypeName::new("rcl_interfaces", ty),
+        )
+        .with_context(|| format!("{name} service"))
 }
 
 /// What the serving task holds besides the servers.
@@ -177,29 +194,29 @@ impl<N: Fn() -> Time> Answering<N> {
     /// Answers requests, and publishes the node's own changes, until the node goes.
     async fn run(self, sv: Servers, mut own_rx: mpsc::UnboundedReceiver<Vec<Param>>) {
         let a = &self;
-        let mut list_rq = sv.list.receive_request_stream();
-        let mut describe_rq = sv.describe.receive_request_stream();
-        let mut get_rq = sv.get.receive_request_stream();
-        let mut types_rq = sv.types.receive_request_stream();
-        let mut set_rq = sv.set.receive_request_stream();
-        let mut atomic_rq = sv.set_atomic.receive_request_stream();
+        let mut list_rq = sv.list.requests();
+        let mut describe_rq = sv.describe.requests();
+        let mut get_rq = sv.get.requests();
+        let mut types_rq = sv.types.requests();
+        let mut set_rq = sv.set.requests();
+        let mut atomic_rq = sv.set_atomic.requests();
         loop {
             tokio::select! {
                 Ok((id, rq)) = list_rq.select_next_some() => {
                     let result = locked(&a.table).list(&rq.prefixes, rq.depth);
-                    let _ = sv.list.async_send_response(id, rcl::ListParametersResponse { result }).await;
+                    sv.list.answer(id, rcl::ListParametersResponse { result });
                 }
                 Ok((id, rq)) = describe_rq.select_next_some() => {
                     let values = locked(&a.table).describe(&rq.names);
-                    let _ = sv.describe.async_send_response(id, rcl::DescribeParametersResponse { values }).await;
+                    sv.describe.answer(id, rcl::DescribeParametersResponse { values });
                 }
                 Ok((id, rq)) = get_rq.select_next_some() => {
                     let values = locked(&a.table).values(&rq.names);
-                    let _ = sv.get.async_send_response(id, rcl::GetParametersResponse { values }).await;
+                    sv.get.answer(id, rcl::GetParametersResponse { values });
                 }
                 Ok((id, rq)) = types_rq.select_next_some() => {
                     let values = locked(&a.table).types(&rq.names);
-                    let _ = sv.types.async_send_response(id, rcl::GetParameterTypesResponse { values }).await;
+                    sv.types.answer(id, rcl::GetParameterTypesResponse { values });
                 }
                 Ok((id, rq)) = set_rq.select_next_some() => {
                     let params = from_wire(rq.parameter);
@@ -214,7 +231,7 @@ impl<N: Fn() -> Time> Answering<N> {
                         let _ = a.applied.send(after);
                     }
                     let results = results.into_iter().map(raw::SetParametersResult::from).collect();
-                    let _ = sv.set.async_send_response(id, rcl::SetParametersResponse { results }).await;
+                    sv.set.answer(id, rcl::SetParametersResponse { results });
                 }
                 Ok((id, rq)) = atomic_rq.select_next_some() => {
                     let params = from_wire(rq.parameter);
@@ -231,7 +248,7 @@ impl<N: Fn() -> Time> Answering<N> {
                         }
                     }
                     let result = result.map(|_| ()).into();
-                    let _ = sv.set_atomic.async_send_response(id, rcl::SetParametersAtomicallyResponse { result }).await;
+                    sv.set_atomic.answer(id, rcl::SetParametersAtomicallyResponse { result });
                 }
                 Some(changed) = own_rx.recv() => a.publish(&changed).await,
                 else => break,

@@ -8,7 +8,6 @@ use crate::error::{bail, BoxError, Context as _, NodeError, Result};
 use clap::{Args, ValueEnum};
 use ros2_client::{
     qos::{Durability, History, WhenFull},
-    service::Server,
     Context, Message, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue,
     QosProfile, ServiceMapping, ServiceTypeName,
 };
@@ -18,6 +17,7 @@ use crate::{
     affinity::{self, CpuList},
     graph::Graph,
     security::{Security, SecurityEnv},
+    service::Service,
 };
 
 /// How far DDS discovery reaches (the ROS 2 `ROS_AUTOMATIC_DISCOVERY_RANGE` idea).
@@ -256,25 +256,33 @@ impl RosOptions {
     }
 
     /// A server of the service `name` (resolved as [`RosOptions::ros_name`]) in the chosen
-    /// mapping, with the services' QoS.
-    pub fn server<Req, Resp>(
+    /// mapping, with the services' QoS; its answers wait for the client's reply reader, whose
+    /// matches `graph` follows ([`crate::service`]).
+    pub fn server<Q, R>(
         &self,
         node: &mut Node,
+        graph: &Graph,
         name: &str,
         type_name: &ServiceTypeName,
-    ) -> Result<Server<Wire<Req>, Wire<Resp>>>
+    ) -> Result<Service<Q, R>>
     where
-        Req: Serialize + DeserializeOwned + Clone + 'static,
-        Resp: Serialize + DeserializeOwned + 'static,
+        Q: Message + Clone + Send + Sync + 'static,
+        R: Message + Send + Sync + 'static,
     {
-        node.create_server(
-            self.mapping.into(),
-            &self.ros_name(name)?,
-            type_name,
-            qos::service(),
-            qos::service(),
-        )
-        .with_context(|| format!("service {name}"))
+        let server = node
+            .create_server(
+                self.mapping.into(),
+                &self.ros_name(name)?,
+                type_name,
+                qos::service(),
+                qos::service(),
+            )
+            .with_context(|| format!("service {name}"))?;
+        Ok(Service::new(
+            server,
+            graph.clone(),
+            &self.resolve_name(name),
+        ))
     }
 
     /// Creates the DDS participant (loopback only when the range says so; secured with the

@@ -43,6 +43,10 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
                                             window; the transition events; print JSON
   cyclone_peer.py estop-time [--repeat N]   the emergency stop's answer time, seen by a client
                                             (engage, release, N times; after a warm-up call)
+  cyclone_peer.py first-answers [--node N] [--clients K] [--wait S]
+                                            K fresh clients of N's list_parameters, one after
+                                            the other, each sending one request at once, never
+                                            again: how many were answered within S s; print JSON
   cyclone_peer.py params    [--node N] [--set NAME=V]... [--refuse NAME=V]...
                                             the rcl_interfaces parameter services and
                                             /parameter_events, as `ros2 param` uses them
@@ -508,6 +512,19 @@ class ServiceClient:
         self.guid = random.getrandbits(63)
         self.seq = 0
 
+    def call_once(self, wait, **fields):
+        """One request, sent at once (as a client that has just been made does), never again:
+        the seconds its reply took, or None after WAIT s."""
+        self.seq += 1
+        t0 = time.time()
+        self.writer.write(self.req(client_guid=self.guid, sequence=self.seq, **fields))
+        while time.time() < t0 + wait:
+            for r in valid(self.reader.take(N=16)):
+                if r.client_guid == self.guid and r.sequence == self.seq:
+                    return time.time() - t0
+            time.sleep(0.002)
+        return None
+
     def call(self, **fields):
         deadline = time.time() + self.timeout
         sent = set()
@@ -660,6 +677,25 @@ def take_events(r, node, wait, until=None, timeout=5.0):
                 out.append({p.name: pyvalue(p.value) for p in e.changed_parameters})
         time.sleep(0.01)
     return out
+
+
+def cmd_first_answers(args):
+    """Fresh clients that send at once: the server must answer each first request (it waits
+    for the client's reply reader to match before it answers, as rmw_cyclonedds does)."""
+    dp = participant()
+    req, resp = PARAM_SRV["list_parameters"]
+    service = "/" + args.node.strip("/") + "/list_parameters"
+    # one call to make sure the node is there before the counted clients come
+    ServiceClient(dp, service, req, resp, args.timeout).call(prefixes=[], depth=0)
+    took = []
+    for _ in range(args.clients):
+        c = ServiceClient(dp, service, req, resp, args.timeout)
+        took.append(c.call_once(args.wait, prefixes=[], depth=0))
+        del c
+    answered = [t for t in took if t is not None]
+    print(json.dumps({"clients": args.clients, "answered_first": len(answered),
+                      "unanswered": [i for i, t in enumerate(took) if t is None],
+                      "slowest_s": max(answered, default=None)}))
 
 
 def cmd_params(args):
@@ -990,6 +1026,11 @@ def main():
     for name in ("--set", "--refuse"):
         a.add_argument(name, action="append", default=[], metavar="NAME=JSON")
     options(a, float, timeout=15.0)
+    a = sub.add_parser("first-answers")
+    a.add_argument("--node", default="/capsule_controller")
+    options(a, int, clients=20)
+    options(a, float, "per client", wait=2.0)
+    options(a, float, timeout=15.0)
     a = sub.add_parser("estop")
     options(a, str, service="/capsule_plant/emergency_stop")
     options(a, float, timeout=15.0)
@@ -1010,7 +1051,8 @@ def main():
     {"state": cmd_state, "force": cmd_force, "status": cmd_status, "set-mode": cmd_set_mode,
      "inject": cmd_inject, "foreign": cmd_foreign, "params": cmd_params, "views": cmd_views,
      "diagnostics": cmd_diagnostics, "estop": cmd_estop, "joint-command": cmd_joint_command,
-     "lifecycle": cmd_lifecycle, "estop-time": cmd_estop_time}[args.cmd](args)
+     "lifecycle": cmd_lifecycle, "estop-time": cmd_estop_time,
+     "first-answers": cmd_first_answers}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,9 @@ use capsule_msgs::std_types::{
     GetAvailableTransitionsResponse, GetStateResponse, LifecycleTransition, TransitionEvent,
 };
 use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::graph::Graph;
 use capsule_ros_base::ros::{qos, RosOptions, Wire};
+use capsule_ros_base::service::Service;
 use futures::{Future, StreamExt};
 use ros2_client::{MessageTypeName, Node, ServiceTypeName};
 use serde::{de::DeserializeOwned, Serialize};
@@ -121,7 +123,7 @@ impl Lifecycle {
 
 /// Serves `server`'s requests with `answer` on a task of its own.
 fn serve_with<Req, Resp, F, Fut>(
-    server: ros2_client::Server<Wire<Req>, Wire<Resp>>,
+    server: Service<Wire<Req>, Wire<Resp>>,
     name: &'static str,
     answer: F,
 ) where
@@ -131,14 +133,11 @@ fn serve_with<Req, Resp, F, Fut>(
     Fut: Future<Output = Resp> + Send,
 {
     tokio::spawn(async move {
-        let mut requests = server.receive_request_stream();
+        let mut requests = server.requests();
         while let Some(rq) = requests.next().await {
             match rq {
                 Ok((id, Wire(req))) => {
-                    let resp = answer(req).await;
-                    if let Err(e) = server.async_send_response(id, Wire(resp)).await {
-                        warn!("{name} response not sent: {e:?}");
-                    }
+                    server.answer(id, Wire(answer(req).await));
                 }
                 Err(e) => warn!("undecodable {name} request: {e:?}"),
             }
@@ -149,20 +148,22 @@ fn serve_with<Req, Resp, F, Fut>(
 /// A server of the lifecycle service `(name, type)`.
 fn server<Req, Resp>(
     node: &mut Node,
+    graph: &Graph,
     settings: &RosOptions,
     (name, full): Endpoint,
-) -> Result<ros2_client::Server<Wire<Req>, Wire<Resp>>>
+) -> Result<Service<Wire<Req>, Wire<Resp>>>
 where
-    Req: Serialize + DeserializeOwned + Clone + 'static,
-    Resp: Serialize + DeserializeOwned + 'static,
+    Req: Serialize + DeserializeOwned + Clone + Send + Sync + 'static,
+    Resp: Serialize + DeserializeOwned + Send + Sync + 'static,
 {
     let (package, ty) = type_names::split(full);
-    settings.server(node, name, &ServiceTypeName::new(package, ty))
+    settings.server(node, graph, name, &ServiceTypeName::new(package, ty))
 }
 
 /// Serves the lifecycle on `node`; the loop takes its steps from the receiver.
 pub fn serve(
     node: &mut Node,
+    graph: &Graph,
     settings: &RosOptions,
 ) -> Result<(Lifecycle, mpsc::UnboundedReceiver<Request>)> {
     let (name, full) = names::TRANSITION_EVENT;
@@ -178,8 +179,12 @@ pub fn serve(
         events: Arc::new(events),
         busy: Arc::default(),
     };
-    let change =
-        server::<ChangeStateRequest, ChangeStateResponse>(node, settings, names::CHANGE_STATE)?;
+    let change = server::<ChangeStateRequest, ChangeStateResponse>(
+        node,
+        graph,
+        settings,
+        names::CHANGE_STATE,
+    )?;
     let l = lc.clone();
     serve_with(change, "change_state", move |req: ChangeStateRequest| {
         let l = l.clone();
@@ -189,7 +194,7 @@ pub fn serve(
             }
         }
     });
-    let get = server::<EmptyRequest, GetStateResponse>(node, settings, names::GET_STATE)?;
+    let get = server::<EmptyRequest, GetStateResponse>(node, graph, settings, names::GET_STATE)?;
     let l = lc.clone();
     serve_with(get, "get_state", move |_| {
         let current_state = l.state().msg();
@@ -197,6 +202,7 @@ pub fn serve(
     });
     let states = server::<EmptyRequest, GetAvailableStatesResponse>(
         node,
+        graph,
         settings,
         names::GET_AVAILABLE_STATES,
     )?;
@@ -214,8 +220,9 @@ pub fn serve(
         ),
         (names::GET_TRANSITION_GRAPH, "get_transition_graph", true),
     ] {
-        let srv =
-            server::<EmptyRequest, GetAvailableTransitionsResponse>(node, settings, endpoint)?;
+        let srv = server::<EmptyRequest, GetAvailableTransitionsResponse>(
+            node, graph, settings, endpoint,
+        )?;
         let l = lc.clone();
         serve_with(srv, what, move |_| {
             let available_transitions = if whole {

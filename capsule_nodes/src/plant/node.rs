@@ -92,17 +92,24 @@ fn build<H: CapsuleHardware>(
     let (io, rules) =
         Endpoints::create(&mut node, settings, &graph, opts, core.rate_hz, transport)?;
     let conflicts = conflicts::watch(graph.clone(), rules);
-    crate::emergency_stop::serve(&mut node, settings, core.emergency_stop(), core.stopper())?;
+    crate::emergency_stop::serve(
+        &mut node,
+        &graph,
+        settings,
+        core.emergency_stop(),
+        core.stopper(),
+    )?;
     // ROS parameters (read-only here): served by their own task, never by the sample loop
     let params = capsule_ros_base::param_services::serve(
         &context,
         &mut node,
+        &graph,
         settings,
         opts.params.clone(),
         capsule_ros_base::params::no_rules,
         || Time::from_nanos(capsule_record::writer::now_ns() as i64),
     )?;
-    let (lifecycle, requests) = lifecycle_services::serve(&mut node, settings)?;
+    let (lifecycle, requests) = lifecycle_services::serve(&mut node, &graph, settings)?;
     let recording = match (file, &opts.record) {
         (Some(rec), Some(r)) if composed => Some(InPlantRecording::start_apart(rec, r, settings)?),
         (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, settings)?),

@@ -4,7 +4,9 @@
 //! every sample whose encrypted payload was not a multiple of 4 octets long (the reader took
 //! the DATA submessage's padding for the footer): docs/upstream/rustdds-payload-padding.md.
 
-use super::harness::{assert_contains, json_number, netns, netns_with_fastdds_peer};
+use super::harness::{
+    assert_contains, json_number, netns, netns_with_fastdds_peer, netns_with_peer,
+};
 
 /// Makes the keystore `$TMP/ks` with an extra enclave `/lab/fastdds_peer` (operator's
 /// permissions); `secure` exports the variables that secure every node started after it.
@@ -72,4 +74,24 @@ fn a_secured_fastdds_peer_that_makes_its_client_late_is_answered() {
     // retries that happened to get through
     let answered = json_number(params, "answered_s").unwrap_or(f64::NAN);
     assert!(answered < 10.0, "answered after {answered} s: {params}");
+}
+
+#[test]
+fn fresh_clients_are_answered_at_their_first_request() {
+    // 20 clients made one after the other in one participant (rmw_cyclonedds' mapping), each
+    // sending one request at once and never again, as a client does whose node has just come
+    // up. Before the server waited for the client's reply reader, 1 to 3 of 20 first answers
+    // went to no one (written before that reader matched, or announced by the heartbeat that
+    // matched it before their DATA went out); the client saw its call lost
+    let run = netns_with_peer(
+        120,
+        r#"
+        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller --mode forward 2> "$TMP/ctl.log"
+        peer first-answers --clients 20 --wait 2 || exit 1
+        stop $C
+        cat "$TMP/ctl.log" >&2"#,
+    );
+    run.assert_ok();
+    let out = run.json_with("answered_first");
+    assert_eq!(json_number(out, "answered_first"), Some(20.0), "{out}");
 }

@@ -1986,17 +1986,6 @@ impl Writer {
         self.refresh_acked_frontier();
         if new_reader {
           self.matched_readers_count_total += 1;
-          self.send_status(DataWriterStatus::PublicationMatched {
-            // total: How many matches have been detected ever?
-            total: CountWithChange::new(self.matched_readers_count_total, 1),
-            // current: How many readers we are matched with?
-            current: CountWithChange::new(self.readers.len() as i32, 1),
-            reader: reader_proxy.remote_reader_guid,
-          });
-          self.send_participant_status(DomainParticipantStatusEvent::RemoteReaderMatched {
-            local_writer: self.my_guid,
-            remote_reader: reader_proxy.remote_reader_guid,
-          });
           // Reliable: send an initial HEARTBEAT to the newly matched reader so it
           // can request the samples we already hold (repair/late-join). This runs
           // synchronously on the discovery-match event in the event loop, so it
@@ -2031,6 +2020,22 @@ impl Writer {
               );
             }
           }
+          // capsule patch (docs/upstream/rustdds-heartbeat-before-match-event.md): the match
+          // is told only after the initial HEARTBEAT has gone out. Told before, a user that
+          // waits for the match (a service answering a new client) could write between the two,
+          // and the HEARTBEAT then announced that sample before its DATA was sent: a volatile
+          // Cyclone DDS reader takes a first HEARTBEAT's range as history and dropped the DATA.
+          self.send_status(DataWriterStatus::PublicationMatched {
+            // total: How many matches have been detected ever?
+            total: CountWithChange::new(self.matched_readers_count_total, 1),
+            // current: How many readers we are matched with?
+            current: CountWithChange::new(self.readers.len() as i32, 1),
+            reader: reader_proxy.remote_reader_guid,
+          });
+          self.send_participant_status(DomainParticipantStatusEvent::RemoteReaderMatched {
+            local_writer: self.my_guid,
+            remote_reader: reader_proxy.remote_reader_guid,
+          });
           info!(
             "Matched new remote reader on topic={:?} reader={:?}",
             self.topic_name(),
