@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 use capsule_args::ranges;
 use capsule_msgs::names::nodes;
-use capsule_nodes::foxglove_bridge::{self, BridgeOptions};
+use capsule_tools::foxglove_bridge::{self, BridgeOptions};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args::{self, Override},

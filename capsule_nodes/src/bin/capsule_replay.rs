@@ -15,7 +15,7 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::ranges;
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
-use capsule_nodes::{controller_core::ControllerCore, controller_settings::GainFlags};
+use capsule_controller_node::{controller_core::ControllerCore, controller_settings::GainFlags};
 use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,

@@ -23,7 +23,7 @@ use tracing::warn;
 
 use super::endpoints::{log_undecodable, Endpoints};
 use super::loop_control::{apply, Exit};
-use super::pacing::{
+use super::simulator_loop::{
     commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs,
     SampleLoop, Wall,
 };
