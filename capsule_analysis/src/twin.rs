@@ -232,6 +232,8 @@ impl Twin<'_> {
         let mut out = Vec::with_capacity(n + 1);
         let ok = self.run(a, n, s0, &mut out).is_ok();
         let mut r = Vec::with_capacity(2 * (n + 1));
+        // `out` is read only when the run succeeded (then it holds n + 1 samples)
+        #[allow(clippy::needless_range_loop)]
         for i in 0..=n {
             let k = a + i;
             let [rel, x2] = if ok { out[i] } else { [f64::NAN; 2] };
@@ -400,6 +402,47 @@ pub fn fit_window(twin: &Twin, rec: &Recorded, a: usize, n: usize, guess: State)
     WindowFit { state, residuals }
 }
 
+/// A run as the plant records it in front of a device, made offline: `truth`'s capsule behind
+/// `device` (`robustness::closed_loop_observed`, the emulator's prototype in lock-step), under
+/// the law with gain `kp` at `rate_hz` for `seconds`; the device's readings and the commands.
+/// For tests and benchmarks of identification without the ROS graph.
+pub fn emulated_run(
+    truth: &Scene,
+    kp: f64,
+    device: &DeviceModel,
+    rate_hz: f64,
+    seconds: f64,
+) -> Result<Recorded, SimError> {
+    use crate::robustness::{closed_loop_observed, controller_window, LoopCase, Mismatch};
+    let period_s = truth.drive.period() * truth.physical.time_s();
+    let periods = (seconds / period_s).ceil() as u32;
+    let case = LoopCase {
+        kp,
+        device: *device,
+        mismatch: Mismatch::NONE,
+        rate_hz,
+        transient: 0,
+        periods,
+        velocity_window: controller_window(period_s, rate_hz),
+        orbit_tolerance: 0.1,
+    };
+    let n = (seconds * rate_hz).round() as usize;
+    let mut rec = Recorded {
+        h_s: 1.0 / rate_hz,
+        rel_m: Vec::with_capacity(n),
+        x2_m: Vec::with_capacity(n),
+        command_n: Vec::with_capacity(n),
+    };
+    closed_loop_observed(truth, &case, &mut |s| {
+        if rec.x2_m.len() < n {
+            rec.rel_m.push(s.reading.displacement_m);
+            rec.x2_m.push(s.reading.capsule_m);
+            rec.command_n.push(s.command_n);
+        }
+    })?;
+    Ok(rec)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -448,45 +491,4 @@ mod tests {
             "{v} {s}"
         );
     }
-}
-
-/// A run as the plant records it in front of a device, made offline: `truth`'s capsule behind
-/// `device` (`robustness::closed_loop_observed`, the emulator's prototype in lock-step), under
-/// the law with gain `kp` at `rate_hz` for `seconds`; the device's readings and the commands.
-/// For tests and benchmarks of identification without the ROS graph.
-pub fn emulated_run(
-    truth: &Scene,
-    kp: f64,
-    device: &DeviceModel,
-    rate_hz: f64,
-    seconds: f64,
-) -> Result<Recorded, SimError> {
-    use crate::robustness::{closed_loop_observed, controller_window, LoopCase, Mismatch};
-    let period_s = truth.drive.period() * truth.physical.time_s();
-    let periods = (seconds / period_s).ceil() as u32;
-    let case = LoopCase {
-        kp,
-        device: *device,
-        mismatch: Mismatch::NONE,
-        rate_hz,
-        transient: 0,
-        periods,
-        velocity_window: controller_window(period_s, rate_hz),
-        orbit_tolerance: 0.1,
-    };
-    let n = (seconds * rate_hz).round() as usize;
-    let mut rec = Recorded {
-        h_s: 1.0 / rate_hz,
-        rel_m: Vec::with_capacity(n),
-        x2_m: Vec::with_capacity(n),
-        command_n: Vec::with_capacity(n),
-    };
-    closed_loop_observed(truth, &case, &mut |s| {
-        if rec.x2_m.len() < n {
-            rec.rel_m.push(s.reading.displacement_m);
-            rec.x2_m.push(s.reading.capsule_m);
-            rec.command_n.push(s.command_n);
-        }
-    })?;
-    Ok(rec)
 }

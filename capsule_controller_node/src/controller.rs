@@ -32,11 +32,11 @@ use crate::{
     controller_params::{self, LiveSync},
     plant_identity::{PlantIdentity, Source},
 };
+use capsule_hardware::throttle::Throttle;
 use capsule_plant_node::{
     intra_process::{Answer, CopyCounts, DdsCopies, Transport},
     views::Diagnostics,
 };
-use capsule_hardware::throttle::Throttle;
 use capsule_ros_base::{
     clock::RosClock,
     conflicts::TopicRule,

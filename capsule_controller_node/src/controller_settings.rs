@@ -209,12 +209,10 @@ pub fn start_config(table: &ParamTable) -> Result<ModeConfig> {
     Ok(config)
 }
 
-impl GainFlags {
-    /// The validated configuration of the gain flags (defaults where not given).
-    pub fn config(&self) -> Result<ModeConfig> {
-        let table = self
-            .start_table("", |_| None, |_| None)
-            .map_err(|e| capsule_ros_base::error::invalid!("{e}"))?;
-        start_config(&table)
-    }
+/// The validated configuration of the gain flags `flags` (defaults where not given).
+pub fn gain_config(flags: &GainFlags) -> Result<ModeConfig> {
+    let table = flags
+        .start_table("", |_| None, |_| None)
+        .map_err(|e| capsule_ros_base::error::invalid!("{e}"))?;
+    start_config(&table)
 }

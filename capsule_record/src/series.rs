@@ -119,7 +119,7 @@ pub fn series(path: &Path) -> Result<Series, SeriesError> {
         .windows(2)
         .filter(|w| ((w[1] - w[0]) - h_s).abs() > 0.1 * h_s)
         .count();
-    if !(h_s > 0.0) || bad * 100 > steps.len() {
+    if h_s.is_nan() || h_s <= 0.0 || bad * 100 > steps.len() {
         return Err(SeriesError::Uneven {
             path: path.to_path_buf(),
             bad,

@@ -135,14 +135,17 @@ fn the_hardware_interface_and_the_offline_tools_build_without_an_async_runtime_o
         let found: Vec<&String> = tree
             .iter()
             .filter(|d| {
+                // an async runtime, DDS, and every crate of the ROS 2 layer
                 [
                     "tokio",
                     "rustdds",
                     "ros2-client",
                     "capsule_nodes",
-                    "capsule_ros_base",
+                    "capsule_tools",
                 ]
                 .contains(&d.as_str())
+                    || d.starts_with("capsule_ros")
+                    || d.ends_with("_node")
             })
             .collect();
         assert!(found.is_empty(), "{krate} depends on {found:?}");

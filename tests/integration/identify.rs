@@ -37,7 +37,7 @@ fn nominal() -> Scene {
 }
 
 /// The nominal capsule with gamma, beta, delta, xi times `factors`.
-fn capsule(factors: [f64; 4]) -> Scene {
+fn scaled_capsule(factors: [f64; 4]) -> Scene {
     let mut s = nominal();
     for (k, f) in KEYS.iter().zip(factors) {
         let v = s.number(k).unwrap_or(f64::NAN) * f;
@@ -53,7 +53,7 @@ fn keys() -> Vec<String> {
 /// Identifies the four keys of `truth` from 30 s FORWARD, checks them against the truth, and
 /// the twin against 30 s BACKWARD (another noise seed); returns a line for the message.
 fn check_capsule(factors: [f64; 4]) -> String {
-    let truth = capsule(factors);
+    let truth = scaled_capsule(factors);
     let device = truth.device.unwrap_or_else(|| unreachable!());
     let forward = emulated_run(&truth, 0.2, &device, 1000.0, 30.0).expect("forward run");
     let fit = identify(&nominal(), &forward, &keys(), &Settings::default())
@@ -191,7 +191,7 @@ fn nominal_file(dir: &TempDir) -> String {
 fn identify_writes_a_scene_that_runs_a_report_and_a_picture() {
     let dir = TempDir::new("identify_cli");
     let scene = nominal_file(&dir);
-    let truth = capsule([1.2, 1.0, 1.0, 1.0]);
+    let truth = scaled_capsule([1.2, 1.0, 1.0, 1.0]);
     let rec = dir.arg("run.mcap");
     write_recording(Path::new(&rec), &short_run(&truth, 12.0), true, true);
     let out = dir.arg("fitted.toml");
@@ -257,7 +257,7 @@ fn identify_writes_a_scene_that_runs_a_report_and_a_picture() {
 fn bad_input_is_refused_with_a_reason_and_nothing_written() {
     let dir = TempDir::new("identify_bad");
     let scene = nominal_file(&dir);
-    let truth = capsule([1.0; 4]);
+    let truth = scaled_capsule([1.0; 4]);
     let run = short_run(&truth, 6.0);
     let good = dir.arg("good.mcap");
     write_recording(Path::new(&good), &run, true, true);
@@ -271,7 +271,7 @@ fn bad_input_is_refused_with_a_reason_and_nothing_written() {
     let heavy = dir.arg("heavy.mcap");
     write_recording(
         Path::new(&heavy),
-        &short_run(&capsule([5.0, 1.0, 1.0, 1.0]), 6.0),
+        &short_run(&scaled_capsule([5.0, 1.0, 1.0, 1.0]), 6.0),
         true,
         true,
     );

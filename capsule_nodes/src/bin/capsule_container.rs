@@ -14,18 +14,18 @@ use std::ffi::OsString;
 use std::sync::Arc;
 
 use anyhow::{bail, Context as _, Result};
-use capsule_msgs::names::nodes;
 use capsule_controller_node::controller::{self, ControllerOptions};
+use capsule_msgs::names::nodes;
 use capsule_plant_node::{
     intra_process::{Link, Transport},
     plant::{self, PlantOptions},
 };
-use capsule_tools::foxglove_bridge::{self, BridgeOptions, BridgeThread, Source};
 use capsule_ros_base::{
     affinity::{self, CpuList},
     ros::{self, RosOptions},
     ros_args,
 };
+use capsule_tools::foxglove_bridge::{self, BridgeOptions, BridgeThread, Source};
 use clap::Parser;
 
 /// Runs capsule_plant and capsule_controller as two nodes of one process (ROS 2 composition):

@@ -6,11 +6,11 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
-use capsule_tools::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,
 };
+use capsule_tools::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 

@@ -31,17 +31,17 @@
 //! sample leads to), [`lifecycle`] (the managed node's state
 //! machine) and `lifecycle_services` (its services).
 
+mod device_loop;
 mod endpoints;
 pub mod lifecycle;
 mod lifecycle_services;
 mod loop_control;
 mod node;
 mod options;
-mod device_loop;
-mod simulator_loop;
 mod plant_core;
 mod recording;
 mod silence;
+mod simulator_loop;
 mod stats;
 
 pub use capsule_hardware::SourceHealth;
