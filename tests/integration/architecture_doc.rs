@@ -61,6 +61,11 @@ fn from_doc() -> BTreeMap<String, BTreeSet<String>> {
         } else if !line.starts_with("    ") {
             current = None; // a layer's title
         }
+        // a name longer than its column (capsule_controller_node) reaches into the next one
+        let line = match &current {
+            Some(n) if name.starts_with(n.as_str()) => line.replacen(n, &" ".repeat(n.len()), 1),
+            _ => line.to_string(),
+        };
         let (Some(crate_name), Some(column)) =
             (&current, line.get(deps_at..job_at.min(line.len())))
         else {
