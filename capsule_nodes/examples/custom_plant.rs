@@ -20,9 +20,9 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use capsule_args::scene_file::SceneFile;
 use capsule_hardware::{CapsuleHardware, HardwareError, Reading, Sample};
-use capsule_nodes::plant::{self, Pacing, PlantCore, PlantOptions};
-use capsule_nodes::plant_params::{self, PlantFlags};
 use capsule_plant::scene::PhysicalScale;
+use capsule_plant_node::plant::{self, Pacing, PlantCore, PlantOptions};
+use capsule_plant_node::plant_params::{self, PlantFlags};
 use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
 use clap::Parser;
 

@@ -1,7 +1,7 @@
 //! `capsule_container`: the plant and the controller composed in one process, as rclcpp's
 //! component container runs nodes: each the same node as its own binary runs (its name,
 //! parameters, services, diagnostics, lifecycle), on one DDS participant, with state and force
-//! delivered in-process ([`capsule_nodes::intra_process`]) and their DDS copies published for
+//! delivered in-process ([`capsule_plant_node::intra_process`]) and their DDS copies published for
 //! the rest of the graph. With --foxglove-port, capsule_foxglove's bridge is a third node of the
 //! process, on a thread and a DDS participant of its own, fed state and force by the link.
 
@@ -14,10 +14,9 @@ use std::ffi::OsString;
 use std::sync::Arc;
 
 use anyhow::{bail, Context as _, Result};
+use capsule_controller_node::controller::{self, ControllerOptions};
 use capsule_msgs::names::nodes;
-use capsule_nodes::{
-    controller::{self, ControllerOptions},
-    foxglove_bridge::{self, BridgeOptions, BridgeThread, Source},
+use capsule_plant_node::{
     intra_process::{Link, Transport},
     plant::{self, PlantOptions},
 };
@@ -26,6 +25,7 @@ use capsule_ros_base::{
     ros::{self, RosOptions},
     ros_args,
 };
+use capsule_tools::foxglove_bridge::{self, BridgeOptions, BridgeThread, Source};
 use clap::Parser;
 
 /// Runs capsule_plant and capsule_controller as two nodes of one process (ROS 2 composition):

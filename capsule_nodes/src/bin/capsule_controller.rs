@@ -3,8 +3,8 @@
 #[path = "cli/controller.rs"]
 mod controller_cli;
 
+use capsule_controller_node::controller::{self, ControllerOptions};
 use capsule_msgs::names::nodes;
-use capsule_nodes::controller::{self, ControllerOptions};
 use capsule_ros_base::{ros, ros_args};
 use controller_cli::{build, Cli};
 

@@ -3,11 +3,11 @@
 use anyhow::{bail, Result};
 use capsule_args::ranges;
 use capsule_msgs::names::nodes;
-use capsule_nodes::foxglove_bridge::{self, BridgeOptions};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args::{self, Override},
 };
+use capsule_tools::foxglove_bridge::{self, BridgeOptions};
 use clap::Parser;
 
 /// Serves the plant's state, the controller's commands and status, and the capsule's frame on

@@ -6,7 +6,7 @@ mod plant_cli;
 
 use anyhow::Context as _;
 use capsule_msgs::names::nodes;
-use capsule_nodes::plant::{self, PlantOptions};
+use capsule_plant_node::plant::{self, PlantOptions};
 use capsule_ros_base::{ros, ros_args};
 use plant_cli::{build, Cli, Plant};
 

@@ -5,7 +5,7 @@ use std::{path::PathBuf, time::Duration};
 
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
-use capsule_nodes::recorder::{self, RecorderOptions};
+use capsule_plant_node::recorder::{self, RecorderOptions};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,

@@ -14,8 +14,11 @@ use std::{
 use anyhow::{bail, Context as _, Result};
 use capsule_args::ranges;
 use capsule_controller::mode::Mode;
+use capsule_controller_node::{
+    controller_core::ControllerCore,
+    controller_settings::{self, GainFlags},
+};
 use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
-use capsule_nodes::{controller_core::ControllerCore, controller_settings::GainFlags};
 use capsule_plant::scene::Scene;
 use capsule_record::{
     cdr,
@@ -289,7 +292,7 @@ fn recorded_controller(args: &Args, msgs: &[Message]) -> Result<ControllerCore> 
         .scene_toml
         .with_context(|| format!("{file}: no scene attached: cannot configure the controller"))?;
     let scene = Scene::from_toml_str(&scene, &format!("{file}:scene.toml"))?;
-    let config = args.gains.config()?;
+    let config = controller_settings::gain_config(&args.gains)?;
     let first_status = msgs
         .iter()
         .find(|m| m.type_name == type_names::STATUS)

@@ -6,11 +6,11 @@ use anyhow::{bail, Context as _, Result};
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
-use capsule_nodes::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use capsule_ros_base::{
     ros::{self, RosArgs, RosEnv, RosOptions},
     ros_args,
 };
+use capsule_tools::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use clap::{Parser, Subcommand};
 use futures::StreamExt;
 
@@ -172,7 +172,7 @@ async fn run(cli: Cli) -> Result<()> {
             let req = SetModeRequest {
                 mode: parse_mode(&mode)?,
                 gain,
-                effective_from: capsule_nodes::client::effective_from(at_s)?,
+                effective_from: capsule_tools::client::effective_from(at_s)?,
                 ..pulse.request()
             };
             let ask = Ask::SetMode {
@@ -590,7 +590,7 @@ async fn switch_attractor(
     let mut node = settings.node(&context)?;
     let client = ModeClient::new(&mut node, settings, service)?;
     let state_sub = state_subscription(&mut node, settings)?;
-    let status_sub = capsule_nodes::client::status_subscription(&mut node, settings, service)?;
+    let status_sub = capsule_tools::client::status_subscription(&mut node, settings, service)?;
     let states = state_sub.async_stream();
     tokio::pin!(states);
     let statuses = status_sub.async_stream();

@@ -235,7 +235,7 @@ fn plot_paths(value: &serde_json::Value, out: &mut Vec<String>) {
 
 #[test]
 fn the_foxglove_layout_plots_fields_the_bridge_serves() {
-    use capsule_nodes::foxglove_bridge::{
+    use capsule_tools::foxglove_bridge::{
         FORCE_SCHEMA, FRAME_SCHEMA, FRAME_TOPIC, STATE_SCHEMA, STATUS_SCHEMA,
     };
     let path = root().join("docs/foxglove/capsule_layout.json");

@@ -50,7 +50,7 @@ fn joint_state_commands_are_off_by_default_and_refused_in_lockstep() {
 #[test]
 fn the_ros2_control_example_names_the_plants_topic_and_joint() {
     use capsule_msgs::names::topics::JOINT_COMMANDS;
-    use capsule_nodes::joint_commands::JOINT;
+    use capsule_plant_node::joint_commands::JOINT;
     let read = |p: &str| {
         let path = root().join(p);
         std::fs::read_to_string(&path)

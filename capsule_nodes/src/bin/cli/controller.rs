@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile};
-use capsule_nodes::{
+use capsule_controller_node::{
     controller::ControllerOptions,
     controller_params,
     controller_settings::{self, ControllerFlags},
@@ -28,7 +28,7 @@ pub struct Cli {
     /// the whole scene is validated, as capsule_plant and `capsule simulate` do
     #[arg(long)]
     scene: Option<String>,
-    /// The controller's settings (capsule_nodes::controller_settings)
+    /// The controller's settings (capsule_controller_node::controller_settings)
     #[command(flatten)]
     settings: ControllerFlags,
     /// Check the scene and flags, print what would run, and exit (no DDS)

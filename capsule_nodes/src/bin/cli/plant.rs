@@ -11,12 +11,12 @@ use capsule_hardware::{
     sim::SimulatedPlant,
     CapsuleHardware,
 };
-use capsule_nodes::{
+use capsule_plant::{Method, Simulator};
+use capsule_plant_node::{
     plant::{InPlantRecordOptions, OnSilence, Pacing, PlantCore, PlantOptions},
     plant_params::{self, PlantFlags},
     recorder, views,
 };
-use capsule_plant::{Method, Simulator};
 use capsule_ros_base::{
     ros::{RosArgs, RosEnv, RosOptions},
     ros_args,
@@ -182,9 +182,9 @@ pub fn build(
         bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
     }
     check_fixed_steps(cli, scene, run.rate_hz)?;
-    let max_force_n = cli
-        .max_force_n
-        .unwrap_or(capsule_nodes::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n());
+    let max_force_n = cli.max_force_n.unwrap_or(
+        capsule_plant_node::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n(),
+    );
     let source = source(cli, scene, run.rate_hz, max_force_n)?;
     let core = PlantCore::new(source, scene.physical, run.rate_hz, run.command_timeout_s)
         .with_max_force_n(max_force_n);

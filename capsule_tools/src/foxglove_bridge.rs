@@ -32,8 +32,8 @@ use futures::StreamExt;
 use serde_json::json;
 use tracing::{info, warn};
 
-use crate::intra_process::Link;
-use crate::views::BODY_FRAME;
+use capsule_plant_node::intra_process::Link;
+use capsule_plant_node::views::BODY_FRAME;
 use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
 use ros2_client::Subscription;
 

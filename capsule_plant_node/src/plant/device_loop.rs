@@ -23,11 +23,11 @@ use tracing::warn;
 
 use super::endpoints::{log_undecodable, Endpoints};
 use super::loop_control::{apply, Exit};
-use super::pacing::{
+use super::silence::{Silence, Verdict, Waiting};
+use super::simulator_loop::{
     commands_of, publish_now, take_answer, take_command, take_joint_commands, CommandLogs,
     SampleLoop, Wall,
 };
-use super::silence::{Silence, Verdict, Waiting};
 use super::{CommandOutcome, InPlantRecording, Pacing, PlantCore, PlantOptions};
 use crate::hardware::{CapsuleHardware, Reading};
 

@@ -5,7 +5,7 @@
 //! (`Inputs`: state samples, mode requests, accepted parameter sets) and the outputs
 //! (`Outputs`: commands, status, service events, diagnostics) are the DDS side. State and
 //! commands come and go over DDS or, composed with the plant in one process, over the
-//! in-process link ([`crate::intra_process`]): there the plant's loop calls the same
+//! in-process link ([`capsule_plant_node::intra_process`]): there the plant's loop calls the same
 //! `Handlers::on_state` on its own thread, and the commands' DDS copies leave from a publisher
 //! thread. [`run_in`] takes the transport from outside.
 //!
@@ -30,11 +30,13 @@ use crate::{
     controller_core::ControllerCore,
     controller_diagnostics::ControllerDiag,
     controller_params::{self, LiveSync},
-    intra_process::{Answer, CopyCounts, DdsCopies, Transport},
     plant_identity::{PlantIdentity, Source},
-    views::Diagnostics,
 };
 use capsule_hardware::throttle::Throttle;
+use capsule_plant_node::{
+    intra_process::{Answer, CopyCounts, DdsCopies, Transport},
+    views::Diagnostics,
+};
 use capsule_ros_base::{
     clock::RosClock,
     conflicts::TopicRule,
@@ -190,8 +192,8 @@ impl Outputs {
         let status_topic = settings.topic(node, topics::STATUS, types::status(), &qos::data())?;
         let event_topic = settings.topic(
             node,
-            &crate::recorder::service_event_topic("~"),
-            crate::recorder::service_event_type(),
+            &capsule_plant_node::recorder::service_event_topic("~"),
+            capsule_plant_node::recorder::service_event_type(),
             &qos::service_events(),
         )?;
         // a second plant is told from the samples themselves (plant_identity): a SIGKILLed

@@ -20,7 +20,7 @@ use tracing::{info, warn};
 use super::endpoints::{Endpoints, MATCH_GRACE};
 use super::lifecycle_services::{self, Lifecycle};
 use super::loop_control::{apply_unconfigured, Exit, LoopControl};
-use super::pacing::SampleLoop;
+use super::simulator_loop::SampleLoop;
 use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
 use crate::intra_process::{CopyCounts, Transport};

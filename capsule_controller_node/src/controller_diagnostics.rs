@@ -1,4 +1,4 @@
-//! The controller's `/diagnostics` status (1 Hz, through [`crate::views::Diagnostics`], the
+//! The controller's `/diagnostics` status (1 Hz, through [`capsule_plant_node::views::Diagnostics`], the
 //! plant's publisher): mode, gain, commands sent, state samples ignored, whether the plant is
 //! seen and takes the commands, with OK / WARN / ERROR levels.
 

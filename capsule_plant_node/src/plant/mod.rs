@@ -26,22 +26,22 @@
 //! The node in parts: `plant_core` (the logic, unit-tested against a mock hardware), `stats`
 //! (loop statistics and the summary), `options`, `recording` (in-plant MCAP), `endpoints` (the
 //! DDS endpoints), `node` ([`run`]: build, wait for the graph, run the loop, finish),
-//! `loop_control` (what reaches the loop's thread), `pacing` (the simulator's two loops),
-//! `paced` (the loop of a device, which paces itself), `silence` (what an unanswered lock-step
+//! `loop_control` (what reaches the loop's thread), `simulator_loop` (the simulator's two
+//! loops), `device_loop` (the loop of a device, which paces itself), `silence` (what an unanswered lock-step
 //! sample leads to), [`lifecycle`] (the managed node's state
 //! machine) and `lifecycle_services` (its services).
 
+mod device_loop;
 mod endpoints;
 pub mod lifecycle;
 mod lifecycle_services;
 mod loop_control;
 mod node;
 mod options;
-mod paced;
-mod pacing;
 mod plant_core;
 mod recording;
 mod silence;
+mod simulator_loop;
 mod stats;
 
 pub use capsule_hardware::SourceHealth;

@@ -9,7 +9,7 @@ use capsule_plant::number_text::short;
 use capsule_ros_base::error::Result;
 use capsule_ros_base::params::{names as shared, ParamTable};
 
-use crate::node_settings::{SettingFlags, SettingsTable};
+use capsule_plant_node::node_settings::{SettingFlags, SettingsTable};
 
 /// Any finite number a gain or a physical constant given as a flag may reach in magnitude.
 const MAX: f64 = capsule_args::ranges::MAX_MAGNITUDE;
@@ -73,7 +73,7 @@ pub const ALPHA: Setting = Setting::new(
     "Drive amplitude alpha = P_d / P_f (non-dim; at most the plant's default force limit)",
     Kind::Number {
         min: 0.0,
-        max: crate::command_gate::DEFAULT_MAX_FORCE_PF,
+        max: capsule_plant_node::command_gate::DEFAULT_MAX_FORCE_PF,
     },
 )
 .flag()
@@ -209,12 +209,10 @@ pub fn start_config(table: &ParamTable) -> Result<ModeConfig> {
     Ok(config)
 }
 
-impl GainFlags {
-    /// The validated configuration of the gain flags (defaults where not given).
-    pub fn config(&self) -> Result<ModeConfig> {
-        let table = self
-            .start_table("", |_| None, |_| None)
-            .map_err(|e| capsule_ros_base::error::invalid!("{e}"))?;
-        start_config(&table)
-    }
+/// The validated configuration of the gain flags `flags` (defaults where not given).
+pub fn gain_config(flags: &GainFlags) -> Result<ModeConfig> {
+    let table = flags
+        .start_table("", |_| None, |_| None)
+        .map_err(|e| capsule_ros_base::error::invalid!("{e}"))?;
+    start_config(&table)
 }
