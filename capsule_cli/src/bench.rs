@@ -14,6 +14,8 @@ use capsule_args::ranges;
 use capsule_plant::scene::Scene;
 use capsule_plant::{Capsule, Friction, Method, Model, SolverConfig};
 use clap::ValueEnum;
+use nix::sys::resource::{getrusage, UsageWho};
+use nix::sys::time::TimeVal;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -529,10 +531,10 @@ fn basins(args: &Args) -> Result<()> {
     let cfg = SettleConfig::for_scene(&scene);
     let schedule = GainSchedule::constant(0.0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
-    let (t0, c0) = (Instant::now(), cpu_s(libc::RUSAGE_SELF));
+    let (t0, c0) = (Instant::now(), cpu_s(UsageWho::RUSAGE_SELF));
     let map = basins(&scene, &schedule, &cfg, &grid, &|| {}, &cancel);
     let wall = t0.elapsed().as_secs_f64();
-    let cpu = cpu_s(libc::RUSAGE_SELF) - c0;
+    let cpu = cpu_s(UsageWho::RUSAGE_SELF) - c0;
     let w = &map.work;
     let threads = rayon::current_num_threads();
     println!(
@@ -559,14 +561,14 @@ fn basins(args: &Args) -> Result<()> {
         })
         .collect();
     let per_state = |f: &dyn Fn(&Scene) -> Result<(u64, u64)>| -> Result<(f64, f64, f64)> {
-        let c0 = cpu_s(libc::RUSAGE_THREAD);
+        let c0 = cpu_s(UsageWho::RUSAGE_THREAD);
         let (mut periods, mut events) = (0u64, 0u64);
         for s in &sample {
             let (p, e) = f(s)?;
             periods += p;
             events += e;
         }
-        let t = cpu_s(libc::RUSAGE_THREAD) - c0;
+        let t = cpu_s(UsageWho::RUSAGE_THREAD) - c0;
         let m = sample.len() as f64;
         Ok((
             1e3 * t / m,
@@ -610,12 +612,12 @@ fn basins(args: &Args) -> Result<()> {
 
 /// CPU time in seconds of the process (`RUSAGE_SELF`) or the calling thread (`RUSAGE_THREAD`):
 /// on a machine shared with other work, wall time measures the others too.
-fn cpu_s(who: libc::c_int) -> f64 {
-    // SAFETY: getrusage writes into the zeroed struct we pass and nothing else.
-    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
-    if unsafe { libc::getrusage(who, &mut u) } != 0 {
-        return f64::NAN;
+fn cpu_s(who: UsageWho) -> f64 {
+    match getrusage(who) {
+        Ok(u) => {
+            let t = |v: TimeVal| v.tv_sec() as f64 + v.tv_usec() as f64 * 1e-6;
+            t(u.user_time()) + t(u.system_time())
+        }
+        Err(_) => f64::NAN,
     }
-    let t = |v: libc::timeval| v.tv_sec as f64 + v.tv_usec as f64 * 1e-6;
-    t(u.ru_utime) + t(u.ru_stime)
 }

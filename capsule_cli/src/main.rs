@@ -8,7 +8,6 @@ mod continuation;
 mod emulate_device;
 mod figures;
 mod identify;
-mod offline_record;
 mod record;
 mod refused;
 mod replay;
@@ -16,6 +15,7 @@ mod robustness;
 mod scene_args;
 mod simulate;
 mod simulate_device;
+mod simulate_recording;
 mod svg;
 mod sweep;
 mod switch;
@@ -140,10 +140,9 @@ fn command() -> clap::Command {
 fn main() -> std::process::ExitCode {
     // Like other Unix filters, end quietly when the reader goes away (`capsule ... | head`)
     // instead of panicking on a failed print.
+    use nix::sys::signal::{signal, SigHandler, Signal};
     // SAFETY: restoring the default action of one signal before any thread starts.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
+    let _ = unsafe { signal(Signal::SIGPIPE, SigHandler::SigDfl) };
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()

@@ -2,8 +2,8 @@
 //! lasts shows its progress on stderr; Ctrl-C stops it, writes the time history sampled so far
 //! and exits non-zero saying so. `--device` runs through a device instead (`simulate_device`).
 
-use crate::offline_record as record;
 use crate::scene_args::SceneArgs;
+use crate::simulate_recording;
 use crate::work::{self, WorkArgs};
 use anyhow::{bail, Context, Result};
 use capsule_analysis::stability::{self, RunStability};
@@ -184,7 +184,7 @@ pub fn main(args: Args) -> Result<()> {
         written.push(format!("{} ({} rows)", path.display(), rows.len()));
     }
     if let Some(path) = &args.record {
-        let n = record::write(
+        let n = simulate_recording::write(
             path,
             &scene,
             args.run.scene.scene_text(&scene),

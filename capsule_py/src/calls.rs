@@ -4,8 +4,9 @@
 //! `SceneError`) before work starts, a failure while working `SimulationError`, Ctrl-C
 //! `Interrupted` with what finished as its `partial`.
 
+use crate::exceptions::{Interrupted, SimulationError};
+use crate::interrupt;
 use crate::scene::parse;
-use crate::{interrupt, Interrupted, SimulationError};
 use capsule_analysis::attractor::SettleConfig;
 use capsule_analysis::basin::{Cell, CellConfig, Grid, Method, Plane};
 use capsule_analysis::basin_cells::basins_by;

@@ -5,7 +5,7 @@
 //! and refused with the same message, naming the source (`defaults with keyword arguments`), the
 //! key and the reason.
 
-use crate::SceneError;
+use crate::exceptions::SceneError;
 use capsule_args::scene_file::SceneFile;
 use capsule_plant::model::FRICTION_CONSTANTS;
 use capsule_plant::scene::Scene;

@@ -279,6 +279,81 @@ mod tests {
         GUID::new_participant_guid()
     }
 
+    /// A discovery event announcing `guid` on `topic` (a writer or a reader).
+    fn detected(guid: GUID, topic: &str, writer: bool) -> DomainParticipantStatusEvent {
+        let d = rustdds::EndpointDescription {
+            updated_time: chrono::Utc::now(),
+            guid,
+            topic_name: topic.to_string(),
+            type_name: "T".to_string(),
+            qos: rustdds::QosPolicies::qos_none(),
+            user_data: Vec::new(),
+        };
+        if writer {
+            DomainParticipantStatusEvent::WriterDetected { writer: d }
+        } else {
+            DomainParticipantStatusEvent::ReaderDetected { reader: d }
+        }
+    }
+
+    #[test]
+    fn a_participant_s_readers_and_writers_are_counted_once_matched() {
+        use DomainParticipantStatusEvent as E;
+        let (rq, rr) = ("rq/s/xRequest", "rr/s/xReply");
+        let (our_reader, our_writer) = (guid(), guid());
+        let client = guid();
+        // one of the client's endpoints: its prefix, entity key `key`, a user writer (0x03) or
+        // reader (0x04) without key
+        let endpoint = |key: u8, writer: bool| {
+            let mut b = client.to_bytes();
+            b[12..].copy_from_slice(&[0, 0, key, if writer { 0x03 } else { 0x04 }]);
+            GUID::from_bytes(b)
+        };
+        let graph = Graph {
+            matches: Arc::new(Mutex::new(Matches::default())),
+            changed: watch::channel(0).1,
+        };
+        let apply = |e: E| graph.lock().apply(&e);
+        let prefix = &client.to_bytes()[..8];
+        // the first client: its writer and reader, both matched
+        let (w1, r1) = (endpoint(1, true), endpoint(2, false));
+        apply(detected(w1, rq, true));
+        apply(detected(r1, rr, false));
+        assert_eq!(
+            graph.matched_from(rr, prefix, false),
+            0,
+            "detected, not matched"
+        );
+        apply(E::RemoteWriterMatched {
+            local_reader: our_reader,
+            remote_writer: w1,
+        });
+        apply(E::RemoteReaderMatched {
+            local_writer: our_writer,
+            remote_reader: r1,
+        });
+        assert_eq!(graph.matched_from(rq, prefix, true), 1);
+        assert_eq!(graph.matched_from(rr, prefix, false), 1);
+        // the next client's writer has matched, its reader not yet: one reader for two writers
+        let (w2, r2) = (endpoint(3, true), endpoint(4, false));
+        apply(detected(w2, rq, true));
+        apply(E::RemoteWriterMatched {
+            local_reader: our_reader,
+            remote_writer: w2,
+        });
+        assert_eq!(graph.matched_from(rq, prefix, true), 2);
+        assert_eq!(graph.matched_from(rr, prefix, false), 1);
+        apply(detected(r2, rr, false));
+        apply(E::RemoteReaderMatched {
+            local_writer: our_writer,
+            remote_reader: r2,
+        });
+        assert_eq!(graph.matched_from(rr, prefix, false), 2);
+        // another participant's endpoints, and other topics, are not counted
+        assert_eq!(graph.matched_from(rr, &guid().to_bytes()[..8], false), 0);
+        assert_eq!(graph.matched_from("rr/other", prefix, false), 0);
+    }
+
     #[test]
     fn matches_follow_discovery_events() {
         use DomainParticipantStatusEvent as E;
