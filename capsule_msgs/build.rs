@@ -62,7 +62,14 @@ fn add_dir(
     package: &str,
     kind: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    println!("cargo:rerun-if-changed={}", dir.display());
+    // a directory that does not exist (no `action/` yet) is watched through its parent, which
+    // changes when it is made: a missing path counts as changed at every build, and rebuilt
+    // this crate and everything above it at each cargo invocation
+    let watched = match dir.parent() {
+        Some(parent) if !dir.exists() => parent,
+        _ => dir,
+    };
+    println!("cargo:rerun-if-changed={}", watched.display());
     for path in sorted_entries(dir)? {
         if path.extension().and_then(|e| e.to_str()) != Some(kind) {
             continue;
