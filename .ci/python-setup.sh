@@ -8,8 +8,8 @@
 #     Jupyter kernel (ipykernel);
 #   - maturin (the build backend, used without build isolation);
 # then `pip install ./capsule_py`, which builds the extension with maturin in the workspace's
-# target/ (release profile, or what MATURIN_PEP517_ARGS says: .ci/run asks for the dev profile,
-# whose crates its build compiled already), and checks that the package imports.
+# target/ (release profile: the physics compiled once, without the ROS crates), and checks that
+# the package imports.
 # Run after `cargo build --workspace` (the tests compare against target/debug/capsule).
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -8,13 +8,15 @@
 //! Use: `#[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]`.
 
 use capsule_plant::number_text::short;
+use capsule_plant::scene::Rule;
 
 /// Longest duration any flag takes \[s\] (about 11.6 days): far inside what a `Duration` holds.
 pub const MAX_SECONDS: f64 = 1e6;
 /// Longest period any millisecond flag takes \[ms\] (one minute).
 pub const MAX_MILLIS: u64 = 60_000;
-/// Largest magnitude of a gain, a physical constant or a model parameter given as a flag.
-pub const MAX_MAGNITUDE: f64 = 1e12;
+/// Largest magnitude of a gain or a model parameter given as a flag (the scene's own bound on a
+/// gain, `control.kp`).
+pub const MAX_MAGNITUDE: f64 = capsule_plant::scene::MAX_MAGNITUDE;
 /// Lowest and highest sample rate of the plant node \[Hz\]: one sample per 1000 s to 1 MHz (a
 /// period that every clock and `Duration` holds); the plant's settings table takes it.
 pub const RATE_HZ: (f64, f64) = (1e-3, 1e6);
@@ -25,7 +27,8 @@ pub const MAX_SUBSCRIBERS: u64 = 1000;
 pub trait FlagParser<T>: Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {}
 impl<T, F: Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static> FlagParser<T> for F {}
 
-fn number(text: &str) -> Result<f64, String> {
+/// The text as a finite number, or why it is not one.
+pub fn number(text: &str) -> Result<f64, String> {
     let v: f64 = text
         .trim()
         .parse()
@@ -34,6 +37,17 @@ fn number(text: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("must be a finite number (got {text})"))
+    }
+}
+
+/// A number the scene reader's `rule` admits (`const { key_rule("drive.alpha") }`): the flag
+/// refuses what the scene file's key would, in the same words.
+pub fn obeying(rule: Rule) -> impl FlagParser<f64> {
+    move |text: &str| {
+        let v = number(text)?;
+        rule.admits(v)
+            .map(|()| v)
+            .map_err(|fault| fault.to_string())
     }
 }
 

@@ -16,7 +16,7 @@
 //! ([`Setting::check`], [`Setting::range_text`]); the ROS descriptor announces that range.
 
 use capsule_plant::number_text::short;
-use capsule_plant::scene::Rule;
+use capsule_plant::scene::{key_rule, Rule};
 
 use crate::ranges::{self, FlagParser};
 
@@ -32,6 +32,9 @@ pub enum Kind {
     },
     /// Any finite number: the node's own rules judge it (a gain against the gain limit).
     Finite,
+    /// A number the scene reader's rule for the setting's scene key admits
+    /// ([`capsule_plant::scene::KEY_RULES`]): flag, parameter and scene refuse alike.
+    Rule(Rule),
     /// A whole number in `[min, max]`.
     Count {
         /// Smallest value.
@@ -82,6 +85,12 @@ impl Setting {
         }
     }
 
+    /// A setting the scene file's fixed `key` gives, with that key's rule as its range (a
+    /// compile-time error for a key without one).
+    pub const fn of_scene(name: &'static str, help: &'static str, key: &'static str) -> Setting {
+        Setting::new(name, help, Kind::Rule(key_rule(key))).scene(key)
+    }
+
     /// With a command-line flag.
     pub const fn flag(mut self) -> Setting {
         self.flag = true;
@@ -123,6 +132,7 @@ impl Setting {
         match self.kind {
             Kind::Number { min, max } => Some(format!("[{}, {}]", short(min), short(max))),
             Kind::Count { min, max } => Some(format!("{min} to {max}")),
+            Kind::Rule(rule) => rule.range_text(),
             Kind::Finite | Kind::Switch | Kind::Text => None,
         }
     }
@@ -132,6 +142,7 @@ impl Setting {
         match self.kind {
             Kind::Number { min, max } => Rule::Within((min, max)),
             Kind::Count { min, max } => Rule::Within((min as f64, max as f64)),
+            Kind::Rule(rule) => rule,
             Kind::Finite | Kind::Switch | Kind::Text => Rule::Finite,
         }
     }
@@ -139,13 +150,16 @@ impl Setting {
     /// Checks a number (from the scene, or any source but the flag's text): the reason it is
     /// refused, as the flag's parser words it.
     pub fn check(&self, v: f64) -> Result<(), String> {
+        if let Kind::Rule(rule) = self.kind {
+            return rule.admits(v).map_err(|fault| fault.to_string());
+        }
         if !v.is_finite() {
             return Err(format!("must be a finite number (got {})", short(v)));
         }
         let inside = match self.kind {
             Kind::Number { min, max } => (min..=max).contains(&v),
             Kind::Count { min, max } => v.fract() == 0.0 && (min as f64..=max as f64).contains(&v),
-            Kind::Finite | Kind::Switch | Kind::Text => true,
+            Kind::Finite | Kind::Switch | Kind::Text | Kind::Rule(_) => true,
         };
         match (inside, self.kind) {
             (true, _) => Ok(()),
@@ -161,13 +175,14 @@ impl Setting {
         }
     }
 
-    /// The flag's parser of a number (a [`Kind::Number`] or [`Kind::Finite`]).
+    /// The flag's parser of a number (a [`Kind::Number`], [`Kind::Rule`] or [`Kind::Finite`]):
+    /// refuses what [`Setting::check`] refuses, in its words.
     pub fn number_parser(&self) -> impl FlagParser<f64> {
-        let (min, max) = match self.kind {
-            Kind::Number { min, max } => (min, max),
-            _ => (f64::MIN, f64::MAX),
-        };
-        ranges::within(min, max)
+        let setting = *self;
+        move |text: &str| {
+            let v = ranges::number(text)?;
+            setting.check(v).map(|()| v)
+        }
     }
 
     /// The flag's parser of a count (a [`Kind::Count`]).

@@ -6,7 +6,7 @@ use anyhow::{bail, Result};
 use capsule_analysis::Param;
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_plant::model::{K_S, MU_V, TAU_D, V_S};
-use capsule_plant::scene::Scene;
+use capsule_plant::scene::{key_rule, Scene};
 use capsule_plant::{Friction, Method, SolverConfig, State};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
@@ -46,26 +46,26 @@ pub struct SceneArgs {
     /// Friction law, with the paper's constants unless the flags below set them.
     #[arg(long, value_parser = friction_law())]
     pub friction: Option<Friction>,
-    /// Drive amplitude alpha = P_d / P_f, [0, 1e12].
-    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
+    /// Drive amplitude alpha = P_d / P_f, [0, 100].
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("drive.alpha") }))]
     pub alpha: Option<f64>,
-    /// Drive frequency omega = Omega / Omega_0, (0, 1e12].
-    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
+    /// Drive frequency omega = Omega / Omega_0, > 0.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("drive.omega") }))]
     pub omega: Option<f64>,
-    /// Mass ratio gamma = m2 / m1, (0, 1e12].
-    #[arg(long, value_parser = ranges::positive(ranges::MAX_MAGNITUDE))]
+    /// Mass ratio gamma = m2 / m1, > 0.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("capsule.gamma") }))]
     pub gamma: Option<f64>,
-    /// Stiffness ratio beta = k2 / k1 of the secondary spring, [0, 1e12].
-    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
+    /// Stiffness ratio beta = k2 / k1 of the secondary spring, >= 0.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("capsule.beta") }))]
     pub beta: Option<f64>,
-    /// Gap delta before the secondary spring, [0, 1e12].
-    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
+    /// Gap delta before the secondary spring, >= 0.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("capsule.delta") }))]
     pub delta: Option<f64>,
-    /// Damping ratio xi, [0, 1e12].
-    #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]
+    /// Damping ratio xi, >= 0.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("capsule.xi") }))]
     pub xi: Option<f64>,
-    /// Position feedback gain k_p (u = k_p |x2 - x1|), [-1e12, 1e12].
-    #[arg(long, value_parser = ranges::finite())]
+    /// Position feedback gain k_p (u = k_p |x2 - x1|), any finite number.
+    #[arg(long, value_parser = ranges::obeying(const { key_rule("control.kp") }))]
     pub kp: Option<f64>,
     /// Viscous friction coefficient (viscous, seven-parameter, gaussian-stribeck), [0, 1e12].
     #[arg(long, value_parser = ranges::non_negative(ranges::MAX_MAGNITUDE))]

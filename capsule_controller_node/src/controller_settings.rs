@@ -66,30 +66,22 @@ pub const GAIN_LIMIT: Setting = Setting::new(
 .flag()
 .writable()
 .default(ModeConfig::DEFAULT.gain_limit);
-/// Drive amplitude; beyond the plant's default force limit a drive would only ever be
-/// saturated.
-pub const ALPHA: Setting = Setting::new(
+/// Drive amplitude (the scene's rule for `drive.alpha`: at most the plant's default force
+/// limit, beyond which a drive would only ever be saturated).
+pub const ALPHA: Setting = Setting::of_scene(
     "alpha",
-    "Drive amplitude alpha = P_d / P_f (non-dim; at most the plant's default force limit)",
-    Kind::Number {
-        min: 0.0,
-        max: capsule_plant_node::command_gate::DEFAULT_MAX_FORCE_PF,
-    },
+    "Drive amplitude alpha = P_d / P_f (non-dim)",
+    "drive.alpha",
 )
 .flag()
-.scene("drive.alpha")
 .writable();
-/// Drive frequency.
-pub const OMEGA: Setting = Setting::new(
+/// Drive frequency (the scene's rule for `drive.omega`).
+pub const OMEGA: Setting = Setting::of_scene(
     "omega",
     "Drive frequency omega = Omega / Omega0 (non-dim)",
-    Kind::Number {
-        min: 1e-6,
-        max: 1e6,
-    },
+    "drive.omega",
 )
 .flag()
-.scene("drive.omega")
 .writable();
 /// Seconds without state before the controller stops commanding.
 pub const STATE_TIMEOUT_S: Setting = Setting::new(
@@ -117,38 +109,34 @@ pub const ORBIT_TOLERANCE: Setting = Setting::new(
 )
 .flag()
 .default(SwitchConfig::DEFAULT.tol);
+/// A physical scale constant: from the scene's `[physical]` table, or its flag.
+const fn scale(name: &'static str, help: &'static str, key: &'static str) -> Setting {
+    Setting::of_scene(name, help, key).flag()
+}
 /// Physical scale: inner mass.
-pub const M1_KG: Setting = Setting::new(shared::M1_KG, "Physical scale: inner mass m1 [kg]", SCALE)
-    .flag()
-    .scene("physical.m1_kg");
+pub const M1_KG: Setting = scale(
+    shared::M1_KG,
+    "Physical scale: inner mass m1 [kg]",
+    "physical.m1_kg",
+);
 /// Physical scale: primary stiffness.
-pub const K1_N_PER_M: Setting = Setting::new(
+pub const K1_N_PER_M: Setting = scale(
     shared::K1_N_PER_M,
     "Physical scale: primary stiffness k1 [N/m]",
-    SCALE,
-)
-.flag()
-.scene("physical.k1_n_per_m");
+    "physical.k1_n_per_m",
+);
 /// Physical scale: friction threshold.
-pub const PF_N: Setting = Setting::new(
+pub const PF_N: Setting = scale(
     shared::PF_N,
     "Physical scale: friction threshold P_f [N]",
-    SCALE,
-)
-.flag()
-.scene("physical.pf_n");
+    "physical.pf_n",
+);
 /// Sim time from /clock (`--use-sim-time`, a ROS flag, or `-p use_sim_time:=true`).
 pub const USE_SIM_TIME: Setting = Setting::new(
     shared::USE_SIM_TIME,
     "Take time from /clock (set at start: --use-sim-time or -p use_sim_time:=true)",
     Kind::Switch,
 );
-
-/// The physical constants' range.
-const SCALE: Kind = Kind::Number {
-    min: 1e-12,
-    max: MAX,
-};
 
 /// The controller's settings, in the order `--help` shows their flags.
 pub const CONTROLLER: [Setting; 13] = [

@@ -1,6 +1,6 @@
 //! The physical scale: SI units for the non-dimensional model (a scene's `[physical]` table).
 
-use crate::scene::{Invalid, Rule};
+use crate::scene::Invalid;
 use serde::Serialize;
 
 /// The physical scale that turns the non-dimensional model into SI units (paper sec. 2.1):
@@ -46,14 +46,15 @@ impl PhysicalScale {
     pub fn force_n(&self) -> f64 {
         self.pf_n
     }
-    /// Checks every value (each finite and > 0); the key is `physical.<name>`.
+    /// Checks every value (each finite and > 0: the scene's rules of these keys); the key is
+    /// `physical.<name>`.
     pub fn validate(&self) -> Result<(), Invalid> {
         for (key, v) in [
             ("physical.m1_kg", self.m1_kg),
             ("physical.k1_n_per_m", self.k1_n_per_m),
             ("physical.pf_n", self.pf_n),
         ] {
-            Rule::Positive.check(key, v)?;
+            crate::scene::key_rule(key).check(key, v)?;
         }
         Ok(())
     }

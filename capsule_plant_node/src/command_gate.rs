@@ -18,8 +18,9 @@ use capsule_hardware::throttle::Throttle;
 
 /// The default force limit in units of the friction threshold `P_f`: 100 `P_f` (10 N at the
 /// scenes' scale), more than ten times what the paper's law asks at the control point (drive
-/// alpha = 1.6 plus feedback at the gain limit |k_p| = 2 over |x2 - x1| of a few units).
-pub const DEFAULT_MAX_FORCE_PF: f64 = 100.0;
+/// alpha = 1.6 plus feedback at the gain limit |k_p| = 2 over |x2 - x1| of a few units); the
+/// largest drive a scene may ask is this limit, so it is never saturated alone.
+pub const DEFAULT_MAX_FORCE_PF: f64 = capsule_plant::scene::MAX_DRIVE_ALPHA;
 
 /// Saturates commanded forces at a limit and counts the saturated ones.
 #[derive(Debug, Clone)]

@@ -48,6 +48,7 @@ pub fn spec(s: &Setting) -> ParamSpec {
             from: i64::try_from(min).unwrap_or(i64::MAX),
             to: i64::try_from(max).unwrap_or(i64::MAX),
         },
+        Kind::Rule(rule) => return spec.scene_rule(rule).constraints(s.rule),
         Kind::Finite | Kind::Switch | Kind::Text => Range::None,
     };
     spec.range(range).constraints(s.rule)
@@ -123,7 +124,7 @@ fn arg(s: &'static Setting) -> clap::Arg {
         .help(s.help_line())
         .value_name(s.name.to_uppercase());
     match s.kind {
-        Kind::Number { .. } | Kind::Finite => arg
+        Kind::Number { .. } | Kind::Rule(_) | Kind::Finite => arg
             .value_parser(s.number_parser())
             .allow_negative_numbers(true),
         Kind::Count { .. } => arg.value_parser(s.count_parser()),
@@ -142,7 +143,7 @@ impl<T: SettingsTable> clap::FromArgMatches for SettingFlags<T> {
     fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
         for s in T::SETTINGS.iter().filter(|s| s.flag) {
             let value = match s.kind {
-                Kind::Number { .. } | Kind::Finite => {
+                Kind::Number { .. } | Kind::Rule(_) | Kind::Finite => {
                     m.get_one::<f64>(s.name).map(|v| V::Double(*v))
                 }
                 Kind::Count { .. } => m

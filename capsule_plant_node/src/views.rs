@@ -67,6 +67,9 @@ pub mod params {
     pub const RATE_HZ: &str = view!("rate_hz");
 }
 
+/// The range of `--views-rate-hz` and of its parameter \[Hz\]: a rate's, as the loop's.
+const RATE_RANGE: (f64, f64) = capsule_args::ranges::RATE_HZ;
+
 /// The switches on the command line.
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct ViewArgs {
@@ -85,7 +88,8 @@ pub struct ViewArgs {
     /// joint_states and /tf at most this often \[Hz\] (every n-th sample, n = rate / this,
     /// rounded, at least 1): a viewer needs far less than the loop's 1-10 kHz, and each write
     /// costs DDS a wake-up
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true,
+          value_parser = capsule_args::ranges::within(RATE_RANGE.0, RATE_RANGE.1))]
     pub views_rate_hz: f64,
 }
 
@@ -136,8 +140,8 @@ impl ViewArgs {
                 params::RATE_HZ,
                 ParamSpec::read_only("joint_states and /tf at most this often [Hz] (set at start)")
                     .range(capsule_ros_base::params::Range::Float {
-                        from: 1.0e-3,
-                        to: 1.0e6,
+                        from: RATE_RANGE.0,
+                        to: RATE_RANGE.1,
                     }),
                 V::Double(self.views_rate_hz),
             )

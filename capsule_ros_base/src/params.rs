@@ -14,6 +14,7 @@
 use std::collections::BTreeMap;
 
 use capsule_plant::number_text::short;
+use capsule_plant::scene::Rule;
 
 use ros2_client::{parameters::raw, rcl_interfaces::ListParametersResult, ParameterValue};
 
@@ -49,6 +50,9 @@ pub struct ParamSpec {
     pub read_only: bool,
     /// Numeric range.
     pub range: Range,
+    /// The scene reader's rule the value must also pass (a setting given by a scene key):
+    /// refusals then say what the scene file's would.
+    pub rule: Option<Rule>,
 }
 
 impl ParamSpec {
@@ -59,6 +63,7 @@ impl ParamSpec {
             constraints: String::new(),
             read_only: false,
             range: Range::None,
+            rule: None,
         }
     }
 
@@ -73,6 +78,15 @@ impl ParamSpec {
     /// With a range.
     pub fn range(mut self, range: Range) -> Self {
         self.range = range;
+        self
+    }
+
+    /// With the scene reader's rule, and the range it announces.
+    pub fn scene_rule(mut self, rule: Rule) -> Self {
+        self.rule = Some(rule);
+        if let Some((from, to)) = rule.bounds() {
+            self.range = Range::Float { from, to };
+        }
         self
     }
 
@@ -111,25 +125,35 @@ pub mod names {
 }
 
 /// Declares the physical scale `[m1 kg, k1 N/m, P_f N]` in `table`, each descriptor made by
-/// `spec` from its description.
+/// `spec` from its description, with its scene key's rule.
 pub fn declare_scale(
     table: ParamTable,
     values: [f64; 3],
     spec: impl Fn(&str) -> ParamSpec,
 ) -> ParamTable {
     let described = [
-        (names::M1_KG, "physical scale: inner mass m1 [kg]"),
+        (
+            names::M1_KG,
+            "physical scale: inner mass m1 [kg]",
+            "physical.m1_kg",
+        ),
         (
             names::K1_N_PER_M,
             "physical scale: primary stiffness k1 [N/m]",
+            "physical.k1_n_per_m",
         ),
-        (names::PF_N, "physical scale: friction threshold P_f [N]"),
+        (
+            names::PF_N,
+            "physical scale: friction threshold P_f [N]",
+            "physical.pf_n",
+        ),
     ];
     described
         .into_iter()
         .zip(values)
-        .fold(table, |table, ((name, what), value)| {
-            table.declare(name, spec(what), ParameterValue::Double(value))
+        .fold(table, |table, ((name, what, key), value)| {
+            let spec = spec(what).scene_rule(capsule_plant::scene::key_rule(key));
+            table.declare(name, spec, ParameterValue::Double(value))
         })
 }
 
@@ -335,23 +359,30 @@ impl ParamTable {
                 type_name(value)
             ));
         }
-        match (value, spec.range) {
-            (ParameterValue::Double(d), _) if !d.is_finite() => {
-                Err(format!("parameter '{name}' = {}: not finite", short(*d)))
+        // the reasons in the words of the flags and the scene reader (capsule_args::settings)
+        if let (ParameterValue::Double(d), Some(rule)) = (value, spec.rule) {
+            if let Err(fault) = rule.admits(*d) {
+                return Err(format!("parameter '{name}': {fault}"));
             }
+        }
+        match (value, spec.range) {
+            (ParameterValue::Double(d), _) if !d.is_finite() => Err(format!(
+                "parameter '{name}': must be a finite number (got {})",
+                short(*d)
+            )),
             (ParameterValue::Double(d), Range::Float { from, to }) if !(from..=to).contains(d) => {
                 Err(format!(
-                    "parameter '{name}' = {}: out of range [{}, {}]",
-                    short(*d),
+                    "parameter '{name}': must be in [{}, {}] (got {})",
                     short(from),
-                    short(to)
+                    short(to),
+                    short(*d)
                 ))
             }
             (ParameterValue::Integer(i), Range::Integer { from, to })
                 if !(from..=to).contains(i) =>
             {
                 Err(format!(
-                    "parameter '{name}' = {i}: out of range [{from}, {to}]"
+                    "parameter '{name}': must be a whole number from {from} to {to} (got {i})"
                 ))
             }
             _ => Ok(()),
@@ -410,6 +441,14 @@ impl ParamTable {
             }
         }
         (results, changed)
+    }
+
+    /// Every value against its own declaration (type, range, rule): the first that fails, by
+    /// name. A node's start table passes it before the node starts, whatever built it.
+    pub fn validate(&self) -> Result<(), String> {
+        self.entries
+            .iter()
+            .try_for_each(|(name, (_, value))| self.check(name, value, true))
     }
 
     /// Start-up overrides (`-p`, `--params-file`): as an atomic set, read-only ones included.
@@ -486,8 +525,14 @@ mod tests {
                 "wrong parameter type",
             ),
             (vec![p("gain", V::Integer(1))], "wrong parameter type"),
-            (vec![p("gain", V::Double(f64::NAN))], "not finite"),
-            (vec![p("limit", V::Double(11.0))], "out of range"),
+            (
+                vec![p("gain", V::Double(f64::NAN))],
+                "must be a finite number",
+            ),
+            (
+                vec![p("limit", V::Double(11.0))],
+                "must be in [0, 10] (got 11)",
+            ),
             (vec![p("nope", V::Double(1.0))], "not declared"),
             (vec![p("rate_hz", V::Double(10.0))], "read-only"),
             (vec![p("gain", V::Double(3.0))], "above the limit"),
@@ -515,11 +560,11 @@ mod tests {
         let e = t
             .set_atomically(&[p("limit", V::Double(1e308))], no_rules)
             .unwrap_err();
-        assert_eq!(e, "parameter 'limit' = 1e308: out of range [0, 10]");
+        assert_eq!(e, "parameter 'limit': must be in [0, 10] (got 1e308)");
         let e = t
             .set_atomically(&[p("limit", V::Double(-0.25))], no_rules)
             .unwrap_err();
-        assert_eq!(e, "parameter 'limit' = -0.25: out of range [0, 10]");
+        assert_eq!(e, "parameter 'limit': must be in [0, 10] (got -0.25)");
     }
 
     #[test]

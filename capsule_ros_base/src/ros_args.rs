@@ -367,7 +367,17 @@ fn flatten(
 /// result, as one start-up set (so `-p gain:=0.3 -p mode:=custom` means CUSTOM 0.3 in either
 /// order). A name, type or range error names its source; a refusal by the rules names them all.
 /// Unknown names from a wildcard section (`/**`) are skipped: such a file serves many nodes.
+/// Then every value is checked against its declaration ([`ParamTable::validate`]), so a value
+/// a flag let through is refused before the node starts.
 pub fn apply_overrides(table: &mut ParamTable, overrides: &[Override], rules: Rules) -> Result<()> {
+    overrides_onto(table, overrides, rules)?;
+    table
+        .validate()
+        .map_err(|e| invalid!("the start values: {e}"))
+}
+
+/// [`apply_overrides`] without the final check.
+fn overrides_onto(table: &mut ParamTable, overrides: &[Override], rules: Rules) -> Result<()> {
     let mut scratch = table.clone();
     let mut all: Vec<Param> = Vec::new();
     let mut origins = Vec::new();

@@ -10,6 +10,10 @@ use crate::common::{
     assert_holds, assert_ok, assert_refused, command, files_in, json_of, line, run, stderr, TempDir,
 };
 use crate::root;
+use capsule_args::plant_settings::PLANT;
+use capsule_args::settings::{Kind, Setting};
+use capsule_controller_node::controller_settings::CONTROLLER;
+use capsule_plant::scene::Rule;
 use proptest::prelude::*;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -185,7 +189,8 @@ capsule | simulate --periods 0 | from 1 to
 capsule | simulate --alpha nan | finite
 capsule | simulate --alpha -1 | must be in
 capsule | simulate --omega inf | finite
-capsule | simulate --gamma 1e308 | <= 1e12
+capsule | simulate --gamma 0 | must be > 0 (got 0)
+capsule | simulate --alpha 101 | must be in [0, 100] (got 101)
 capsule | simulate --gamma -1 | must be > 0
 capsule | simulate --kp 1e308 | must be in
 capsule | simulate --friction seven-parameter --mu-v 1e308 | must be in
@@ -239,8 +244,9 @@ capsule_controller | --scene scenes/control_point.toml --check --gain-limit -1 |
 capsule_controller | --scene scenes/control_point.toml --check --direction-gain 3 | --direction-gain 3: beyond gain_limit (--gain-limit 2)
 capsule_controller | --scene scenes/control_point.toml --check --chaos-gain -5 --gain-limit 4 | --chaos-gain -5: beyond gain_limit (--gain-limit 4)
 capsule | replay {rec} --gain-limit nan | '--gain-limit <GAIN_LIMIT>': must be a finite number
-capsule_controller | --scene scenes/control_point.toml --check --omega 0 | must be in [1e-6, 1e6] (got 0)
-capsule_controller | --scene scenes/control_point.toml --check --m1-kg -1 | must be in [1e-12, 1e12] (got -1)
+capsule_controller | --scene scenes/control_point.toml --check --omega 0 | must be > 0 (got 0)
+capsule_controller | --scene scenes/control_point.toml --check --m1-kg -1 | must be > 0 (got -1)
+capsule_plant | --scene scenes/control_point.toml --check --views-rate-hz 0 | must be in [1e-3, 1e6] (got 0)
 capsule_controller | --scene scenes/control_point.toml --check --state-timeout-s 1e308 | must be in [1e-6, 1e6] (got 1e308)
 capsule_controller | --scene scenes/control_point.toml --check --status-period-ms 4294967296 | from 1 to 60000
 capsule_recorder | --check --wait-publishers-s 1e308 | must be in
@@ -277,7 +283,7 @@ fn every_numeric_flag_refuses_values_out_of_its_range() {
         assert_refused(&run(name, &args), 2, words, &format!("{name} {args:?}"));
         n += 1;
     }
-    assert_eq!(n, 78, "OUT_OF_RANGE lost cases");
+    assert_eq!(n, 80, "OUT_OF_RANGE lost cases");
 }
 
 #[test]
@@ -307,43 +313,137 @@ fn the_controller_gain_flags_state_their_range_in_help() {
     assert_ok(&o);
 }
 
-/// One setting, one range, three sources: the controller's drive amplitude (settings table:
-/// alpha in [0, 100]) as a flag, as the scene's drive.alpha and as a ROS parameter at start is
-/// refused with the same range and the value given (`ros2 param set` on the running node:
-/// ros::params).
+/// A value just outside a setting's range, as a parameter's text writes it (`None` for any
+/// finite number, a switch or text).
+fn outside(s: &Setting) -> Option<(f64, String)> {
+    let v = match s.kind {
+        Kind::Number { min, .. } if min > -1e300 => min - 1.0,
+        Kind::Number { max, .. } => max * 1.5,
+        Kind::Count { min, max } => {
+            return Some(if min > 0 {
+                (0.0, "0".into())
+            } else {
+                ((max + 1) as f64, (max + 1).to_string())
+            })
+        }
+        Kind::Rule(Rule::Positive) => 0.0,
+        Kind::Rule(Rule::NonNegative) => -1.0,
+        Kind::Rule(Rule::Tolerance) => 1.5,
+        Kind::Rule(Rule::Within((_, max))) => max * 1.5 + 1.0,
+        Kind::Rule(Rule::Finite) | Kind::Finite | Kind::Switch | Kind::Text => return None,
+    };
+    Some((v, format!("{v:?}")))
+}
+
+/// The scene file text that gives `key` (`drive.alpha`) the value `text`.
+fn scene_text(key: &str, text: &str) -> String {
+    let (table, name) = key.split_once('.').unwrap_or(("", key));
+    format!("[{table}]\n{name} = {text}\n")
+}
+
+/// One truth per range (issue 39): every numeric setting of both nodes, given a value just
+/// outside its range as a flag, as a ROS parameter at start (`-p`, which goes through the check
+/// `ros2 param set` uses: ros::params sets one on the running node) and, when the scene gives it,
+/// as the scene file's key, is refused with the same reason everywhere; a scene key is refused
+/// alike by both nodes and by the offline tool, which reads the same scene.
 #[test]
-fn one_range_is_refused_the_same_way_by_flag_scene_and_parameter() {
-    let tmp = TempDir::new("bad_input_one_range");
-    let scene = tmp.arg("alpha150.toml");
-    std::fs::write(&scene, "[drive]\nalpha = 150.0\n").unwrap_or_else(|e| panic!("{e}"));
+fn every_setting_is_refused_the_same_way_by_flag_parameter_and_scene() {
+    let tmp = TempDir::new("bad_input_ranges");
     let good = "scenes/control_point.toml";
-    for (args, source) in [
+    let tables: [(&str, &[Setting]); 2] = [
+        ("capsule_controller", &CONTROLLER),
+        ("capsule_plant", &PLANT),
+    ];
+    let mut checked = 0;
+    for (node, table) in tables {
+        for s in table.iter().filter(|s| s.flag) {
+            let Some((v, text)) = outside(s) else {
+                continue;
+            };
+            let why = s.check(v).expect_err("the value is outside the range");
+            let flag = format!("--{}", s.flag_name());
+            let param = format!("{}:={text}", s.name);
+            let mut cases: Vec<(&str, Vec<String>, String)> = vec![
+                (
+                    node,
+                    vec![
+                        "--scene".into(),
+                        good.into(),
+                        "--check".into(),
+                        flag.clone(),
+                        text.clone(),
+                    ],
+                    format!("{flag} <"),
+                ),
+                (
+                    node,
+                    vec![
+                        "--scene".into(),
+                        good.into(),
+                        "--check".into(),
+                        "--ros-args".into(),
+                        "-p".into(),
+                        param.clone(),
+                    ],
+                    format!("-p {param}: parameter '{}': {why}", s.name),
+                ),
+            ];
+            if let Some(key) = s.scene {
+                let file = tmp.file(&format!("{}.toml", s.name));
+                std::fs::write(&file, scene_text(key, &text)).unwrap_or_else(|e| panic!("{e}"));
+                let f = file.display().to_string();
+                let said = format!("{f}: {key}: {why}");
+                for reader in ["capsule_controller", "capsule_plant"] {
+                    cases.push((
+                        reader,
+                        vec!["--scene".into(), f.clone(), "--check".into()],
+                        said.clone(),
+                    ));
+                }
+                cases.push((
+                    "capsule",
+                    vec![
+                        "simulate".into(),
+                        "--scene".into(),
+                        f.clone(),
+                        "--json".into(),
+                    ],
+                    said.clone(),
+                ));
+            }
+            for (bin, args, words) in cases {
+                let args: Vec<&str> = args.iter().map(String::as_str).collect();
+                let o = run(bin, &args);
+                let err = stderr(&o);
+                assert_eq!(o.status.code(), Some(2), "{bin} {args:?}: {err}");
+                assert!(
+                    err.contains(&words) && err.contains(&why),
+                    "{bin} {args:?}: `{err}` lacks `{words}` or `{why}`"
+                );
+                checked += 1;
+            }
+        }
+    }
+    // the views' rate, a setting outside the table: flag and parameter
+    for (args, words) in [
         (
-            line("--check --alpha 150 --scene", &[good]),
-            "'--alpha <ALPHA>': ",
-        ),
-        (
-            line("--check --scene", &[&scene]),
-            "alpha150.toml: drive.alpha: ",
+            line("--check --views-rate-hz 0 --scene", &[good]),
+            "must be in [1e-3, 1e6] (got 0)",
         ),
         (
             line(
                 "--check --scene",
-                &[good, "--ros-args", "-p", "alpha:=150.0"],
+                &[good, "--ros-args", "-p", "views.rate_hz:=0.0"],
             ),
-            "-p alpha:=150.0: parameter 'alpha' = 150: ",
+            "parameter 'views.rate_hz': must be in [1e-3, 1e6] (got 0)",
         ),
     ] {
-        let o = run("capsule_controller", &args);
-        let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(source), "{args:?}: `{err}` lacks `{source}`");
-        assert!(
-            err.contains("[0, 100]") && err.contains("150"),
-            "{args:?}: {err}"
-        );
+        let o = run("capsule_plant", &args);
+        assert_refused(&o, 2, words, "capsule_plant --views-rate-hz");
     }
-    // the help says the same range, and where else the value comes from
+    // every numeric setting was fed to every source that gives it
+    assert!(checked >= 40, "only {checked} refusals checked");
+    // the help says the range, and where else the value comes from
     let o = run("capsule_controller", &["--help"]);
     let help = String::from_utf8_lossy(&o.stdout).into_owned();
     assert_holds(
@@ -468,7 +568,7 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
     let text = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{text}");
     assert!(
-        text.contains("alpha = -1: drive.alpha: must be >= 0"),
+        text.contains("alpha = -1: drive.alpha: must be in [0, 100] (got -1)"),
         "{text}"
     );
     assert!(text.contains("1 of 3 values failed"), "{text}");

@@ -5,6 +5,11 @@
 //!
 //! Markdown is parsed with pulldown-cmark (a CommonMark parser), so links in code blocks and
 //! code spans are not links, and reference-style links are resolved as GitHub resolves them.
+//!
+//! A file path written in a code span (`capsule_plant/src/scene.rs`, `docs/ros.md:12`) is
+//! checked too (issue 39): when its first component is a top-level file or folder of the
+//! repository, the path must exist. Spans with spaces or patterns (`*`, `{a,b}`, `<N>`) are not
+//! paths; paths under build output (`target/`, `install/`) are not the repository's.
 
 use crate::common::TempDir;
 use crate::root;
@@ -21,10 +26,37 @@ struct Link {
     dest: String,
 }
 
-/// What one Markdown file holds for the check: its anchors and its links.
+/// What one Markdown file holds for the check: its anchors, its links and its code spans.
 struct Page {
     anchors: HashSet<String>,
     links: Vec<Link>,
+    code_spans: Vec<Link>,
+}
+
+/// What the check found: how many files, links and code-span paths, and each problem.
+struct Report {
+    files: usize,
+    links: usize,
+    paths: usize,
+    problems: Vec<String>,
+}
+
+/// The repository path a code span names, if it names one: no spaces or pattern characters,
+/// a `/` in it, not a ROS 2 type name, and a first component among `top` (the repository's
+/// top-level entries). A `:line` or `#L12` suffix is dropped.
+fn code_span_path<'a>(span: &'a str, top: &HashSet<String>) -> Option<&'a str> {
+    let path = span.split([':', '#']).next()?.trim_end_matches('/');
+    let pattern = |c: char| c.is_whitespace() || "*?{}<>[]$~`'\"|,;=()".contains(c);
+    if path.contains(pattern) || !path.contains('/') || path.contains("//") || path.contains("..") {
+        return None;
+    }
+    // a ROS 2 type name (`capsule_msgs/msg/CapsuleState`), not a file
+    let last = path.rsplit('/').next()?;
+    if last.starts_with(|c: char| c.is_ascii_uppercase()) && !last.contains('.') {
+        return None;
+    }
+    let first = path.split('/').next()?;
+    top.contains(first).then_some(path)
 }
 
 /// Every Markdown file under `dir`, sorted, skipping build output and hidden folders.
@@ -87,6 +119,7 @@ fn parse(text: &str) -> Page {
     let mut anchors = HashSet::new();
     let mut seen: HashMap<String, usize> = HashMap::new();
     let mut links = Vec::new();
+    let mut code_spans = Vec::new();
     let mut heading: Option<String> = None;
     let options = Options::ENABLE_TABLES
         | Options::ENABLE_FOOTNOTES
@@ -106,10 +139,19 @@ fn parse(text: &str) -> Page {
                 *n += 1;
                 anchors.insert(anchor);
             }
-            Event::Text(t) | Event::Code(t) => {
+            Event::Text(t) => {
                 if let Some(h) = heading.as_mut() {
                     h.push_str(&t);
                 }
+            }
+            Event::Code(t) => {
+                if let Some(h) = heading.as_mut() {
+                    h.push_str(&t);
+                }
+                code_spans.push(Link {
+                    line: line_of(range.start),
+                    dest: t.into_string(),
+                });
             }
             Event::Start(Tag::Link { dest_url, .. })
             | Event::Start(Tag::Image { dest_url, .. }) => {
@@ -134,7 +176,11 @@ fn parse(text: &str) -> Page {
             _ => {}
         }
     }
-    Page { anchors, links }
+    Page {
+        anchors,
+        links,
+        code_spans,
+    }
 }
 
 /// Why an external link is not well-formed, if it is not: `http(s)://host[:port][/path]` with a
@@ -233,7 +279,7 @@ fn line_anchor_ok(file: &Path, anchor: &str) -> bool {
 
 /// Checks every Markdown file under `dir`; returns the number of files and links checked and
 /// one line per problem, `file:line: `dest`: reason`.
-fn check(dir: &Path) -> (usize, usize, Vec<String>) {
+fn check(dir: &Path) -> Report {
     let dir = dir
         .canonicalize()
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
@@ -245,6 +291,7 @@ fn check(dir: &Path) -> (usize, usize, Vec<String>) {
     }
     let mut problems = Vec::new();
     let mut checked = 0;
+    let paths = code_span_problems(&dir, &pages, &mut problems);
     for (file, page) in &pages {
         let shown = file
             .strip_prefix(&dir)
@@ -312,21 +359,65 @@ fn check(dir: &Path) -> (usize, usize, Vec<String>) {
             }
         }
     }
-    (files.len(), checked, problems)
+    Report {
+        files: files.len(),
+        links: checked,
+        paths,
+        problems,
+    }
+}
+
+/// Checks the repository paths named in code spans; returns how many there were.
+fn code_span_problems(
+    dir: &Path,
+    pages: &BTreeMap<PathBuf, Page>,
+    problems: &mut Vec<String>,
+) -> usize {
+    let top: HashSet<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .filter(|n| !SKIPPED_DIRS.contains(&n.as_str()))
+        .collect();
+    let mut paths = 0;
+    // the vendored crates' own docs name paths inside those crates
+    for (file, page) in pages
+        .iter()
+        .filter(|(f, _)| !f.starts_with(dir.join("vendor")))
+    {
+        let shown = file.strip_prefix(dir).unwrap_or(file).display().to_string();
+        for span in &page.code_spans {
+            let Some(path) = code_span_path(&span.dest, &top) else {
+                continue;
+            };
+            paths += 1;
+            if !dir.join(path).exists() {
+                problems.push(format!(
+                    "{shown}:{}: `{}`: names no file or folder of the repository",
+                    span.line, span.dest
+                ));
+            }
+        }
+    }
+    paths
 }
 
 #[test]
 fn every_markdown_file_links_to_what_exists() {
-    let (files, links, problems) = check(&root());
-    println!("checked {links} links in {files} Markdown files");
+    let Report {
+        files,
+        links,
+        paths,
+        problems,
+    } = check(&root());
+    println!("checked {links} links and {paths} paths in code spans in {files} Markdown files");
     // the walk must have found the docs, or the check proves nothing
     assert!(
-        files >= 15 && links >= 100,
-        "only {files} Markdown files and {links} links found"
+        files >= 15 && links >= 100 && paths >= 100,
+        "only {files} Markdown files, {links} links and {paths} paths found"
     );
     assert!(
         problems.is_empty(),
-        "{} broken link(s) in {files} Markdown files:\n{}",
+        "{} broken link(s) or path(s) in {files} Markdown files:\n{}",
         problems.len(),
         problems.join("\n")
     );
@@ -358,7 +449,8 @@ fn a_broken_link_an_unknown_anchor_and_a_malformed_address_are_reported() {
          [gone](docs/missing.md) [bad anchor](docs/a.md#no-such-part)\n\
          [bad line](code.rs#L9) [outside](../x.md) [own](#top) [own bad](#bottom)\n\
          [web](https://example.org/a?b#c) [bad web](<https://exa mple.org>) [bad host](http://nohost/)\n\
-         `[in code](docs/missing.md)`\n\n```\n[in a block](docs/missing.md)\n```\n",
+         `[in code](docs/missing.md)`\n\n```\n[in a block](docs/missing.md)\n```\n\
+         `docs/a.md` `code.rs:1` `docs/gone.rs` `docs/*.md` `install/setup.sh` `a b/c` `docs/msg/Type`\n",
     )
     .expect("write README.md");
     std::fs::write(
@@ -366,9 +458,16 @@ fn a_broken_link_an_unknown_anchor_and_a_malformed_address_are_reported() {
         "# A\n\n## The part\n\n[back](../README.md#top) [ref][r]\n\n[r]: ./nothing.md\n",
     )
     .expect("write docs/a.md");
-    let (files, links, problems) = check(&dir);
+    let Report {
+        files,
+        links,
+        paths,
+        problems,
+    } = check(&dir);
     assert_eq!(files, 2);
     assert_eq!(links, 14, "{problems:#?}");
+    // `code.rs:1` has no `/`; the pattern, build output, spaced span and type name are not paths
+    assert_eq!(paths, 2, "{problems:#?}");
     let expected = [
         "README.md:4: `docs/missing.md`: no such file or folder",
         "README.md:4: `docs/a.md#no-such-part`: no heading with anchor #no-such-part",
@@ -378,6 +477,7 @@ fn a_broken_link_an_unknown_anchor_and_a_malformed_address_are_reported() {
         "README.md:6: `https://exa mple.org`: space",
         "README.md:6: `http://nohost/`: host `nohost` is not a domain name",
         "docs/a.md:5: `./nothing.md`: no such file or folder",
+        "README.md:12: `docs/gone.rs`: names no file or folder",
     ];
     for e in expected {
         assert!(

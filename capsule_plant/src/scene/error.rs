@@ -2,6 +2,7 @@
 //! [`Fault`] (the reason).
 
 use crate::model::Friction;
+use crate::number_text::short;
 use crate::solver::Method;
 use thiserror::Error;
 
@@ -80,7 +81,7 @@ pub enum Fault {
     #[error("must be >= 0 (got {})", num(*.0))]
     Negative(f64),
     /// A value outside a closed range.
-    #[error("must be in [{min:e}, {max:e}] (got {})", num(*.got))]
+    #[error("must be in [{}, {}] (got {})", short(*.min), short(*.max), num(*.got))]
     OutOfRange {
         /// The value given.
         got: f64,

@@ -75,7 +75,7 @@ mod validate;
 pub use crate::physical::PhysicalScale;
 pub use error::{Fault, Invalid, SceneError};
 pub use number::KeyError;
-pub use rule::Rule;
+pub use rule::{key_rule, Rule, KEY_RULES, MAX_DRIVE_ALPHA, MAX_MAGNITUDE};
 pub use toml_reader::read_toml;
 pub use types::{Control, Drive, Horizon, Scene};
 

@@ -133,6 +133,10 @@ mod tests {
         assert_eq!(s.model.capsule.xi, 0.07);
         s.set_number("physical.pf_n", 0.2).ok();
         assert_eq!(s.physical.pf_n, 0.2);
+        // every key with a rule (validate reads them by key) names a number
+        for (k, _) in crate::scene::KEY_RULES {
+            assert!(s.number(k).is_ok(), "{k}");
+        }
         // every numeric key the device table writes is one here
         for (k, v, _) in DeviceModel::typical(&Default::default()).numbers() {
             assert_eq!(s.number(&format!("device.{k}")), Ok(v), "{k}");

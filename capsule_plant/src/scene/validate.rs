@@ -1,22 +1,20 @@
 //! Validation of a scene: every value checked, the first bad one refused with its key.
 
 use super::error::{Fault, Invalid};
-use super::rule::Rule;
+use super::rule::{Rule, KEY_RULES};
 use super::types::Scene;
 use crate::solver::Method;
 
 impl Scene {
     /// Check every value; the first bad one is refused with its key and the reason.
     pub fn validate(&self) -> Result<(), Invalid> {
-        let c = &self.model.capsule;
+        // every fixed key names a number (a unit test of `number.rs` holds it)
+        for (key, rule) in KEY_RULES {
+            if let Ok(v) = self.number(key) {
+                rule.check(key, v)?;
+            }
+        }
         let mut checks: Vec<(&str, f64, Rule)> = vec![
-            ("capsule.gamma", c.gamma, Rule::Positive),
-            ("capsule.beta", c.beta, Rule::NonNegative),
-            ("capsule.delta", c.delta, Rule::NonNegative),
-            ("capsule.xi", c.xi, Rule::NonNegative),
-            ("drive.alpha", self.drive.alpha, Rule::NonNegative),
-            ("drive.omega", self.drive.omega, Rule::Positive),
-            ("control.kp", self.control.kp, Rule::Finite),
             ("initial.state[0] (x1)", self.initial.x1, Rule::Finite),
             ("initial.state[1] (y1)", self.initial.y1, Rule::Finite),
             ("initial.state[2] (x2)", self.initial.x2, Rule::Finite),
@@ -28,12 +26,7 @@ impl Scene {
             .map(|(c, _)| format!("friction.{}", c.key))
             .collect();
         for ((c, v), key) in friction.iter().zip(&keys) {
-            let rule = if c.positive {
-                Rule::Positive
-            } else {
-                Rule::NonNegative
-            };
-            checks.push((key, *v, rule));
+            checks.push((key, *v, c.rule()));
         }
         match self.solver.method {
             Method::Adaptive => checks.push(("solver.tol", self.solver.tol, Rule::Tolerance)),
@@ -43,7 +36,6 @@ impl Scene {
         for (key, v, rule) in checks {
             rule.check(key, v)?;
         }
-        self.physical.validate()?;
         if let Some(d) = &self.device {
             for (key, v, positive) in d.numbers() {
                 let rule = if positive {

@@ -47,7 +47,27 @@ fn colcon_build() -> Result<PathBuf, String> {
         .map_err(|e| format!("link the build directory to the target directory: {e}"))?;
     // capsule_msgs is skipped: its ament_cmake build needs rosidl_default_generators, which
     // only a ROS 2 installation provides (docs/ros.md, colcon)
-    let out = Command::new("colcon")
+    let mut colcon = Command::new("colcon");
+    // cargo gives this test binary its package's variables (CARGO_MANIFEST_DIR, CARGO_PKG_*);
+    // passed on to colcon's cargo they rerun build scripts that watch them (ring's watches
+    // CARGO_MANIFEST_DIR), and everything above ring is compiled again
+    for (name, _) in std::env::vars_os() {
+        let name = name.to_string_lossy();
+        if name.starts_with("CARGO_PKG_")
+            || [
+                "CARGO_MANIFEST_DIR",
+                "CARGO_MANIFEST_PATH",
+                "CARGO_CRATE_NAME",
+                "CARGO_PRIMARY_PACKAGE",
+                "CARGO_TARGET_TMPDIR",
+                "OUT_DIR",
+            ]
+            .contains(&name.as_ref())
+        {
+            colcon.env_remove(name.as_ref());
+        }
+    }
+    let out = colcon
         .current_dir(&work)
         .arg("--log-base")
         .arg(work.join("log"))
