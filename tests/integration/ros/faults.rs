@@ -360,6 +360,52 @@ PY
 }
 
 #[test]
+fn a_lockstep_controller_stopped_thrice_for_150_ms_ends_on_the_clean_runs_sample() {
+    // SIGSTOP / SIGCONT: epoll_wait then fails with EINTR in RustDDS's threads, which ended
+    // them (docs/upstream/rustdds-poll-eintr.md): the discovery thread at every stop, the event
+    // loop in about a third of them, and the controller heard the plant no more
+    let run = netns(
+        120,
+        r#"
+        once() { # TAG STOPS
+            RUST_LOG=info,rustdds=error "$B/capsule_controller" --scene "$SCENE" --mode forward \
+                2> "$TMP/$1.ctl.log" & C=$!
+            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 --wait-subscribers 1 \
+                --lockstep-give-up-s 5 --summary-json "$TMP/$1.json" 2> "$TMP/$1.plant.log" & P=$!
+            for i in $(seq 300); do
+                grep -q "subscribers matched: starting" "$TMP/$1.plant.log" && break; sleep 0.1
+            done
+            for i in $(seq $2); do sleep 0.2; kill -STOP $C; sleep 0.15; kill -CONT $C; done
+            wait $P; echo "$1 plant rc=$?"
+            stop $C
+            grep -h "poll\|lock-step:" "$TMP/$1.ctl.log" "$TMP/$1.plant.log" | sed "s/^/$1 LOG /"
+            echo "$1 $(cat $TMP/$1.json)"
+        }
+        once CLEAN 0
+        once STOPPED 3"#,
+    );
+    run.assert_ok();
+    run.assert_stdout(&["CLEAN plant rc=0", "STOPPED plant rc=0"]);
+    // no RustDDS thread gave up on its poll
+    assert!(
+        run.lines_starting("STOPPED LOG ").is_empty(),
+        "{}",
+        run.all()
+    );
+    let clean = last_sample(&run, "CLEAN {");
+    assert_eq!(
+        json_raw(&clean, "seq"),
+        Some("6000"),
+        "{clean}\n{}",
+        run.all()
+    );
+    assert_eq!(last_sample(&run, "STOPPED {"), clean, "{}", run.all());
+    // the stops fell in the loop: each held a sample for 150 ms, re-sent every 20 ms
+    let stopped = run.line("STOPPED {");
+    assert!(number(&run, stopped, "resent") >= 10.0, "{stopped}");
+}
+
+#[test]
 fn real_time_keeps_moving_at_5_percent_loss_and_resumes_after_a_partition() {
     let run = with_faults(
         120,

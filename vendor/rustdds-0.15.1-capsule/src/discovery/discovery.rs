@@ -733,6 +733,13 @@ impl Discovery {
       );
       match self.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => (),
+        // capsule patch (docs/upstream/rustdds-poll-eintr.md): EINTR after the process was
+        // stopped and continued is no failure; `events` is empty, poll again. Returning here
+        // ended discovery: no more participant announcements, so remote participants
+        // dropped this one when its lease ran out.
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {
+          debug!("Discovery poll interrupted, polling again: {e:?}");
+        }
         Err(e) => {
           error!("Failed in waiting of poll in discovery. {e:?}");
           return;

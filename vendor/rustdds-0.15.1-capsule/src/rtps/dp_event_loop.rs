@@ -305,6 +305,14 @@ impl DPEventLoop {
       let poll_timeout = timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => {}
+        // capsule patch (docs/upstream/rustdds-poll-eintr.md): epoll_wait fails with EINTR
+        // when the process was stopped (SIGSTOP, SIGTSTP, a debugger) and continued, even
+        // without a signal handler. That is no failure: mio has cleared `events`, so this
+        // pass only runs the timers and queues, and the next one polls again. Breaking here
+        // ended the thread, and the participant silently sent and received nothing more.
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {
+          debug!("dp_event_loop poll interrupted, polling again: {e:?}");
+        }
         Err(e) => {
           error!("dp_event_loop poll failed: {e:?}");
           break;
