@@ -5,10 +5,10 @@
 //! runs as a ROS 2 node that a Cyclone DDS peer reads.
 //!
 //! The build directory of `capsule_nodes` is a link to the workspace's target directory and the
-//! build passes `--cargo-args --workspace --all-targets`, so colcon's cargo finds what the test
-//! command's `cargo build --workspace --all-targets` compiled (same features, same profile)
-//! instead of compiling a second time; a user's plain `colcon build` compiles into its own
-//! `build/` (15 min from a fresh clone here).
+//! build passes `--cargo-args --workspace`, so colcon's cargo finds what the test command's
+//! `cargo build --workspace` compiled (same features, same profile) instead of compiling a
+//! second time; a user's plain `colcon build` compiles into its own `build/` (15 min from a
+//! fresh clone here).
 
 use super::harness::{assert_state_at_1khz, json_number, netns_with_peer_from, root};
 use crate::common::succeeded;
@@ -74,16 +74,10 @@ fn colcon_build() -> Result<PathBuf, String> {
         .args(["build", "--base-paths"])
         .arg(root())
         .args(["--packages-skip", "capsule_msgs"])
-        // the features the test command's build resolved (every target of the workspace: its
-        // dev-dependencies' features count too), so that nothing is compiled again
-        // (capsule_nodes alone, or the workspace without its tests, resolves some shared crates'
-        // features differently); colcon takes an argument that starts with a dash after a space
-        .args([
-            "--cargo-args",
-            " --workspace",
-            " --all-targets",
-            "--build-base",
-        ])
+        // the features the test command's `cargo build --workspace` resolved, so that nothing
+        // is compiled again (capsule_nodes alone resolves some shared crates' features
+        // differently); colcon takes an argument that starts with a dash after a space
+        .args(["--cargo-args", " --workspace", "--build-base"])
         .arg(work.join("build"))
         .arg("--install-base")
         .arg(work.join("install"))
