@@ -515,15 +515,6 @@ impl FrictionConstant {
         }
     }
 
-    /// The scene reader's rule for it: `> 0` or `>= 0` (flags obey it too).
-    pub const fn rule(&self) -> crate::scene::Rule {
-        if self.positive {
-            crate::scene::Rule::Positive
-        } else {
-            crate::scene::Rule::NonNegative
-        }
-    }
-
     /// The command-line flag, without the dashes (`mu-v`).
     pub fn flag(&self) -> String {
         self.key.replace('_', "-")

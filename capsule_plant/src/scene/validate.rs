@@ -26,7 +26,12 @@ impl Scene {
             .map(|(c, _)| format!("friction.{}", c.key))
             .collect();
         for ((c, v), key) in friction.iter().zip(&keys) {
-            checks.push((key, *v, c.rule()));
+            let rule = if c.positive {
+                Rule::Positive
+            } else {
+                Rule::NonNegative
+            };
+            checks.push((key, *v, rule));
         }
         match self.solver.method {
             Method::Adaptive => checks.push(("solver.tol", self.solver.tol, Rule::Tolerance)),
