@@ -8,8 +8,9 @@
 #     Jupyter kernel (ipykernel);
 #   - maturin (the build backend, used without build isolation);
 # then `pip install ./capsule_py`, which builds the extension with maturin in the workspace's
-# target/ (release profile: the physics compiled once, without the ROS crates), and checks that
-# the package imports.
+# target/, and checks that the package imports. The cargo profile is maturin's (release) unless
+# CAPSULE_PY_PROFILE names another: CI passes `dev`, whose crates `cargo build --workspace` has
+# just compiled (the numerical ones optimised), instead of compiling them all again for release.
 # Run after `cargo build --workspace` (the tests compare against target/debug/capsule).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -70,5 +71,8 @@ fi
 
 t0=$(date +%s)
 # --no-build-isolation: maturin from above, no second download; the build is incremental
+if [ -n "${CAPSULE_PY_PROFILE:-}" ]; then
+  export MATURIN_PEP517_ARGS="--profile $CAPSULE_PY_PROFILE"
+fi
 pip_install --no-build-isolation --force-reinstall --no-deps ./capsule_py
-echo "python-setup: ok (capsule $(python3 -c 'import capsule; print(capsule.__version__)') built and installed in $(( $(date +%s) - t0 )) s; $(python3 -c 'import importlib.metadata as m; print(", ".join(f"{p} {m.version(p)}" for p in ("numpy", "dask", "distributed", "pyarrow", "pytest", "nbclient")))'))"
+echo "python-setup: ok (capsule $(python3 -c 'import capsule; print(capsule.__version__)') built (${CAPSULE_PY_PROFILE:-release} profile) and installed in $(( $(date +%s) - t0 )) s; $(python3 -c 'import importlib.metadata as m; print(", ".join(f"{p} {m.version(p)}" for p in ("numpy", "dask", "distributed", "pyarrow", "pytest", "nbclient")))'))"
