@@ -108,9 +108,10 @@ fn a_plant_whose_user_port_is_taken_still_reaches_a_reliable_reader() {
     let run = netns_with_fastdds_peer(
         120,
         r#"
-        python3 -c 'import socket, time
-s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("0.0.0.0", 7411)); time.sleep(60)' & H=$!
-        sleep 0.5
+        python3 -c 'import socket, sys, time
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("0.0.0.0", 7411))
+open(sys.argv[1], "w").close(); time.sleep(60)' "$TMP/held" & H=$!
+        wait_line "$TMP/held" || exit 1
         start_plant --until-s 14
         fpeer state --samples 200 || exit 1
         stop $P
