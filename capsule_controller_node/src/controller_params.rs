@@ -13,7 +13,8 @@ use ros2_client::ParameterValue as V;
 
 use crate::controller_core::ControllerCore;
 use crate::controller_settings::ControllerFlags;
-use capsule_ros_base::{param_services::ParamHandle, params::ParamTable};
+use capsule_ros_base::error::{invalid, Result as NodeResult};
+use capsule_ros_base::{param_services::ParamHandle, params::ParamTable, ros_args};
 
 /// Parameter names (the settings table's).
 pub mod names {
@@ -39,6 +40,24 @@ pub mod names {
     pub use capsule_ros_base::params::names::*;
 }
 use names::*;
+
+/// The controller's start: its parameters (each setting by the precedence: default, scene,
+/// flag; then `-p` / `--params-file`, `overrides`), checked by the settings' rules and
+/// [`rules`], and the core configured as they say. `file` names the scene in refusals.
+pub fn start(
+    flags: &ControllerFlags,
+    scene: Option<&SceneFile>,
+    file: &str,
+    use_sim_time: bool,
+    overrides: &[ros_args::Override],
+) -> NodeResult<(ParamTable, ControllerCore)> {
+    let mut params = start_table(flags, scene, file, use_sim_time).map_err(|e| invalid!("{e}"))?;
+    crate::controller_settings::start_config(&params)?;
+    rules(&mut params).map_err(|e| invalid!("--mode/--gain: {e}"))?;
+    ros_args::apply_overrides(&mut params, overrides, rules)?;
+    let core = core_from(&params);
+    Ok((params, core))
+}
 
 /// The parameters a controller starts with, before `-p` / `--params-file`: each setting by
 /// the precedence (flag, scene, default); the scene's control.kp is the start gain (in CUSTOM

@@ -6,6 +6,8 @@
 //! - [`security`]: SROS2's `ROS_SECURITY_*` conventions and enclaves (DDS Security)
 //! - [`graph`], [`clock`]: matched endpoints and ROS time for the loop nodes (instead of
 //!   ros2-client's spinner)
+//! - [`node_life`]: a loop node's life in phases (build, wait for the graph, run the loop,
+//!   finish), the skeleton the plant and the controller share
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
@@ -20,6 +22,7 @@ pub mod clock;
 pub mod conflicts;
 pub mod error;
 pub mod graph;
+pub mod node_life;
 pub mod param_services;
 pub mod params;
 pub mod ports;
