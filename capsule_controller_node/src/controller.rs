@@ -25,7 +25,7 @@ use capsule_msgs::names::topics;
 use capsule_plant_node::intra_process::{CopyCounts, Transport};
 use capsule_ros_base::error::Result;
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
-use capsule_ros_base::{clock::RosClock, params::ParamTable, ros::RosOptions};
+use capsule_ros_base::{clock::RosClock, params::ParamTable, ros_options::RosOptions};
 use futures::StreamExt;
 use ros2_client::{Context, Node};
 use tracing::{info, warn};
@@ -34,7 +34,7 @@ use crate::controller_core::ControllerCore;
 use crate::controller_endpoints::{Inputs, Outputs};
 use crate::controller_handlers::{lock, Handlers};
 use crate::controller_params;
-use capsule_ros_base::ros::Wire;
+use capsule_ros_base::endpoints::Wire;
 
 /// How the controller node is set up (besides the ROS settings).
 #[derive(Debug, Clone)]
@@ -51,7 +51,7 @@ pub struct ControllerOptions {
 
 /// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM.
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
-    let end = capsule_ros_base::ros::shutdown();
+    let end = capsule_ros_base::signals::shutdown();
     let node = ControllerNode {
         settings,
         opts,

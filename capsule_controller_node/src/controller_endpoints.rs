@@ -18,10 +18,13 @@ use capsule_record::types::{ServiceEventInfo, SetModeEvent};
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::{
     conflicts::TopicRule,
+    endpoints::{subscribe, Wire},
     graph::Graph,
     params::ParamTable,
-    ros::{qos, subscribe, types, RosOptions, Wire},
+    qos,
+    ros_options::RosOptions,
     service::Service,
+    types,
 };
 use ros2_client::{Gid, Node, Publisher, RmwRequestId, Subscription};
 use tracing::warn;

@@ -12,7 +12,7 @@ use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, SetModeRequest, SetModeResponse,
 };
 use capsule_plant::number_text::short;
-use capsule_ros_base::{clock::RosClock, param_services::ParamHandle, ros::RosOptions};
+use capsule_ros_base::{clock::RosClock, param_services::ParamHandle, ros_options::RosOptions};
 use ros2_client::Gid;
 use tracing::{info, warn};
 

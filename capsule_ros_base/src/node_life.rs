@@ -8,7 +8,7 @@ use std::future::Future;
 
 use ros2_client::{Context, Node};
 
-use crate::{error::Result, graph::Graph, ros::RosOptions};
+use crate::{error::Result, graph::Graph, ros_options::RosOptions};
 
 /// A node as its life reads: the four phases, each a function of what the last one left.
 pub trait NodeLife: Sized {

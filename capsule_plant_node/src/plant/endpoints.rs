@@ -9,9 +9,7 @@ use capsule_msgs::std_types::{Clock, DiagnosticArray, JointState};
 use capsule_msgs::{ActuatorForce, CapsuleState};
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::{
-    conflicts::TopicRule,
-    graph::Graph,
-    ros::{qos, subscribe, types, RosOptions},
+    conflicts::TopicRule, endpoints::subscribe, graph::Graph, qos, ros_options::RosOptions, types,
 };
 use std::cell::RefCell;
 use std::collections::VecDeque;

@@ -15,7 +15,7 @@ use capsule_msgs::names::topics;
 use capsule_msgs::{CapsuleState, Time};
 use capsule_ros_base::error::{bail, chain, Context as _, Result};
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
-use capsule_ros_base::{conflicts, graph::Graph, ros::RosOptions};
+use capsule_ros_base::{conflicts, graph::Graph, ros_options::RosOptions};
 use tokio::sync::{oneshot, Notify};
 use tracing::{info, warn};
 
@@ -223,7 +223,7 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
                 return Err(e);
             }
         }
-        let shutdown = capsule_ros_base::ros::shutdown_signal();
+        let shutdown = capsule_ros_base::signals::shutdown_signal();
         tokio::pin!(shutdown);
         let thread = tokio::select! {
             done = &mut ended => done.context("the sample loop's thread ended without a word")?,

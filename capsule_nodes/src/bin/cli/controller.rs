@@ -10,8 +10,8 @@ use capsule_controller_node::{
     controller::ControllerOptions, controller_params, controller_settings::ControllerFlags,
 };
 use capsule_ros_base::{
-    ros::{RosArgs, RosEnv, RosOptions},
     ros_args,
+    ros_options::{RosArgs, RosEnv, RosOptions},
 };
 use clap::Parser;
 
