@@ -18,7 +18,7 @@ use capsule_ros_base::{param_services::ParamHandle, params::ParamTable, ros_args
 
 /// Parameter names (the settings table's).
 pub mod names {
-    use crate::controller_settings as s;
+    use capsule_args::controller_settings as s;
     /// Mode name (OFF, FORWARD, BACKWARD, CHAOS_CONTROL, CUSTOM; any case, `-` or `_`).
     pub const MODE: &str = s::MODE.name;
     /// k_p in effect.
@@ -37,7 +37,14 @@ pub mod names {
     pub const STATE_TIMEOUT_S: &str = s::STATE_TIMEOUT_S.name;
     /// The orbit watch's recurrence tolerance on the Poincaré section (non-dim).
     pub const ORBIT_TOLERANCE: &str = s::ORBIT_TOLERANCE.name;
-    pub use capsule_ros_base::params::names::*;
+    /// Physical scale: inner mass \[kg\].
+    pub const M1_KG: &str = s::M1_KG.name;
+    /// Physical scale: primary stiffness [N/m].
+    pub const K1_N_PER_M: &str = s::K1_N_PER_M.name;
+    /// Physical scale: friction threshold \[N\].
+    pub const PF_N: &str = s::PF_N.name;
+    /// Sim time from /clock.
+    pub const USE_SIM_TIME: &str = s::USE_SIM_TIME.name;
 }
 use names::*;
 

@@ -8,7 +8,7 @@ use ros2_client::ParameterValue as V;
 use capsule_args::plant_settings::PLANT;
 use capsule_args::scene_file::SceneFile;
 use capsule_args::settings::Setting;
-use capsule_ros_base::params::{ParamSpec, ParamTable};
+use capsule_ros_base::params::ParamTable;
 
 use crate::node_settings::{SettingFlags, SettingsTable};
 
@@ -29,8 +29,14 @@ pub mod names {
     pub const CLOCK_EVERY: &str = s::CLOCK_EVERY.name;
     /// JointState commands on capsule/joint_commands (`--joint-commands`).
     pub const JOINT_COMMANDS: &str = s::JOINT_COMMANDS.name;
-    /// Sim time from /clock (the plant is the clock: always false) and the physical scale.
-    pub use capsule_ros_base::params::names::*;
+    /// Sim time from /clock (the plant is the clock: always false).
+    pub const USE_SIM_TIME: &str = s::USE_SIM_TIME.name;
+    /// Physical scale: inner mass \[kg\].
+    pub const M1_KG: &str = capsule_args::scale_settings::M1_KG.name;
+    /// Physical scale: primary stiffness [N/m].
+    pub const K1_N_PER_M: &str = capsule_args::scale_settings::K1_N_PER_M.name;
+    /// Physical scale: friction threshold \[N\].
+    pub const PF_N: &str = capsule_args::scale_settings::PF_N.name;
 }
 use names::*;
 
@@ -72,8 +78,7 @@ pub struct PlantParams {
 }
 
 /// The table of a plant started with `flags` on the scene `file`: each setting by the
-/// precedence (flag, the scene's `[node]` key, default), then the sim time (always false) and
-/// the scale.
+/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default).
 pub fn start_table(
     flags: &PlantFlags,
     file: &SceneFile,
@@ -84,20 +89,8 @@ pub fn start_table(
         PACING => Some(V::String(fixed.pacing.clone())),
         _ => None,
     };
-    let table = flags
-        .start_table(&fixed.scene, |key| file.node.value(key), other)?
-        .declare(
-            USE_SIM_TIME,
-            ParamSpec::read_only("the plant is the clock: its time is sim time by construction")
-                .constraints("false"),
-            V::Boolean(false),
-        );
-    let (m1, k1, pf) = fixed.scale;
-    Ok(capsule_ros_base::params::declare_scale(
-        table,
-        [m1, k1, pf],
-        ParamSpec::read_only,
-    ))
+    let scene = |key: &str| file.node.value(key).or_else(|| file.scene.number(key).ok());
+    flags.start_table(&fixed.scene, scene, other)
 }
 
 /// What the plant runs with from the table after start-up overrides; the scene, pacing and
