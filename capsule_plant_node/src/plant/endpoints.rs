@@ -137,7 +137,7 @@ impl Endpoints {
                 crate::views::ViewSwitches::from_table(&opts.params),
                 &format!("{:?}", opts.pacing).to_ascii_lowercase(),
                 rate_hz,
-                opts.params.double(crate::plant_params::names::M1_KG),
+                opts.params.double(capsule_args::scale_settings::M1_KG.name),
             )?,
         };
         Ok((io, rules))
