@@ -3,7 +3,8 @@
 //!
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
 //! - [`settings`]: a node's settings declared once (flag, ROS parameter, scene key, range, help,
-//!   precedence); [`plant_settings`]: the plant node's table
+//!   precedence); [`plant_settings`], [`controller_settings`]: the nodes' tables, with the
+//!   rows both hold in [`scale_settings`]
 //! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
 //! - `storage` (feature `recording`, on by default): how a recording is stored (compression,
@@ -11,9 +12,11 @@
 
 #![warn(missing_docs)]
 
+pub mod controller_settings;
 pub mod node_table;
 pub mod plant_settings;
 pub mod ranges;
+pub mod scale_settings;
 pub mod scene_file;
 pub mod settings;
 #[cfg(feature = "recording")]

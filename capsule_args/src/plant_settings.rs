@@ -4,6 +4,7 @@
 //! numeric ones at start.
 
 use crate::ranges;
+use crate::scale_settings as scale;
 use crate::settings::{Kind, Setting};
 
 /// Scene file (`--scene`, declared by the binary: it is required).
@@ -79,9 +80,18 @@ pub const JOINT_COMMANDS: Setting = Setting::new(
 )
 .flag();
 
-/// The plant's settings, in the order `--help` and `ros2 param list` show them (with the
-/// physical scale and use_sim_time, which every node declares: `capsule_ros_base::params`).
-pub const PLANT: [Setting; 7] = [
+/// Sim time: the plant is the clock, so never from /clock (declared, as every node declares
+/// it, and always false).
+pub const USE_SIM_TIME: Setting = Setting::new(
+    "use_sim_time",
+    "the plant is the clock: its time is sim time by construction",
+    Kind::Switch,
+)
+.rule("false");
+
+/// The plant's settings, in the order `--help` shows their flags; the physical scale from the
+/// scene only (no flag: the scene's capsule and its scale go together).
+pub const PLANT: [Setting; 11] = [
     SCENE,
     PACING,
     RATE_HZ,
@@ -89,4 +99,8 @@ pub const PLANT: [Setting; 7] = [
     LOCKSTEP_GIVE_UP_S,
     CLOCK_EVERY,
     JOINT_COMMANDS,
+    USE_SIM_TIME,
+    scale::M1_KG,
+    scale::K1_N_PER_M,
+    scale::PF_N,
 ];

@@ -2,7 +2,7 @@
 //! its command-line flag, its ROS parameter (descriptor, range, read-only), its scene key, its
 //! help and its place in the precedence all come (the friction constants' way:
 //! `capsule_plant::friction::FRICTION_CONSTANTS`). The tables: [`crate::plant_settings::PLANT`]
-//! and `capsule_controller_node::controller_settings::CONTROLLER`.
+//! and [`crate::controller_settings::CONTROLLER`], beside each other.
 //!
 //! Precedence, the same for every setting of every node (later wins):
 //!

@@ -1,50 +1,40 @@
-//! The controller node on DDS, as its life reads: [`run`] builds the endpoints, then runs the
-//! loop until SIGINT/SIGTERM. The decisions are [`ControllerCore`]'s
-//! ([`crate::controller_core`]); what the loop does with each input apart from DDS is
-//! `Handlers`' (the core, the parameter sync, which plant it serves, the logs); the inputs
-//! (`Inputs`: state samples, mode requests, accepted parameter sets) and the outputs
-//! (`Outputs`: commands, status, service events, diagnostics) are the DDS side. State and
-//! commands come and go over DDS or, composed with the plant in one process, over the
-//! in-process link ([`capsule_plant_node::intra_process`]): there the plant's loop calls the same
-//! `Handlers::on_state` on its own thread, and the commands' DDS copies leave from a publisher
-//! thread. [`run_in`] takes the transport from outside.
+//! The controller node on DDS, in the phases of its life ([`NodeLife`], the skeleton both nodes
+//! share): build (its endpoints, the clock, the parameters and their services, the handlers;
+//! composed, its end of the in-process link), wait for the graph (nothing to wait for), run the
+//! loop (each input to its handler, until SIGINT/SIGTERM or, composed, the plant's end), finish
+//! (the commands' DDS copies counted).
+//!
+//! The decisions are [`ControllerCore`]'s ([`crate::controller_core`]); what the loop does with
+//! each input apart from DDS is `controller_handlers`' (the core, the parameter sync,
+//! which plant it serves, the logs); the inputs (state samples, mode requests, accepted
+//! parameter sets) and the outputs (commands, status, service events, diagnostics) are the DDS
+//! side, `controller_endpoints`. State and commands come and go over DDS or, composed
+//! with the plant in one process, over the in-process link
+//! ([`capsule_plant_node::intra_process`]): there the plant's loop calls the same handler on its
+//! own thread, and the commands' DDS copies leave from a publisher thread. [`run_in`] takes the
+//! transport from outside.
 //!
 //! Status messages are stamped with the node's ROS time (sim time under `use_sim_time`); the
 //! stale-state watchdog runs on a steady clock, because sim time stops when the plant does.
 
-use capsule_msgs::names::topics;
-use capsule_plant::number_text::short;
-use std::time::{Duration, Instant};
+use std::future::Future;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
-use capsule_msgs::{
-    ActuatorForce, CapsuleState, ControllerStatus, SetModeRequest, SetModeResponse,
-};
-use capsule_record::types::{ServiceEventInfo, SetModeEvent};
-use capsule_ros_base::error::{Context as _, Result};
+use capsule_msgs::names::topics;
+use capsule_plant_node::intra_process::{CopyCounts, Transport};
+use capsule_ros_base::error::Result;
+use capsule_ros_base::node_life::{self, NodeLife, Seat};
+use capsule_ros_base::{clock::RosClock, params::ParamTable, ros_options::RosOptions};
 use futures::StreamExt;
-use ros2_client::{Gid, Node, Publisher, RmwRequestId, Subscription};
-use std::sync::{Arc, Mutex, MutexGuard};
+use ros2_client::{Context, Node};
 use tracing::{info, warn};
 
-use crate::{
-    controller_core::ControllerCore,
-    controller_diagnostics::ControllerDiag,
-    controller_params::{self, LiveSync},
-    plant_identity::{PlantIdentity, Source},
-};
-use capsule_hardware::throttle::Throttle;
-use capsule_plant_node::{
-    intra_process::{Answer, CopyCounts, DdsCopies, Transport},
-    views::Diagnostics,
-};
-use capsule_ros_base::{
-    clock::RosClock,
-    conflicts::TopicRule,
-    graph::Graph,
-    params::ParamTable,
-    ros::{qos, subscribe, types, RosOptions, Wire},
-    service::Service,
-};
+use crate::controller_core::ControllerCore;
+use crate::controller_endpoints::{Inputs, Outputs};
+use crate::controller_handlers::{lock, Handlers};
+use crate::controller_params;
+use capsule_ros_base::endpoints::Wire;
 
 /// How the controller node is set up (besides the ROS settings).
 #[derive(Debug, Clone)]
@@ -59,288 +49,190 @@ pub struct ControllerOptions {
     pub diagnostics: bool,
 }
 
-/// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM: build,
-/// then the loop.
+/// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM.
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
-    let context = settings.context()?;
-    let end = capsule_ros_base::ros::shutdown();
-    run_in(&context, settings, opts, Transport::Dds, end).await
+    let end = capsule_ros_base::signals::shutdown();
+    let node = ControllerNode {
+        settings,
+        opts,
+        transport: Transport::Dds,
+        end,
+    };
+    node_life::live(node, None).await
 }
 
 /// [`run`] in the participant of `context` (a composed process's), with state and force over
 /// `transport`, until `end` resolves (its error is the run's).
 pub async fn run_in(
-    context: &ros2_client::Context,
+    context: &Context,
     settings: RosOptions,
     opts: ControllerOptions,
     transport: Transport,
-    end: impl std::future::Future<Output = Result<()>>,
+    end: impl Future<Output = Result<()>>,
 ) -> Result<()> {
-    let (mut node, graph) = settings.loop_node(context)?;
-    let clock = RosClock::new(&settings, &mut node)?;
-    let mut outputs = Outputs::build(&settings, &mut node, graph.clone(), opts.diagnostics)?;
-    let (handle, applied) = capsule_ros_base::param_services::serve(
-        context,
-        &mut node,
-        &graph,
-        &settings,
-        opts.params,
-        controller_params::rules,
-        {
-            let clock = clock.clone();
-            move || clock.now()
-        },
-    )?;
-    let in_process = matches!(transport, Transport::InProcess(_));
-    let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
-    let handlers = Arc::new(Mutex::new(Handlers::new(
-        opts.core, handle, clock, &settings,
-    )));
-    let mut copies = None;
-    if let Transport::InProcess(link) = transport {
-        let (answer, counts) = outputs.in_process(&settings, graph, &handlers)?;
-        link.attach(answer)?;
-        copies = Some(counts);
-    }
-    {
-        let h = lock(&handlers);
-        info!(
-            "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
-            settings.describe(),
-            settings.resolve_name(topics::STATE),
-            settings.resolve_name(topics::FORCE),
-            settings.resolve_name(topics::STATUS),
-            settings.resolve_name(topics::SET_MODE),
-            h.core.mode(),
-            h.core.law().kp
-        );
-    }
-    if let Some(rx) = outputs.switch_status.take() {
-        inputs.switch_status = Some(rx);
-    }
-    let stopped = run_loop(inputs, &mut outputs, &handlers, opts.status_period, end).await;
-    if let Some(c) = copies {
-        info!("force's DDS copies: {}", c.describe());
-    }
-    drop(node);
-    stopped
+    let node = ControllerNode {
+        settings,
+        opts,
+        transport,
+        end,
+    };
+    node_life::live(node, Some(context)).await
 }
 
-/// The handlers, also after a panic elsewhere (the link names it and answers nothing more).
-fn lock(h: &Mutex<Handlers>) -> MutexGuard<'_, Handlers> {
-    h.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+/// The controller node as asked for: what [`node_life::live`] builds and runs until `end`.
+struct ControllerNode<E> {
+    settings: RosOptions,
+    opts: ControllerOptions,
+    transport: Transport,
+    end: E,
 }
 
-/// Where the controller's inputs come from.
-struct Inputs {
-    /// State over DDS (`None` in-process: the plant's loop calls the handler).
-    states: Option<Subscription<CapsuleState>>,
-    /// In-process: the statuses of attractor-switch events, to publish.
-    switch_status: Option<tokio::sync::mpsc::UnboundedReceiver<ControllerStatus>>,
-    /// The mode service (its responses go back through it).
-    server: Service<Wire<SetModeRequest>, Wire<SetModeResponse>>,
-    /// Remote parameter sets the parameter services' task accepted.
-    applied: tokio::sync::mpsc::UnboundedReceiver<ParamTable>,
+/// What the built node holds while it runs.
+struct Built<E> {
+    /// The participant's context and the node, kept until the finish.
+    seat: (Context, Node),
+    inputs: Inputs,
+    outputs: Outputs,
+    handlers: Arc<Mutex<Handlers>>,
+    /// In-process: what becomes of the commands' DDS copies.
+    copies: Option<Arc<CopyCounts>>,
+    status_period: Duration,
+    end: E,
 }
 
-impl Inputs {
-    fn build(
-        settings: &RosOptions,
-        node: &mut Node,
-        graph: &Graph,
-        applied: tokio::sync::mpsc::UnboundedReceiver<ParamTable>,
-        in_process: bool,
-    ) -> Result<Inputs> {
-        let state_topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
-        Ok(Inputs {
-            states: (!in_process)
-                .then(|| subscribe::<CapsuleState>(node, &state_topic, &qos::data_reader()))
-                .transpose()?,
-            switch_status: None,
-            server: settings.server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
-                node,
-                graph,
-                topics::SET_MODE,
-                &types::set_mode(),
-            )?,
-            applied,
-        })
-    }
+/// What the loop leaves to finish.
+struct Ended {
+    /// How the loop ended (`end`'s error, if any).
+    stopped: Result<()>,
+    seat: (Context, Node),
+    /// The outputs and handlers, kept until the node has gone (as they were built).
+    kept: (Outputs, Arc<Mutex<Handlers>>),
+    copies: Option<Arc<CopyCounts>>,
 }
 
-/// Where the controller's outputs go.
-struct Outputs {
-    /// Commands over DDS (`None` in-process: its copies go out from their own thread).
-    force: Option<Publisher<ActuatorForce>>,
-    /// In-process: the receiving end of the switch statuses, until the inputs take it.
-    switch_status: Option<tokio::sync::mpsc::UnboundedReceiver<ControllerStatus>>,
-    status: Publisher<ControllerStatus>,
-    /// set_mode service events, as ROS 2 service introspection publishes them.
-    events: Publisher<SetModeEvent>,
-    diagnostics: Option<Diagnostics>,
-}
+impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
+    type Built = Built<E>;
+    type Ended = Ended;
+    type Outcome = ();
 
-impl Outputs {
-    fn build(
-        settings: &RosOptions,
-        node: &mut Node,
-        graph: capsule_ros_base::graph::Graph,
-        diagnostics: bool,
-    ) -> Result<Outputs> {
-        let state_topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
-        let force_topic = settings.topic(node, topics::FORCE, types::force(), &qos::data())?;
-        let status_topic = settings.topic(node, topics::STATUS, types::status(), &qos::data())?;
-        let event_topic = settings.topic(
-            node,
-            &capsule_plant_node::recorder::service_event_topic("~"),
-            capsule_plant_node::recorder::service_event_type(),
-            &qos::service_events(),
-        )?;
-        // a second plant is told from the samples themselves (plant_identity): a SIGKILLed
-        // plant stays in discovery until its lease ends, and its restarted successor would
-        // look like one
-        capsule_ros_base::conflicts::watch(
+    /// Build: the node, its clock, its outputs, the parameters and their services, its inputs,
+    /// the handlers; composed, the handler the plant's loop calls.
+    fn build(self, context: Option<&Context>) -> Result<Built<E>> {
+        let ControllerNode {
+            settings,
+            opts,
+            transport,
+            end,
+        } = self;
+        let Seat {
+            context,
+            mut node,
             graph,
-            vec![
-                TopicRule::new(
-                    &state_topic,
-                    settings.resolve_name(topics::STATE),
-                    usize::MAX,
-                    "",
-                ),
-                TopicRule::new(
-                    &force_topic,
-                    settings.resolve_name(topics::FORCE),
-                    0,
-                    "ANOTHER CONTROLLER commands the plant too: commands interleave",
-                ),
-            ],
-        );
-        Ok(Outputs {
-            force: Some(
-                node.create_publisher(&force_topic, None)
-                    .context("force publisher")?,
-            ),
-            switch_status: None,
-            status: node
-                .create_publisher(&status_topic, None)
-                .context("status publisher")?,
-            events: node
-                .create_publisher(&event_topic, None)
-                .context("service-event publisher")?,
-            diagnostics: diagnostics
-                .then(|| Diagnostics::create(node, settings))
-                .transpose()?,
+            ..
+        } = Seat::take(context, &settings)?;
+        let clock = RosClock::new(&settings, &mut node)?;
+        let mut outputs = Outputs::build(&settings, &mut node, graph.clone(), opts.diagnostics)?;
+        let (handle, applied) = capsule_ros_base::param_services::serve(
+            &context,
+            &mut node,
+            &graph,
+            &settings,
+            opts.params,
+            controller_params::rules,
+            {
+                let clock = clock.clone();
+                move || clock.now()
+            },
+        )?;
+        let in_process = matches!(transport, Transport::InProcess(_));
+        let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
+        let handlers = Arc::new(Mutex::new(Handlers::new(
+            opts.core, handle, clock, &settings,
+        )));
+        let mut copies = None;
+        if let Transport::InProcess(link) = transport {
+            let (answer, counts) = outputs.in_process(&settings, graph, &handlers)?;
+            link.attach(answer)?;
+            copies = Some(counts);
+        }
+        announce(&settings, &handlers);
+        if let Some(rx) = outputs.switch_status.take() {
+            inputs.switch_status = Some(rx);
+        }
+        Ok(Built {
+            seat: (context, node),
+            inputs,
+            outputs,
+            handlers,
+            copies,
+            status_period: opts.status_period,
+            end,
         })
     }
 
-    /// In-process: the state handler the plant's loop calls (the command back, its DDS copy
-    /// queued, a switch event's status to the node's loop), and the copies' counts.
-    fn in_process(
-        &mut self,
-        settings: &RosOptions,
-        graph: capsule_ros_base::graph::Graph,
-        handlers: &Arc<Mutex<Handlers>>,
-    ) -> Result<(Box<Answer>, Arc<CopyCounts>)> {
-        let publisher = self
-            .force
-            .take()
-            .context("the force publisher, taken twice")?;
-        let copies = DdsCopies::start(&settings.resolve_name(topics::FORCE), publisher, graph)?;
-        let counts = copies.counts();
-        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-        self.switch_status = Some(rx);
-        let h = handlers.clone();
-        let answer = move |state: &CapsuleState, plant: Gid| {
-            let (cmd, status) = lock(&h).on_state(state, plant)?;
-            copies.push(cmd.clone());
-            if let Some(st) = status {
-                let _ = tx.send(st);
-            }
-            Some(cmd)
-        };
-        Ok((Box::new(answer), counts))
+    /// Wait for the graph: nothing to wait for. The controller answers each state as it comes;
+    /// a plant that needs it before its first sample waits for it (`--wait-subscribers`).
+    async fn wait_for_graph(_: &Built<E>) -> Result<()> {
+        Ok(())
     }
 
-    /// Sends the command for a state sample, and the status after an attractor-switch event.
-    async fn answer_state(&self, h: &Mutex<Handlers>, state: &CapsuleState, publisher: Gid) {
-        let Some((cmd, status)) = lock(h).on_state(state, publisher) else {
-            return;
-        };
-        if let Some(force) = &self.force {
-            if let Err(e) = force.async_publish(cmd).await {
-                warn!("force command not sent: {e:?}");
-            }
-        }
-        if let Some(st) = status {
-            if let Err(e) = self.status.async_publish(st).await {
-                warn!("status not sent: {e:?}");
-            }
-        }
+    /// Run the loop: each input to its handler, until `end`.
+    async fn run_loop(built: Built<E>) -> Result<Ended> {
+        let Built {
+            seat,
+            inputs,
+            mut outputs,
+            handlers,
+            copies,
+            status_period,
+            end,
+        } = built;
+        let stopped = serve(inputs, &mut outputs, &handlers, status_period, end).await;
+        Ok(Ended {
+            stopped,
+            seat,
+            kept: (outputs, handlers),
+            copies,
+        })
     }
 
-    /// Answers a set_mode request, with the request and the response as service events.
-    async fn answer_request(
-        &self,
-        h: &Mutex<Handlers>,
-        server: &Service<Wire<SetModeRequest>, Wire<SetModeResponse>>,
-        id: RmwRequestId,
-        req: SetModeRequest,
-    ) {
-        let clock = lock(h).clock.clone();
-        let event =
-            |kind, request: Vec<SetModeRequest>, response: Vec<SetModeResponse>| SetModeEvent {
-                info: ServiceEventInfo {
-                    event_type: kind,
-                    stamp: clock.now(),
-                    client_gid: id.writer_gid.to_bytes16(),
-                    sequence_number: id.sequence_number,
-                },
-                request,
-                response,
-            };
-        let received = event(
-            ServiceEventInfo::REQUEST_RECEIVED,
-            vec![req.clone()],
-            vec![],
-        );
-        if let Err(e) = self.events.async_publish(received).await {
-            warn!("service event not sent: {e:?}");
+    /// Finish: the commands' DDS copies counted; the node goes, then its endpoints and its
+    /// participant.
+    async fn finish(ended: Ended) -> Result<()> {
+        let Ended {
+            stopped,
+            seat: (context, node),
+            kept: (outputs, handlers),
+            copies,
+        } = ended;
+        if let Some(c) = copies {
+            info!("force's DDS copies: {}", c.describe());
         }
-        let resp = lock(h).on_request(&req);
-        let sent = event(ServiceEventInfo::RESPONSE_SENT, vec![], vec![resp.clone()]);
-        if let Err(e) = self.events.async_publish(sent).await {
-            warn!("service event not sent: {e:?}");
-        }
-        server.answer(id, Wire(resp));
-        let status = {
-            let mut guard = lock(h);
-            let g = &mut *guard;
-            g.params.push(&g.core);
-            g.status()
-        };
-        let _ = self.status.async_publish(status).await;
-    }
-
-    /// The status period: the watchdog, the status, and the diagnostics when due.
-    async fn tick(&mut self, h: &Mutex<Handlers>) {
-        let st = lock(h).on_tick();
-        if let Err(e) = self.status.async_publish(st).await {
-            warn!("status not sent: {e:?}");
-        }
-        if let Some(d) = self.diagnostics.as_mut().and_then(|d| d.due().then_some(d)) {
-            let diag = {
-                let mut guard = lock(h);
-                let g = &mut *guard;
-                g.diag.status(&g.node_name, &g.core)
-            };
-            let _ = d.publish(diag);
-        }
+        drop(node);
+        drop(handlers);
+        drop(outputs);
+        drop(context);
+        stopped
     }
 }
 
-/// The loop: each input to its handler, until `end`.
-async fn run_loop(
+/// One line for the log: where the controller talks, its mode and gain.
+fn announce(settings: &RosOptions, handlers: &Mutex<Handlers>) {
+    let h = lock(handlers);
+    info!(
+        "{}: state {} -> force {}, status {}, service {}; {} k_p = {}",
+        settings.describe(),
+        settings.resolve_name(topics::STATE),
+        settings.resolve_name(topics::FORCE),
+        settings.resolve_name(topics::STATUS),
+        settings.resolve_name(topics::SET_MODE),
+        h.core.mode(),
+        h.core.law().kp
+    );
+}
+
+/// Each input to its handler, until `end`.
+async fn serve(
     inputs: Inputs,
     out: &mut Outputs,
     h: &Mutex<Handlers>,
@@ -393,157 +285,4 @@ async fn run_loop(
         }
     }
     Ok(())
-}
-
-/// What the loop does with each input, apart from DDS: the core's decisions, the parameters
-/// kept in step, which plant is served, and the logs.
-struct Handlers {
-    core: ControllerCore,
-    params: LiveSync,
-    plants: PlantIdentity<Gid>,
-    clock: RosClock,
-    /// The steady clock of the watchdog and the plant identity.
-    start: Instant,
-    diag: ControllerDiag,
-    node_name: String,
-    /// The state topic as resolved, for the logs.
-    state_topic: String,
-    second_plant_log: Throttle,
-    ignored_log: Throttle,
-}
-
-impl Handlers {
-    fn new(
-        core: ControllerCore,
-        handle: capsule_ros_base::param_services::ParamHandle,
-        clock: RosClock,
-        settings: &RosOptions,
-    ) -> Handlers {
-        Handlers {
-            params: LiveSync::new(handle, &core),
-            core,
-            plants: PlantIdentity::new(PlantIdentity::<Gid>::DEFAULT_HANDOVER_S),
-            clock,
-            start: Instant::now(),
-            diag: ControllerDiag::default(),
-            node_name: settings.node_name.clone(),
-            state_topic: settings.resolve_name(topics::STATE),
-            second_plant_log: Throttle::default(),
-            ignored_log: Throttle::default(),
-        }
-    }
-
-    fn steady(&self) -> f64 {
-        self.start.elapsed().as_secs_f64()
-    }
-
-    /// The status now.
-    fn status(&self) -> ControllerStatus {
-        self.core.status(self.clock.now())
-    }
-
-    /// Whether a sample from `publisher` is the plant's to answer (a new plant is adopted, a
-    /// second one ignored).
-    fn is_our_plant(&mut self, state: &CapsuleState, publisher: Gid) -> bool {
-        match self.plants.observe(publisher, self.steady()) {
-            Source::Current | Source::Adopted(None) => true,
-            Source::Adopted(Some(silent)) => {
-                self.core.new_plant();
-                info!("a new plant publishes (seq {}) after {silent:.3} s without the last one: commanding it from now on", state.seq);
-                true
-            }
-            Source::Second => {
-                if self.second_plant_log.tick() {
-                    warn!(
-                        "A SECOND PLANT publishes {} (seq {}) while the first does: both apply every command; its samples are ignored ({} so far)",
-                        self.state_topic,
-                        state.seq,
-                        self.plants.ignored()
-                    );
-                }
-                false
-            }
-        }
-    }
-
-    /// A state sample: the command to send and, after an attractor-switch event, the status
-    /// to publish; `None` for a sample not answered.
-    fn on_state(
-        &mut self,
-        state: &CapsuleState,
-        publisher: Gid,
-    ) -> Option<(ActuatorForce, Option<ControllerStatus>)> {
-        if !self.is_our_plant(state, publisher) {
-            return None;
-        }
-        let core = &mut self.core;
-        let was = core.commanding();
-        let refused = core.plant_refuses();
-        let ignored = core.ignored_samples();
-        let answer = core.on_state(state, self.start.elapsed().as_secs_f64());
-        if core.ignored_samples() > ignored && self.ignored_log.tick() {
-            let why = core
-                .ignored_why()
-                .map(|w| w.to_string())
-                .unwrap_or_default();
-            warn!(
-                "state seq {} not used ({why}): {} so far",
-                state.seq,
-                core.ignored_samples()
-            );
-        }
-        let cmd = answer?;
-        if !was {
-            info!("state fresh at seq {}: commanding", state.seq);
-        }
-        match (refused, core.plant_refuses()) {
-            (false, true) => warn!(
-                "the plant does not take our commands ({} refused so far, command_stale {}): not in control",
-                state.rejected_commands, state.command_stale
-            ),
-            (true, false) => info!("the plant takes our commands again (seq {})", state.seq),
-            _ => {}
-        }
-        if !core.take_switch_event() {
-            return Some((cmd, None));
-        }
-        let st = self.status();
-        info!(
-            "attractor switch: {} (try {}, orbit period {}, k_p {})",
-            self.core
-                .attractor_switch()
-                .map_or("?", |s| s.state().name()),
-            st.switch_tries,
-            st.orbit_period,
-            st.gain
-        );
-        self.params.push(&self.core);
-        Some((cmd, Some(st)))
-    }
-
-    /// A set_mode request: the answer (the core's), logged.
-    fn on_request(&mut self, req: &SetModeRequest) -> SetModeResponse {
-        let resp = self.core.set_mode(req);
-        if resp.accepted {
-            info!("set_mode accepted: {}", resp.reason);
-        } else {
-            warn!(
-                "set_mode refused (mode {} gain {}): {}",
-                req.mode,
-                short(req.gain),
-                resp.reason
-            );
-        }
-        resp
-    }
-
-    /// The status period: the core's own mode changes to the parameters, the watchdog; the
-    /// status to publish.
-    fn on_tick(&mut self) -> ControllerStatus {
-        self.params.push(&self.core);
-        if self.core.check_stale(self.steady()) {
-            warn!("state stale (no sample for the timeout; plant gone?): stopped commanding");
-        }
-        self.status()
-    }
 }

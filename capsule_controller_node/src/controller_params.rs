@@ -13,32 +13,31 @@ use ros2_client::ParameterValue as V;
 
 use crate::controller_core::ControllerCore;
 use crate::controller_settings::ControllerFlags;
-use capsule_ros_base::{param_services::ParamHandle, params::ParamTable};
+use capsule_ros_base::error::{invalid, Result as NodeResult};
+use capsule_ros_base::{param_services::ParamHandle, params::ParamTable, ros_args};
 
-/// Parameter names (the settings table's).
-pub mod names {
-    use crate::controller_settings as s;
-    /// Mode name (OFF, FORWARD, BACKWARD, CHAOS_CONTROL, CUSTOM; any case, `-` or `_`).
-    pub const MODE: &str = s::MODE.name;
-    /// k_p in effect.
-    pub const GAIN: &str = s::GAIN.name;
-    /// |k_p| of FORWARD / BACKWARD when the gain is 0.
-    pub const DIRECTION_GAIN: &str = s::DIRECTION_GAIN.name;
-    /// k_p of CHAOS_CONTROL when the gain is 0.
-    pub const CHAOS_GAIN: &str = s::CHAOS_GAIN.name;
-    /// Largest |k_p|.
-    pub const GAIN_LIMIT: &str = s::GAIN_LIMIT.name;
-    /// Drive amplitude alpha (non-dim).
-    pub const ALPHA: &str = s::ALPHA.name;
-    /// Drive frequency omega (non-dim).
-    pub const OMEGA: &str = s::OMEGA.name;
-    /// Stale-state timeout \[s\].
-    pub const STATE_TIMEOUT_S: &str = s::STATE_TIMEOUT_S.name;
-    /// The orbit watch's recurrence tolerance on the Poincaré section (non-dim).
-    pub const ORBIT_TOLERANCE: &str = s::ORBIT_TOLERANCE.name;
-    pub use capsule_ros_base::params::names::*;
+use capsule_args::controller_settings::{
+    ALPHA, CHAOS_GAIN, DIRECTION_GAIN, GAIN, GAIN_LIMIT, K1_N_PER_M, M1_KG, MODE, OMEGA,
+    ORBIT_TOLERANCE, PF_N, STATE_TIMEOUT_S, USE_SIM_TIME,
+};
+
+/// The controller's start: its parameters (each setting by the precedence: default, scene,
+/// flag; then `-p` / `--params-file`, `overrides`), checked by the settings' rules and
+/// [`rules`], and the core configured as they say. `file` names the scene in refusals.
+pub fn start(
+    flags: &ControllerFlags,
+    scene: Option<&SceneFile>,
+    file: &str,
+    use_sim_time: bool,
+    overrides: &[ros_args::Override],
+) -> NodeResult<(ParamTable, ControllerCore)> {
+    let mut params = start_table(flags, scene, file, use_sim_time).map_err(|e| invalid!("{e}"))?;
+    crate::controller_settings::start_config(&params)?;
+    rules(&mut params).map_err(|e| invalid!("--mode/--gain: {e}"))?;
+    ros_args::apply_overrides(&mut params, overrides, rules)?;
+    let core = core_from(&params);
+    Ok((params, core))
 }
-use names::*;
 
 /// The parameters a controller starts with, before `-p` / `--params-file`: each setting by
 /// the precedence (flag, scene, default); the scene's control.kp is the start gain (in CUSTOM
@@ -50,34 +49,34 @@ pub fn start_table(
     use_sim_time: bool,
 ) -> Result<ParamTable, String> {
     let kp = scene.map_or(0.0, |f| f.scene.control.kp);
-    let mode_given = flags.given(MODE).is_some();
+    let mode_given = flags.given(MODE.name).is_some();
     let other = |name: &str| match name {
-        MODE => Some(V::String(
+        n if n == MODE.name => Some(V::String(
             if kp != 0.0 { Mode::Custom } else { Mode::Off }
                 .name()
                 .to_string(),
         )),
-        GAIN => Some(V::Double(if mode_given { 0.0 } else { kp })),
-        USE_SIM_TIME => Some(V::Boolean(use_sim_time)),
+        n if n == GAIN.name => Some(V::Double(if mode_given { 0.0 } else { kp })),
+        n if n == USE_SIM_TIME.name => Some(V::Boolean(use_sim_time)),
         _ => None,
     };
     let from_scene = |key: &str| scene?.scene.number(key).ok();
     let mut table = flags.start_table(file, from_scene, other)?;
     // a mode given by name, as the flag and the parameter take it
-    let name = table.string(MODE).to_string();
+    let name = table.string(MODE.name).to_string();
     let mode = Mode::parse_name(&name).ok_or_else(|| {
         format!("--mode {name:?}: expected off, forward, backward, chaos-control or custom")
     })?;
-    table.put(MODE, V::String(mode.name().to_string()));
+    table.put(MODE.name, V::String(mode.name().to_string()));
     Ok(table)
 }
 
 /// The mode configuration the table holds.
 fn config(t: &ParamTable) -> ModeConfig {
     ModeConfig {
-        direction_gain: t.double(DIRECTION_GAIN),
-        chaos_gain: t.double(CHAOS_GAIN),
-        gain_limit: t.double(GAIN_LIMIT),
+        direction_gain: t.double(DIRECTION_GAIN.name),
+        chaos_gain: t.double(CHAOS_GAIN.name),
+        gain_limit: t.double(GAIN_LIMIT.name),
     }
 }
 
@@ -87,15 +86,15 @@ fn config(t: &ParamTable) -> ModeConfig {
 pub fn rules(t: &mut ParamTable) -> Result<(), String> {
     let config = config(t);
     config.validate().map_err(|e| e.to_string())?;
-    let name = t.string(MODE).to_string();
+    let name = t.string(MODE.name).to_string();
     let mode = Mode::parse_name(&name).ok_or_else(|| {
         format!("unknown mode {name:?} (expected OFF, FORWARD, BACKWARD, CHAOS_CONTROL or CUSTOM)")
     })?;
     let (mode, kp) = config
-        .select(mode.code(), t.double(GAIN))
+        .select(mode.code(), t.double(GAIN.name))
         .map_err(|e| e.to_string())?;
-    t.put(MODE, V::String(mode.name().to_string()));
-    t.put(GAIN, V::Double(kp));
+    t.put(MODE.name, V::String(mode.name().to_string()));
+    t.put(GAIN.name, V::Double(kp));
     Ok(())
 }
 
@@ -103,25 +102,33 @@ pub fn rules(t: &mut ParamTable) -> Result<(), String> {
 /// after `-p` / `--params-file` overrides.
 pub fn core_from(t: &ParamTable) -> ControllerCore {
     let scale = capsule_plant::scene::PhysicalScale {
-        m1_kg: t.double(M1_KG),
-        k1_n_per_m: t.double(K1_N_PER_M),
-        pf_n: t.double(PF_N),
+        m1_kg: t.double(M1_KG.name),
+        k1_n_per_m: t.double(K1_N_PER_M.name),
+        pf_n: t.double(PF_N.name),
     };
-    let mode = Mode::parse_name(t.string(MODE)).unwrap_or(Mode::Off);
-    let (alpha, omega) = (t.double(ALPHA), t.double(OMEGA));
-    let stale = t.double(STATE_TIMEOUT_S);
-    ControllerCore::new(scale, alpha, omega, mode, t.double(GAIN), config(t), stale)
-        .with_orbit_tolerance(t.double(ORBIT_TOLERANCE))
+    let mode = Mode::parse_name(t.string(MODE.name)).unwrap_or(Mode::Off);
+    let (alpha, omega) = (t.double(ALPHA.name), t.double(OMEGA.name));
+    let stale = t.double(STATE_TIMEOUT_S.name);
+    ControllerCore::new(
+        scale,
+        alpha,
+        omega,
+        mode,
+        t.double(GAIN.name),
+        config(t),
+        stale,
+    )
+    .with_orbit_tolerance(t.double(ORBIT_TOLERANCE.name))
 }
 
 /// Reconfigures `core` to what the table says (the table passed [`rules`]).
 pub fn apply(t: &ParamTable, core: &mut ControllerCore) {
-    let mode = Mode::parse_name(t.string(MODE)).unwrap_or(core.mode());
+    let mode = Mode::parse_name(t.string(MODE.name)).unwrap_or(core.mode());
     core.reconfigure(
         mode,
-        t.double(GAIN),
-        t.double(ALPHA),
-        t.double(OMEGA),
+        t.double(GAIN.name),
+        t.double(ALPHA.name),
+        t.double(OMEGA.name),
         config(t),
     );
 }
@@ -131,8 +138,8 @@ pub fn apply(t: &ParamTable, core: &mut ControllerCore) {
 pub fn live_values(core: &ControllerCore) -> [(&'static str, V); 2] {
     let (mode, kp) = core.settled_mode();
     [
-        (MODE, V::String(mode.name().to_string())),
-        (GAIN, V::Double(kp)),
+        (MODE.name, V::String(mode.name().to_string())),
+        (GAIN.name, V::Double(kp)),
     ]
 }
 
@@ -190,21 +197,21 @@ mod tests {
         let config = core.config();
         let mut args = vec!["x".to_string()];
         for (name, v) in [
-            (MODE, 0.0),
-            (GAIN, law.kp),
-            (DIRECTION_GAIN, config.direction_gain),
-            (CHAOS_GAIN, config.chaos_gain),
-            (GAIN_LIMIT, config.gain_limit),
-            (ALPHA, law.alpha),
-            (OMEGA, law.omega),
-            (STATE_TIMEOUT_S, state_timeout_s),
-            (ORBIT_TOLERANCE, core.orbit_tolerance()),
-            (M1_KG, scale.m1_kg),
-            (K1_N_PER_M, scale.k1_n_per_m),
-            (PF_N, scale.pf_n),
+            (MODE.name, 0.0),
+            (GAIN.name, law.kp),
+            (DIRECTION_GAIN.name, config.direction_gain),
+            (CHAOS_GAIN.name, config.chaos_gain),
+            (GAIN_LIMIT.name, config.gain_limit),
+            (ALPHA.name, law.alpha),
+            (OMEGA.name, law.omega),
+            (STATE_TIMEOUT_S.name, state_timeout_s),
+            (ORBIT_TOLERANCE.name, core.orbit_tolerance()),
+            (M1_KG.name, scale.m1_kg),
+            (K1_N_PER_M.name, scale.k1_n_per_m),
+            (PF_N.name, scale.pf_n),
         ] {
             args.push(format!("--{}", name.replace('_', "-")));
-            args.push(if name == MODE {
+            args.push(if name == MODE.name {
                 core.mode().name().to_string()
             } else {
                 v.to_string()
@@ -237,11 +244,11 @@ mod tests {
             "gain 1e308 is beyond the configured limit |k_p| <= 2"
         );
         let e = t
-            .set_atomically(&[p(GAIN, V::Double(1e308))], rules)
+            .set_atomically(&[p(GAIN.name, V::Double(1e308))], rules)
             .unwrap_err();
         assert_eq!(e, r.reason);
         let e = t
-            .set_atomically(&[p(GAIN_LIMIT, V::Double(-1e300))], rules)
+            .set_atomically(&[p(GAIN_LIMIT.name, V::Double(-1e300))], rules)
             .unwrap_err();
         assert_eq!(
             e,
@@ -276,7 +283,7 @@ mod tests {
             .map(|e| e.to_string());
         let mut t = table(&core(Mode::Forward, 0.2), false, 0.5);
         let set = t
-            .set_atomically(&[p(ALPHA, V::Double(150.0))], rules)
+            .set_atomically(&[p(ALPHA.name, V::Double(150.0))], rules)
             .unwrap_err();
         let why = "must be in [0, 100] (got 150)";
         assert!(
@@ -286,7 +293,10 @@ mod tests {
         assert_eq!(scene, Some(format!("f.toml: drive.alpha: {why}")));
         assert_eq!(set, format!("parameter 'alpha': {why}"));
         // the descriptor announces the range, writable
-        let spec = t.spec(ALPHA).cloned().unwrap_or_else(|| panic!("no alpha"));
+        let spec = t
+            .spec(ALPHA.name)
+            .cloned()
+            .unwrap_or_else(|| panic!("no alpha"));
         assert_eq!(
             (spec.range, spec.read_only),
             (
@@ -303,18 +313,18 @@ mod tests {
     fn the_orbit_tolerance_is_set_at_start_and_read_only_after() {
         let c = core(Mode::Forward, 0.2).with_orbit_tolerance(0.1);
         let mut t = table(&c, false, 0.5);
-        assert_eq!(t.double(ORBIT_TOLERANCE), 0.1);
+        assert_eq!(t.double(ORBIT_TOLERANCE.name), 0.1);
         // at start (-p orbit_tolerance:=0.15): the core built from the table watches with it
-        t.override_with(&[p(ORBIT_TOLERANCE, V::Double(0.15))], rules)
+        t.override_with(&[p(ORBIT_TOLERANCE.name, V::Double(0.15))], rules)
             .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(core_from(&t).orbit_tolerance(), 0.15);
         // beyond the switch's reduction tolerance, or set on a running node: refused
         let e = t
-            .override_with(&[p(ORBIT_TOLERANCE, V::Double(0.3))], rules)
+            .override_with(&[p(ORBIT_TOLERANCE.name, V::Double(0.3))], rules)
             .unwrap_err();
         assert!(e.contains("orbit_tolerance") || e.contains("0.2"), "{e}");
         let e = t
-            .set_atomically(&[p(ORBIT_TOLERANCE, V::Double(0.05))], rules)
+            .set_atomically(&[p(ORBIT_TOLERANCE.name, V::Double(0.05))], rules)
             .unwrap_err();
         assert!(e.contains("read-only"), "{e}");
     }
@@ -325,11 +335,15 @@ mod tests {
         let mut t = table(&c, false, 0.5);
         let before = t.clone();
         for (params, mode, gain) in [
-            (vec![p(GAIN, V::Double(3.0))], SetModeRequest::FORWARD, 3.0),
+            (
+                vec![p(GAIN.name, V::Double(3.0))],
+                SetModeRequest::FORWARD,
+                3.0,
+            ),
             (
                 vec![
-                    p(MODE, V::String("custom".into())),
-                    p(GAIN, V::Double(-2.5)),
+                    p(MODE.name, V::String("custom".into())),
+                    p(GAIN.name, V::Double(-2.5)),
                 ],
                 SetModeRequest::CUSTOM,
                 -2.5,
@@ -348,21 +362,27 @@ mod tests {
         // (the set, why it is refused)
         let refused = [
             (
-                vec![p(GAIN, V::Double(f64::NAN))],
+                vec![p(GAIN.name, V::Double(f64::NAN))],
                 "must be a finite number",
             ),
-            (vec![p(MODE, V::String("sideways".into()))], "unknown mode"),
+            (
+                vec![p(MODE.name, V::String("sideways".into()))],
+                "unknown mode",
+            ),
             // lowering the limit below a default or the gain in effect is refused
-            (vec![p(GAIN_LIMIT, V::Double(0.1))], "beyond gain_limit"),
+            (
+                vec![p(GAIN_LIMIT.name, V::Double(0.1))],
+                "beyond gain_limit",
+            ),
             (
                 vec![
-                    p(GAIN_LIMIT, V::Double(0.15)),
-                    p(DIRECTION_GAIN, V::Double(0.1)),
-                    p(CHAOS_GAIN, V::Double(0.1)),
+                    p(GAIN_LIMIT.name, V::Double(0.15)),
+                    p(DIRECTION_GAIN.name, V::Double(0.1)),
+                    p(CHAOS_GAIN.name, V::Double(0.1)),
                 ],
                 "beyond the configured limit",
             ),
-            (vec![p(M1_KG, V::Double(0.1))], "read-only"),
+            (vec![p(M1_KG.name, V::Double(0.1))], "read-only"),
         ];
         for (set, why) in refused {
             let e = t.set_atomically(&set, rules).unwrap_err();
@@ -379,8 +399,8 @@ mod tests {
         let changed = t
             .set_atomically(
                 &[
-                    p(MODE, V::String("backward".into())),
-                    p(GAIN, V::Double(0.3)),
+                    p(MODE.name, V::String("backward".into())),
+                    p(GAIN.name, V::Double(0.3)),
                 ],
                 rules,
             )
@@ -388,8 +408,8 @@ mod tests {
         assert_eq!(
             changed,
             vec![
-                p(GAIN, V::Double(-0.3)),
-                p(MODE, V::String("BACKWARD".into()))
+                p(GAIN.name, V::Double(-0.3)),
+                p(MODE.name, V::String("BACKWARD".into()))
             ]
         );
         let expected = c.set_mode(&SetModeRequest {
@@ -397,9 +417,9 @@ mod tests {
             gain: 0.3,
             ..SetModeRequest::default()
         });
-        assert_eq!(t.double(GAIN), expected.gain);
+        assert_eq!(t.double(GAIN.name), expected.gain);
         let mut d = core(Mode::Forward, 0.2);
-        t.set_atomically(&[p(ALPHA, V::Double(2.0))], rules)
+        t.set_atomically(&[p(ALPHA.name, V::Double(2.0))], rules)
             .unwrap();
         apply(&t, &mut d);
         assert_eq!(
@@ -407,6 +427,6 @@ mod tests {
             (Mode::Backward, -0.3, 2.0)
         );
         assert_eq!(d.config(), config(&t));
-        assert_eq!(live_values(&d)[1], (GAIN, V::Double(-0.3)));
+        assert_eq!(live_values(&d)[1], (GAIN.name, V::Double(-0.3)));
     }
 }

@@ -1,8 +1,9 @@
 //! The capsule's controller node, on the plumbing of `capsule_ros_base` and what the nodes
 //! share (`capsule_plant_node`).
 //!
-//! - [`controller`]: the controller node on DDS; [`controller_core`]: its decisions without
-//!   DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
+//! - [`controller`]: the controller node on DDS, in the phases of its life;
+//!   `controller_endpoints`: its DDS side; `controller_handlers`: what it does with each input;
+//!   [`controller_core`]: its decisions without DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
 //!   parameters; [`controller_settings`]: its settings table
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
@@ -13,6 +14,8 @@ pub mod command_feedback;
 pub mod controller;
 pub mod controller_core;
 pub mod controller_diagnostics;
+mod controller_endpoints;
+mod controller_handlers;
 pub mod controller_params;
 pub mod controller_settings;
 pub mod plant_identity;

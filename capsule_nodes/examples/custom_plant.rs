@@ -23,7 +23,10 @@ use capsule_hardware::{CapsuleHardware, HardwareError, Reading, Sample};
 use capsule_plant::scene::PhysicalScale;
 use capsule_plant_node::plant::{self, Pacing, PlantCore, PlantOptions};
 use capsule_plant_node::plant_params::{self, PlantFlags};
-use capsule_ros_base::ros::{self, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    node_main,
+    ros_options::{RosArgs, RosEnv, RosOptions},
+};
 use clap::Parser;
 
 /// The toy capsule: state in SI, integrated in small steps over each sample period.
@@ -169,7 +172,7 @@ fn toy(scale: &PhysicalScale, rate_hz: f64, counts: Arc<[AtomicU64; 2]>) -> ToyC
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let cli = Cli::parse();
     let result = (|| -> Result<()> {
         if !(cli.until_s > 0.0 && cli.until_s <= 1e6) {
@@ -205,7 +208,7 @@ fn main() -> std::process::ExitCode {
             autostart: true,
         };
         let started = Instant::now();
-        let (stats, last) = ros::block_on(None, plant::run(settings, core, opts))?;
+        let (stats, last) = node_main::block_on(None, plant::run(settings, core, opts))?;
         println!(
             "{}",
             plant::summary_json(&stats, &last, started.elapsed().as_secs_f64())
@@ -217,5 +220,5 @@ fn main() -> std::process::ExitCode {
         );
         Ok(())
     })();
-    ros::exit_code("custom_plant", result)
+    node_main::exit_code("custom_plant", result)
 }

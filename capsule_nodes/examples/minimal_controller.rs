@@ -18,7 +18,12 @@ use anyhow::{Context as _, Result};
 use capsule_args::scene_file::SceneFile;
 use capsule_msgs::names::topics;
 use capsule_msgs::{ActuatorForce, CapsuleState, Header};
-use capsule_ros_base::ros::{self, qos, subscribe, types, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    endpoints::subscribe,
+    node_main, qos,
+    ros_options::{RosArgs, RosEnv, RosOptions},
+    signals, types,
+};
 use clap::Parser;
 use futures::StreamExt;
 
@@ -59,7 +64,7 @@ async fn run(cli: Cli) -> Result<()> {
     );
 
     let stream = states.async_stream();
-    let shutdown = ros::shutdown_signal();
+    let shutdown = signals::shutdown_signal();
     tokio::pin!(stream, shutdown);
     let mut first_x2 = None;
     let mut last = None;
@@ -104,6 +109,6 @@ async fn run(cli: Cli) -> Result<()> {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result = ros::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli));
-    ros::exit_code("minimal_controller", result)
+    let result = node_main::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli));
+    node_main::exit_code("minimal_controller", result)
 }

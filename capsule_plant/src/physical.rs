@@ -49,16 +49,25 @@ impl PhysicalScale {
     /// Checks every value (each finite and > 0: the scene's rules of these keys); the key is
     /// `physical.<name>`.
     pub fn validate(&self) -> Result<(), Invalid> {
-        for (key, v) in [
-            ("physical.m1_kg", self.m1_kg),
-            ("physical.k1_n_per_m", self.k1_n_per_m),
-            ("physical.pf_n", self.pf_n),
-        ] {
-            crate::scene::key_rule(key).check(key, v)?;
+        let values = [self.m1_kg, self.k1_n_per_m, self.pf_n];
+        for ((key, rule), v) in SCALE_RULES.iter().zip(values) {
+            rule.check(key, v)?;
         }
         Ok(())
     }
 }
+
+/// A scene key with its rule, looked up when compiled (a key without a rule does not compile).
+const fn ruled(key: &'static str) -> (&'static str, crate::scene::Rule) {
+    (key, crate::scene::key_rule(key))
+}
+
+/// The scale's keys and their rules, in the order of [`PhysicalScale::validate`]'s values.
+const SCALE_RULES: [(&str, crate::scene::Rule); 3] = [
+    ruled("physical.m1_kg"),
+    ruled("physical.k1_n_per_m"),
+    ruled("physical.pf_n"),
+];
 
 #[cfg(test)]
 mod tests {

@@ -14,7 +14,7 @@ use capsule_msgs::names::topics;
 use capsule_msgs::std_types::{Bool, SetBoolRequest, SetBoolResponse};
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::graph::Graph;
-use capsule_ros_base::ros::{qos, types, RosOptions, Wire};
+use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions, types};
 use futures::StreamExt;
 use ros2_client::Node;
 use tracing::{info, warn};

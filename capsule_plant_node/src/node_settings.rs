@@ -200,7 +200,10 @@ mod tests {
     fn flags_over_the_scene_over_the_defaults_into_the_parameters() {
         let cli = Cli::try_parse_from(["x", "--rate-hz", "500", "--joint-commands"])
             .unwrap_or_else(|e| panic!("{e}"));
-        let scene = |key: &str| (key == "node.command_timeout_s").then_some(0.25);
+        let scene = |key: &str| match key {
+            "node.command_timeout_s" => Some(0.25),
+            _ => key.starts_with("physical.").then_some(1.0),
+        };
         let other =
             |name: &str| (name == "scene" || name == "pacing").then(|| V::String(name.into()));
         let t = cli

@@ -8,31 +8,15 @@ use ros2_client::ParameterValue as V;
 use capsule_args::plant_settings::PLANT;
 use capsule_args::scene_file::SceneFile;
 use capsule_args::settings::Setting;
-use capsule_ros_base::params::{ParamSpec, ParamTable};
+use capsule_ros_base::params::ParamTable;
 
 use crate::node_settings::{SettingFlags, SettingsTable};
 
-/// Parameter names (the settings table's).
-pub mod names {
-    use capsule_args::plant_settings as s;
-    /// Scene file.
-    pub const SCENE: &str = s::SCENE.name;
-    /// Pacing: realtime or lockstep.
-    pub const PACING: &str = s::PACING.name;
-    /// Sample rate \[Hz\].
-    pub const RATE_HZ: &str = s::RATE_HZ.name;
-    /// Watchdog timeout \[s\].
-    pub const COMMAND_TIMEOUT_S: &str = s::COMMAND_TIMEOUT_S.name;
-    /// Lock-step: wall seconds without an answer before the run ends.
-    pub const LOCKSTEP_GIVE_UP_S: &str = s::LOCKSTEP_GIVE_UP_S.name;
-    /// /clock with every N-th sample.
-    pub const CLOCK_EVERY: &str = s::CLOCK_EVERY.name;
-    /// JointState commands on capsule/joint_commands (`--joint-commands`).
-    pub const JOINT_COMMANDS: &str = s::JOINT_COMMANDS.name;
-    /// Sim time from /clock (the plant is the clock: always false) and the physical scale.
-    pub use capsule_ros_base::params::names::*;
-}
-use names::*;
+use capsule_args::plant_settings::{
+    CLOCK_EVERY, COMMAND_TIMEOUT_S, JOINT_COMMANDS, LOCKSTEP_GIVE_UP_S, PACING, RATE_HZ, SCENE,
+    USE_SIM_TIME,
+};
+use capsule_args::scale_settings::{K1_N_PER_M, M1_KG, PF_N};
 
 /// The plant's settings table.
 #[derive(Debug, Clone)]
@@ -72,58 +56,49 @@ pub struct PlantParams {
 }
 
 /// The table of a plant started with `flags` on the scene `file`: each setting by the
-/// precedence (flag, the scene's `[node]` key, default), then the sim time (always false) and
-/// the scale.
+/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default).
 pub fn start_table(
     flags: &PlantFlags,
     file: &SceneFile,
     fixed: &Fixed,
 ) -> Result<ParamTable, String> {
     let other = |name: &str| match name {
-        SCENE => Some(V::String(fixed.scene.clone())),
-        PACING => Some(V::String(fixed.pacing.clone())),
+        n if n == SCENE.name => Some(V::String(fixed.scene.clone())),
+        n if n == PACING.name => Some(V::String(fixed.pacing.clone())),
         _ => None,
     };
-    let table = flags
-        .start_table(&fixed.scene, |key| file.node.value(key), other)?
-        .declare(
-            USE_SIM_TIME,
-            ParamSpec::read_only("the plant is the clock: its time is sim time by construction")
-                .constraints("false"),
-            V::Boolean(false),
-        );
-    let (m1, k1, pf) = fixed.scale;
-    Ok(capsule_ros_base::params::declare_scale(
-        table,
-        [m1, k1, pf],
-        ParamSpec::read_only,
-    ))
+    let scene = |key: &str| file.node.value(key).or_else(|| file.scene.number(key).ok());
+    flags.start_table(&fixed.scene, scene, other)
 }
 
 /// What the plant runs with from the table after start-up overrides; the scene, pacing and
 /// scale come from `--scene` / `--pacing` only (overriding them is refused).
 pub fn overridable(t: &ParamTable, started: &Fixed) -> Result<PlantParams, String> {
     let fixed = [
-        (SCENE, t.string(SCENE) == started.scene, "--scene"),
-        (PACING, t.string(PACING) == started.pacing, "--pacing"),
+        (SCENE.name, t.string(SCENE.name) == started.scene, "--scene"),
         (
-            M1_KG,
-            t.double(M1_KG) == started.scale.0,
+            PACING.name,
+            t.string(PACING.name) == started.pacing,
+            "--pacing",
+        ),
+        (
+            M1_KG.name,
+            t.double(M1_KG.name) == started.scale.0,
             "the scene's [physical]",
         ),
         (
-            K1_N_PER_M,
-            t.double(K1_N_PER_M) == started.scale.1,
+            K1_N_PER_M.name,
+            t.double(K1_N_PER_M.name) == started.scale.1,
             "the scene's [physical]",
         ),
         (
-            PF_N,
-            t.double(PF_N) == started.scale.2,
+            PF_N.name,
+            t.double(PF_N.name) == started.scale.2,
             "the scene's [physical]",
         ),
         (
-            USE_SIM_TIME,
-            !t.boolean(USE_SIM_TIME),
+            USE_SIM_TIME.name,
+            !t.boolean(USE_SIM_TIME.name),
             "nothing: the plant is the clock",
         ),
     ];
@@ -133,11 +108,13 @@ pub fn overridable(t: &ParamTable, started: &Fixed) -> Result<PlantParams, Strin
         ));
     }
     Ok(PlantParams {
-        rate_hz: t.double(RATE_HZ),
-        command_timeout_s: t.double(COMMAND_TIMEOUT_S),
-        lockstep_give_up_s: t.double(LOCKSTEP_GIVE_UP_S),
-        clock_every: u64::try_from(t.integer(CLOCK_EVERY)).unwrap_or(1).max(1),
-        joint_commands: t.boolean(JOINT_COMMANDS),
+        rate_hz: t.double(RATE_HZ.name),
+        command_timeout_s: t.double(COMMAND_TIMEOUT_S.name),
+        lockstep_give_up_s: t.double(LOCKSTEP_GIVE_UP_S.name),
+        clock_every: u64::try_from(t.integer(CLOCK_EVERY.name))
+            .unwrap_or(1)
+            .max(1),
+        joint_commands: t.boolean(JOINT_COMMANDS.name),
     })
 }
 
@@ -169,16 +146,16 @@ mod tests {
         for name in t.names().map(str::to_string).collect::<Vec<_>>() {
             assert!(t.spec(&name).is_some_and(|d| d.read_only), "{name}");
         }
-        assert_eq!(t.string(SCENE), "scenes/control_point.toml");
+        assert_eq!(t.string(SCENE.name), "scenes/control_point.toml");
         let e = t
-            .set_atomically(&[(RATE_HZ.into(), V::Double(10.0))], no_rules)
+            .set_atomically(&[(RATE_HZ.name.into(), V::Double(10.0))], no_rules)
             .unwrap_err();
         assert!(e.contains("read-only"), "{e}");
-        t.override_with(&[(RATE_HZ.into(), V::Double(500.0))], no_rules)
+        t.override_with(&[(RATE_HZ.name.into(), V::Double(500.0))], no_rules)
             .unwrap();
-        assert_eq!(t.double(RATE_HZ), 500.0);
+        assert_eq!(t.double(RATE_HZ.name), 500.0);
         assert!(t
-            .override_with(&[(RATE_HZ.into(), V::Double(-1.0))], no_rules)
+            .override_with(&[(RATE_HZ.name.into(), V::Double(-1.0))], no_rules)
             .is_err());
         let run = PlantParams {
             rate_hz: 500.0,
@@ -188,8 +165,11 @@ mod tests {
             joint_commands: false,
         };
         assert_eq!(overridable(&t, &fixed), Ok(run));
-        t.override_with(&[(SCENE.into(), V::String("other.toml".into()))], no_rules)
-            .unwrap();
+        t.override_with(
+            &[(SCENE.name.into(), V::String("other.toml".into()))],
+            no_rules,
+        )
+        .unwrap();
         let e = overridable(&t, &fixed).unwrap_err();
         assert!(e.contains("'scene' is set by --scene"), "{e}");
     }

@@ -36,7 +36,7 @@ use serde::Serialize;
 use tracing::{info, warn};
 
 use capsule_ros_base::graph::Graph;
-use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
+use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -506,7 +506,7 @@ impl Readers {
     async fn record(&self, sink: &mut GraphRecording, opts: &RecorderOptions) -> Result<()> {
         let mut poll = tokio::time::interval(opts.poll_period);
         poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        let shutdown = capsule_ros_base::ros::shutdown_signal();
+        let shutdown = capsule_ros_base::signals::shutdown_signal();
         tokio::pin!(shutdown);
         let mut last_msg = tokio::time::Instant::now();
         let mut got_any = false;

@@ -37,7 +37,9 @@ use capsule_hardware::latency::LatencyHistogram;
 use capsule_ros_base::{
     graph::Graph,
     params::{ParamSpec, ParamTable},
-    ros::{qos, types, RosOptions},
+    qos,
+    ros_options::RosOptions,
+    types,
 };
 
 /// Joint names, in `JointState` order.

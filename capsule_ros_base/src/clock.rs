@@ -11,7 +11,7 @@ use std::sync::{
 };
 
 use crate::error::Result;
-use crate::ros::{qos, subscribe, types, RosOptions};
+use crate::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 
 /// ROS time as a node sees it: the wall clock, or under `use_sim_time` the latest `/clock`
 /// (zero until the first one arrives, as in rclcpp).

@@ -1,11 +1,18 @@
 //! The ROS 2 plumbing every capsule node shares, on ros2-client and RustDDS; the nodes themselves
 //! are in `capsule_nodes`.
 //!
-//! - [`ros`]: environment conventions, names and remapping, QoS, the (loopback-only) participant
+//! - [`ros_options`]: the ROS options every node takes, its flags over the environment
+//!   conventions; [`naming`]: names expanded and remapped; [`participant`]: the (loopback-only)
+//!   DDS participant and the node; [`endpoints`]: topics, subscriptions, servers; [`qos`]: their
+//!   QoS; [`types`]: the interfaces' type names
+//! - [`node_main`]: a node binary's `main` (logging, `--check`, the runtime, the exit status);
+//!   [`signals`]: SIGINT and SIGTERM
 //! - [`ros_args`]: the `--ros-args` habits (parameters, params files, names, remaps, enclave)
 //! - [`security`]: SROS2's `ROS_SECURITY_*` conventions and enclaves (DDS Security)
 //! - [`graph`], [`clock`]: matched endpoints and ROS time for the loop nodes (instead of
 //!   ros2-client's spinner)
+//! - [`node_life`]: a loop node's life in phases (build, wait for the graph, run the loop,
+//!   finish), the skeleton the plant and the controller share
 //! - [`conflicts`]: a second plant or controller, or a foreign type, on our topics
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
@@ -18,12 +25,20 @@
 pub mod affinity;
 pub mod clock;
 pub mod conflicts;
+pub mod endpoints;
 pub mod error;
 pub mod graph;
+pub mod naming;
+pub mod node_life;
+pub mod node_main;
 pub mod param_services;
 pub mod params;
+pub mod participant;
 pub mod ports;
-pub mod ros;
+pub mod qos;
 pub mod ros_args;
+pub mod ros_options;
 pub mod security;
 pub mod service;
+pub mod signals;
+pub mod types;

@@ -26,7 +26,7 @@ use tracing::{info, warn};
 use crate::{
     graph::Graph,
     params::{event, Param, ParamTable, Rules},
-    ros::RosOptions,
+    ros_options::RosOptions,
     service::Service,
 };
 

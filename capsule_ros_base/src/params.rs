@@ -112,51 +112,6 @@ pub struct ParamTable {
     entries: BTreeMap<String, (ParamSpec, ParameterValue)>,
 }
 
-/// Parameter names both nodes declare (each node's `names` module re-exports them).
-pub mod names {
-    /// Sim time from /clock.
-    pub const USE_SIM_TIME: &str = "use_sim_time";
-    /// Physical scale: inner mass \[kg\].
-    pub const M1_KG: &str = "m1_kg";
-    /// Physical scale: primary stiffness [N/m].
-    pub const K1_N_PER_M: &str = "k1_n_per_m";
-    /// Physical scale: friction threshold \[N\].
-    pub const PF_N: &str = "pf_n";
-}
-
-/// Declares the physical scale `[m1 kg, k1 N/m, P_f N]` in `table`, each descriptor made by
-/// `spec` from its description, with its scene key's rule.
-pub fn declare_scale(
-    table: ParamTable,
-    values: [f64; 3],
-    spec: impl Fn(&str) -> ParamSpec,
-) -> ParamTable {
-    let described = [
-        (
-            names::M1_KG,
-            "physical scale: inner mass m1 [kg]",
-            "physical.m1_kg",
-        ),
-        (
-            names::K1_N_PER_M,
-            "physical scale: primary stiffness k1 [N/m]",
-            "physical.k1_n_per_m",
-        ),
-        (
-            names::PF_N,
-            "physical scale: friction threshold P_f [N]",
-            "physical.pf_n",
-        ),
-    ];
-    described
-        .into_iter()
-        .zip(values)
-        .fold(table, |table, ((name, what, key), value)| {
-            let spec = spec(what).scene_rule(capsule_plant::scene::key_rule(key));
-            table.declare(name, spec, ParameterValue::Double(value))
-        })
-}
-
 /// A name and a value, as the services carry them.
 pub type Param = (String, ParameterValue);
 

@@ -4,7 +4,7 @@
 //! `--enclave /name` (SROS2, [`crate::security`]).
 //!
 //! [`split`] takes the `--ros-args` blocks out of argv before clap sees the rest; the names
-//! and remaps go into [`RosArgs`] (one place resolves them: [`crate::ros::RosOptions`]); the
+//! and remaps go into [`RosArgs`] (one place resolves them: [`crate::ros_options::RosOptions`]); the
 //! parameter overrides are applied to the node's [`ParamTable`] at start, in command-line
 //! order (later wins), as rcl does. Values are typed as YAML types them (`1` integer, `1.0`
 //! double, `true` bool, `[1.0, 2.0]` array, else string); an integer for a declared double is
@@ -18,7 +18,7 @@ use yaml_rust2::{Yaml, YamlLoader};
 
 use crate::{
     params::{Param, ParamTable, Rules},
-    ros::RosArgs,
+    ros_options::RosArgs,
 };
 
 /// One parameter source, in command-line order.

@@ -11,7 +11,7 @@
 //!
 //! [`Security::resolve`] checks the variables and the files before any work starts ([`diagnose`]:
 //! the checks DDS Security makes of its own files, so `--check` names a bad one); the
-//! participant is built secured in [`crate::ros::RosOptions::context`], where RustDDS has the
+//! participant is built secured in [`crate::ros_options::RosOptions::context`], where RustDDS has the
 //! last word.
 
 use std::path::{Path, PathBuf};

@@ -9,7 +9,12 @@ use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use capsule_ros_base::error::{bail, invalid, Context as _, Result};
 use ros2_client::{service::Client, Node};
 
-use capsule_ros_base::ros::{qos, subscribe, types, RosOptions, Wire};
+use capsule_ros_base::{
+    endpoints::{subscribe, Wire},
+    qos,
+    ros_options::RosOptions,
+    types,
+};
 
 /// The `effective_from` of a request to switch at sim time `at_s` \[s\] (0 = now): refused
 /// unless finite, >= 0 and within `builtin_interfaces/Time` (below 2^31 s). A huge value used

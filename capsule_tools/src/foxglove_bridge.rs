@@ -34,7 +34,7 @@ use tracing::{info, warn};
 
 use capsule_plant_node::intra_process::Link;
 use capsule_plant_node::views::BODY_FRAME;
-use capsule_ros_base::ros::{qos, subscribe, types, RosOptions};
+use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 use ros2_client::Subscription;
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
@@ -524,7 +524,7 @@ pub fn announce(port: u16) {
 pub async fn run(settings: RosOptions, opts: BridgeOptions) -> Result<()> {
     let bridge = Bridge::start(&settings, &opts, Source::Dds).await?;
     announce(bridge.port());
-    bridge.serve(capsule_ros_base::ros::shutdown()).await
+    bridge.serve(capsule_ros_base::signals::shutdown()).await
 }
 
 /// The bridge on a thread of its own with its own runtime, in a process that runs other nodes

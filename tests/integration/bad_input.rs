@@ -10,9 +10,9 @@ use crate::common::{
     assert_holds, assert_ok, assert_refused, command, files_in, json_of, line, run, stderr, TempDir,
 };
 use crate::root;
+use capsule_args::controller_settings::CONTROLLER;
 use capsule_args::plant_settings::PLANT;
 use capsule_args::settings::{Kind, Setting};
-use capsule_controller_node::controller_settings::CONTROLLER;
 use capsule_plant::scene::Rule;
 use proptest::prelude::*;
 use std::process::{Command, Stdio};

@@ -1,10 +1,10 @@
 //! No function over 100 lines (issue 32). Counted with `syn` over every `.rs` file under each
-//! workspace member's `src/` (tests modules included): a function is a free `fn`, a method in
-//! an `impl` or a trait's default method (a nested `fn` counts in its parent too, and on its
-//! own); its length is the lines of its body from the line of its `{` to the line of its `}`,
-//! both counted, blank lines and comments included. A table of cases is data, not a function: an
-//! array literal of four or more elements, or a `vec![...]`, counts as one line however many
-//! lines it spans.
+//! workspace member's `src/` (tests modules included) and under `tests/integration/` (issue 39): a
+//! function is a free `fn`, a method in an `impl` or a trait's default method (a nested `fn` counts
+//! in its parent too, and on its own); its length is the lines of its body from the line of its `{`
+//! to the line of its `}`, both counted, blank lines and comments included. A table of cases is
+//! data, not a function: an array literal of four or more elements, or a `vec![...]`, counts as one
+//! line however many lines it spans.
 
 use crate::import_circles::workspace_members;
 use crate::root;
@@ -119,12 +119,13 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// Every function of the workspace's `src/` folders.
+/// Every function of the workspace's `src/` folders and of the integration tests.
 fn all_functions(root: &Path) -> Vec<Length> {
     let mut files = Vec::new();
     for member in workspace_members(root) {
         rust_files(&root.join(member).join("src"), &mut files);
     }
+    rust_files(&root.join("tests/integration"), &mut files);
     assert!(files.len() > 50, "too few source files: {}", files.len());
     files
         .iter()

@@ -759,6 +759,74 @@ fn in_plant_recording_holds_the_same_run() {
     launcher_run_is_recorded("launch_run_in_plant", true);
 }
 
+/// What `reader` decodes of a recorded launcher run (its topics `t`): every state the plant
+/// published, the controller's commands and statuses, /clock, /diagnostics, the mode requests'
+/// service events.
+fn the_readers_see_the_whole_run(
+    t: &serde_json::Value,
+    reader: &str,
+    published: u64,
+    in_plant: bool,
+) {
+    // every state the plant published, in order, none twice
+    let seqs = first_column(t, default_topics::STATE);
+    expect_all(&seqs, published, &format!("{reader} states"));
+    // every command the controller sent: one per state it answered, in order, none twice;
+    // at least as many as its last status counted
+    let forces = first_column(t, default_topics::FORCE);
+    assert!(
+        forces.windows(2).all(|w| w[0] <= w[1]),
+        "{reader}: force state_seq going back"
+    );
+    let sent = t["/capsule_controller/status"]["rows"]
+        .as_array()
+        .and_then(|r| r.last())
+        .and_then(|r| r[1].as_u64())
+        .unwrap_or(u64::MAX);
+    // (in the plant: every command it received; lock-step steps only on an answer, so at
+    // least one per state but the last)
+    let enough = if in_plant {
+        forces.len() as u64 + 1 >= published
+    } else {
+        forces.len() as u64 >= sent
+    };
+    assert!(
+        enough && sent + 200 > published,
+        "{reader}: {} forces recorded, controller's last status: {sent} sent, {published} states",
+        forces.len()
+    );
+    assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
+    assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
+    // the plant's /diagnostics (1 Hz; and the controller's through the recorder)
+    let diag = rows(t, "/diagnostics");
+    assert!(
+        !diag.is_empty() && diag.iter().all(|r| r[0].as_u64().is_some_and(|l| l <= 3)),
+        "{reader}: /diagnostics {diag:?}"
+    );
+    let ev: Vec<String> = rows(t, default_topics::SET_MODE_EVENT)
+        .iter()
+        .map(|r| {
+            format!(
+                "{} {} {} {}",
+                r[0],
+                r[2],
+                r[4],
+                r[1].as_i64().is_some_and(|s| s > 0)
+            )
+        })
+        .collect();
+    assert_eq!(
+        ev,
+        [
+            "1 2 null true",
+            "2 null true true",
+            "1 4 null true",
+            "2 null false true"
+        ],
+        "{reader}"
+    );
+}
+
 /// A lock-step launcher run with two mode requests, recorded by the recorder node or (with
 /// `in_plant`) by the plant itself, composed with the controller: the same file either way. The switch is scheduled (at 4.5 s
 /// of sim time): `--check-controller` replays a scheduled switch exactly, an immediate one only
@@ -808,64 +876,7 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         "{fox}"
     );
     for reader in ["mcap", "rosbags"] {
-        let t = &v[reader]["topics"];
-        // every state the plant published, in order, none twice
-        let seqs = first_column(t, default_topics::STATE);
-        expect_all(&seqs, published, &format!("{reader} states"));
-        // every command the controller sent: one per state it answered, in order, none twice;
-        // at least as many as its last status counted
-        let forces = first_column(t, default_topics::FORCE);
-        assert!(
-            forces.windows(2).all(|w| w[0] <= w[1]),
-            "{reader}: force state_seq going back"
-        );
-        let sent = t["/capsule_controller/status"]["rows"]
-            .as_array()
-            .and_then(|r| r.last())
-            .and_then(|r| r[1].as_u64())
-            .unwrap_or(u64::MAX);
-        // (in the plant: every command it received; lock-step steps only on an answer, so at
-        // least one per state but the last)
-        let enough = if in_plant {
-            forces.len() as u64 + 1 >= published
-        } else {
-            forces.len() as u64 >= sent
-        };
-        assert!(
-            enough && sent + 200 > published,
-            "{reader}: {} forces recorded, controller's last status: {sent} sent, {published} states",
-            forces.len()
-        );
-        assert_eq!(t[default_topics::CLOCK]["count"], published, "{reader}");
-        assert!(t["/capsule_controller/status"]["count"].as_u64() > Some(10));
-        // the plant's /diagnostics (1 Hz; and the controller's through the recorder)
-        let diag = rows(t, "/diagnostics");
-        assert!(
-            !diag.is_empty() && diag.iter().all(|r| r[0].as_u64().is_some_and(|l| l <= 3)),
-            "{reader}: /diagnostics {diag:?}"
-        );
-        let ev: Vec<String> = rows(t, default_topics::SET_MODE_EVENT)
-            .iter()
-            .map(|r| {
-                format!(
-                    "{} {} {} {}",
-                    r[0],
-                    r[2],
-                    r[4],
-                    r[1].as_i64().is_some_and(|s| s > 0)
-                )
-            })
-            .collect();
-        assert_eq!(
-            ev,
-            [
-                "1 2 null true",
-                "2 null true true",
-                "1 4 null true",
-                "2 null false true"
-            ],
-            "{reader}"
-        );
+        the_readers_see_the_whole_run(&v[reader]["topics"], reader, published, in_plant);
     }
     // Foxglove's own readers decode every message of the run, none with bytes left over
     foxglove_agrees(&foxglove_decode(&file), &v, v_total(&v));
@@ -883,6 +894,12 @@ fn launcher_run_is_recorded(name: &str, in_plant: bool) {
         info.contains("set_mode CUSTOM (gain 99): refused -> FORWARD k_p 0.2"),
         "{info}"
     );
+    the_recording_re_drives_the_controller(&file, published, in_plant);
+}
+
+/// The lock-step recording `file` re-drives the controller library to identical commands, and
+/// a changed controller (another default direction gain) is caught.
+fn the_recording_re_drives_the_controller(file: &Path, published: u64, in_plant: bool) {
     // the lock-step recording re-drives the controller library to identical commands
     let f = file.display().to_string();
     let text = capsule_ok(&["replay", "--check-controller", &f]);
@@ -1002,9 +1019,17 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
             "{topic}: bytes or order differ"
         );
     }
-    // across topics: the same order, except messages the original logged within 20 ms of each
-    // other (different DDS writers and readers: DDS orders samples per writer only), and those
-    // few; and at the asked pace (rate 2)
+    let in_a = same_order_across_topics(&a, &b);
+    at_the_asked_pace(&a, &b, &in_a);
+}
+
+/// Across topics, `b` (re-recorded) holds `a`'s messages in the same order, except messages the
+/// original logged within 20 ms of each other (different DDS writers and readers: DDS orders
+/// samples per writer only), and those few. Returns, for each message of `b`, its index in `a`.
+fn same_order_across_topics(
+    a: &[capsule_record::messages::Message],
+    b: &[capsule_record::messages::Message],
+) -> Vec<usize> {
     let mut index: std::collections::BTreeMap<(String, usize), usize> = Default::default();
     let mut seen: std::collections::BTreeMap<String, usize> = Default::default();
     for (k, m) in a.iter().enumerate() {
@@ -1014,7 +1039,7 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
     }
     seen.clear();
     let mut in_a = Vec::new();
-    for m in &b {
+    for m in b {
         let n = seen.entry(m.topic.clone()).or_default();
         in_a.push(index[&(m.topic.clone(), *n)]);
         *n += 1;
@@ -1032,6 +1057,15 @@ fn a_replayed_recording_rerecords_to_the_same_messages_in_the_same_order() {
         "{swaps} of {} out of order by 20 ms or more",
         in_a.len()
     );
+    in_a
+}
+
+/// The replay published at the asked pace (rate 2).
+fn at_the_asked_pace(
+    a: &[capsule_record::messages::Message],
+    b: &[capsule_record::messages::Message],
+    in_a: &[usize],
+) {
     // pace: when the replay published each message (its DDS source timestamp, recorded as
     // publish time) against the original log time / 2
     let b0 = b.iter().map(|m| m.publish_time).min().unwrap_or(0);

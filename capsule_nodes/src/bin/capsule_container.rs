@@ -22,8 +22,9 @@ use capsule_plant_node::{
 };
 use capsule_ros_base::{
     affinity::{self, CpuList},
-    ros::{self, RosOptions},
-    ros_args,
+    node_main, ros_args,
+    ros_options::RosOptions,
+    signals,
 };
 use capsule_tools::foxglove_bridge::{self, BridgeOptions, BridgeThread, Source};
 use clap::Parser;
@@ -248,7 +249,7 @@ async fn run_loop(composed: Composed, link: Link) -> Result<()> {
     let done = plant_done.clone();
     let end = async move {
         tokio::select! {
-            r = ros::shutdown() => r,
+            r = signals::shutdown() => r,
             _ = done.notified() => Ok(()),
         }
     };
@@ -303,7 +304,7 @@ async fn run_loop(composed: Composed, link: Link) -> Result<()> {
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let cli = Cli::parse();
     let result = build(&cli).and_then(|composed| {
         if let Some(list) = &cli.cpu_affinity {
@@ -337,7 +338,7 @@ fn main() -> std::process::ExitCode {
             );
             return Ok(());
         }
-        ros::block_on(cli.cpu_affinity.as_ref(), run(composed))
+        node_main::block_on(cli.cpu_affinity.as_ref(), run(composed))
     });
-    ros::exit_code("capsule_container", result)
+    node_main::exit_code("capsule_container", result)
 }

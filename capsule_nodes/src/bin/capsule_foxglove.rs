@@ -4,8 +4,11 @@ use anyhow::{bail, Result};
 use capsule_args::ranges;
 use capsule_msgs::names::nodes;
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosOptions},
+    node_main,
     ros_args::{self, Override},
+    ros_options::RosArgs,
+    ros_options::RosEnv,
+    ros_options::RosOptions,
 };
 use capsule_tools::foxglove_bridge::{self, BridgeOptions};
 use clap::Parser;
@@ -61,13 +64,13 @@ fn build(cli: &Cli, overrides: &[Override]) -> Result<(RosOptions, BridgeOptions
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let (cli, overrides) = match ros_args::parse_node_cli::<Cli>(nodes::FOXGLOVE, |c| &mut c.ros) {
         Ok(parsed) => parsed,
-        Err(e) => return ros::exit_code(nodes::FOXGLOVE, Err(e)),
+        Err(e) => return node_main::exit_code(nodes::FOXGLOVE, Err(e)),
     };
     let would = |opts: &BridgeOptions| format!(", would serve ws://127.0.0.1:{}", opts.port);
-    ros::async_node_main(
+    node_main::async_node_main(
         nodes::FOXGLOVE,
         cli.check,
         build(&cli, &overrides),

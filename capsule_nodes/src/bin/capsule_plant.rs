@@ -7,14 +7,14 @@ mod plant_cli;
 use anyhow::Context as _;
 use capsule_msgs::names::nodes;
 use capsule_plant_node::plant::{self, PlantOptions};
-use capsule_ros_base::{ros, ros_args};
+use capsule_ros_base::{node_main, ros_args};
 use plant_cli::{build, Cli, Plant};
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let (cli, overrides) = match ros_args::parse_node_cli::<Cli>(nodes::PLANT, |c| &mut c.ros) {
         Ok(parsed) => parsed,
-        Err(e) => return ros::exit_code("capsule_plant", Err(e)),
+        Err(e) => return node_main::exit_code("capsule_plant", Err(e)),
     };
     let built = build(&cli, &overrides).map(|(settings, core, opts)| (settings, (core, opts)));
     let would = |(core, opts): &(Plant, PlantOptions)| {
@@ -29,14 +29,14 @@ fn main() -> std::process::ExitCode {
                 .unwrap_or_default()
         )
     };
-    ros::node_main(
+    node_main::node_main(
         "capsule_plant",
         cli.check,
         built,
         would,
         |settings, (core, opts)| {
             let started = std::time::Instant::now();
-            let (stats, last) = ros::block_on(
+            let (stats, last) = node_main::block_on(
                 settings.cpu_affinity.clone().as_ref(),
                 plant::run(settings, core, opts),
             )?;

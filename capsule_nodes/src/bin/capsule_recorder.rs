@@ -7,8 +7,8 @@ use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
 use capsule_plant_node::recorder::{self, RecorderOptions};
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosOptions},
-    ros_args,
+    node_main, ros_args,
+    ros_options::{RosArgs, RosEnv, RosOptions},
 };
 use clap::Parser;
 
@@ -84,19 +84,19 @@ fn build(cli: &Cli) -> Result<(RosOptions, RecorderOptions)> {
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let cli = match ros_args::parse_cli_without_params::<Cli>(nodes::RECORDER, |c| &mut c.ros) {
         Ok(cli) => cli,
-        Err(e) => return ros::exit_code("capsule_recorder", Err(e)),
+        Err(e) => return node_main::exit_code("capsule_recorder", Err(e)),
     };
     let would = |opts: &RecorderOptions| format!(", would write {}", opts.output.display());
-    ros::node_main(
+    node_main::node_main(
         "capsule_recorder",
         cli.check,
         build(&cli),
         would,
         |settings, opts| {
-            let report = ros::block_on(
+            let report = node_main::block_on(
                 settings.cpu_affinity.clone().as_ref(),
                 recorder::run(settings, opts),
             )?;

@@ -25,7 +25,11 @@ use capsule_record::{
     messages::Message,
     types::{ServiceEventInfo, SetModeEvent},
 };
-use capsule_ros_base::ros::{self, qos, RosArgs, RosEnv, RosOptions};
+use capsule_ros_base::{
+    node_main, qos,
+    ros_options::{RosArgs, RosEnv, RosOptions},
+    signals,
+};
 use clap::{CommandFactory, FromArgMatches, Parser};
 
 /// Publish a recording back onto ROS 2 at its pace (with /clock), or re-drive the controller
@@ -71,7 +75,7 @@ struct Args {
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     // negative numbers are values (`--direction-gain -0.1`)
     let matches = Args::command().allow_negative_numbers(true).get_matches();
     let args = match Args::from_arg_matches(&matches) {
@@ -103,7 +107,7 @@ fn replay(args: Args) -> Result<()> {
         return check_controller(&args, &all);
     }
     let selected = select(&args, all)?;
-    ros::block_on(args.ros.cpu_affinity.as_ref(), publish(&args, selected))
+    node_main::block_on(args.ros.cpu_affinity.as_ref(), publish(&args, selected))
 }
 
 fn select(args: &Args, all: Vec<Message>) -> Result<Vec<Message>> {
@@ -233,7 +237,7 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
     }
     tokio::time::sleep(Duration::from_secs_f64(args.delay_s)).await;
     let first = msgs.first().map(|m| m.log_time).unwrap_or(0);
-    let shutdown = ros::shutdown_signal();
+    let shutdown = signals::shutdown_signal();
     tokio::pin!(shutdown);
     let mut loops = 0u64;
     loop {

@@ -7,8 +7,8 @@ use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller::mode::Mode;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
 use capsule_ros_base::{
-    ros::{self, RosArgs, RosEnv, RosOptions},
-    ros_args,
+    node_main, ros_args,
+    ros_options::{RosArgs, RosEnv, RosOptions},
 };
 use capsule_tools::client::{state_subscription, LifecycleClient, ModeClient, SegmentMeter};
 use clap::{Parser, Subcommand};
@@ -639,13 +639,13 @@ fn switch_name(state: u8) -> &'static str {
 }
 
 fn main() -> std::process::ExitCode {
-    ros::init_logging();
+    node_main::init_logging();
     let cli = match ros_args::parse_cli_without_params::<Cli>("capsule_ros", |c| &mut c.ros) {
         Ok(cli) => cli,
-        Err(e) => return ros::exit_code("capsule_ros", Err(e)),
+        Err(e) => return node_main::exit_code("capsule_ros", Err(e)),
     };
-    ros::exit_code(
+    node_main::exit_code(
         "capsule_ros",
-        ros::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),
+        node_main::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),
     )
 }

@@ -9,9 +9,7 @@ use capsule_msgs::std_types::{Clock, DiagnosticArray, JointState};
 use capsule_msgs::{ActuatorForce, CapsuleState};
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::{
-    conflicts::TopicRule,
-    graph::Graph,
-    ros::{qos, subscribe, types, RosOptions},
+    conflicts::TopicRule, endpoints::subscribe, graph::Graph, qos, ros_options::RosOptions, types,
 };
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -139,7 +137,7 @@ impl Endpoints {
                 crate::views::ViewSwitches::from_table(&opts.params),
                 &format!("{:?}", opts.pacing).to_ascii_lowercase(),
                 rate_hz,
-                opts.params.double(crate::plant_params::names::M1_KG),
+                opts.params.double(capsule_args::scale_settings::M1_KG.name),
             )?,
         };
         Ok((io, rules))

@@ -14,8 +14,8 @@ use capsule_msgs::std_types::{
 };
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::graph::Graph;
-use capsule_ros_base::ros::{qos, RosOptions, Wire};
 use capsule_ros_base::service::Service;
+use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions};
 use futures::{Future, StreamExt};
 use ros2_client::{MessageTypeName, Node, ServiceTypeName};
 use serde::{de::DeserializeOwned, Serialize};

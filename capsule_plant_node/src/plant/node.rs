@@ -1,4 +1,5 @@
-//! The plant node on DDS, in the phases of its life: build (recording file, endpoints,
+//! The plant node on DDS, in the phases of its life ([`NodeLife`], the skeleton both nodes
+//! share): build (recording file, endpoints,
 //! services), wait for the graph, run the sample loop on a thread of its own (the node's thread
 //! only serves: the emergency stop, the parameters, the lifecycle), finish (statistics, the
 //! recording).
@@ -13,7 +14,8 @@ use std::sync::Arc;
 use capsule_msgs::names::topics;
 use capsule_msgs::{CapsuleState, Time};
 use capsule_ros_base::error::{bail, chain, Context as _, Result};
-use capsule_ros_base::{conflicts, graph::Graph, ros::RosOptions};
+use capsule_ros_base::node_life::{self, NodeLife, Seat};
+use capsule_ros_base::{conflicts, graph::Graph, ros_options::RosOptions};
 use tokio::sync::{oneshot, Notify};
 use tracing::{info, warn};
 
@@ -25,8 +27,19 @@ use super::{InPlantRecording, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
 use crate::intra_process::{CopyCounts, Transport};
 
+/// The plant node as asked for: what [`node_life::live`] builds and runs.
+struct PlantNode<H: CapsuleHardware> {
+    settings: RosOptions,
+    core: PlantCore<H>,
+    opts: PlantOptions,
+    transport: Transport,
+}
+
 /// What the built node holds while it runs.
-struct Built {
+struct Built<H: CapsuleHardware> {
+    settings: RosOptions,
+    core: PlantCore<H>,
+    opts: PlantOptions,
     io: Endpoints,
     graph: Graph,
     conflicts: Arc<AtomicU64>,
@@ -38,6 +51,16 @@ struct Built {
         capsule_ros_base::param_services::ParamHandle,
         tokio::sync::mpsc::UnboundedReceiver<capsule_ros_base::params::ParamTable>,
     ),
+}
+
+/// What the loop leaves to finish.
+struct Ended<H: CapsuleHardware> {
+    /// What the loop's thread gave back.
+    thread: LoopEnd<H>,
+    /// Conflicts seen on the graph.
+    conflicts: Arc<AtomicU64>,
+    /// In-process: what became of the state's DDS copies.
+    copies: Option<Arc<CopyCounts>>,
 }
 
 /// Runs the plant node on DDS, in a participant of its own, until `until_s`, a lifecycle
@@ -59,76 +82,214 @@ pub async fn run_in<H: CapsuleHardware + 'static>(
     opts: PlantOptions,
     transport: Transport,
 ) -> Result<(LoopStats, CapsuleState)> {
-    let built = build(context, &settings, &core, &opts, transport)?;
-    wait_for_graph(&built, &settings, &opts).await?;
-    let copies = built.io.copies();
-    let (ended, conflicts) = run_loop(built, core, opts).await?;
-    finish(ended, &conflicts, copies).await
+    let node = PlantNode {
+        settings,
+        core,
+        opts,
+        transport,
+    };
+    node_life::live(node, context).await
 }
 
-/// Build: the recording's file first (an unwritable place is an error before anything else
-/// starts), then DDS: endpoints, conflict watch, emergency stop, parameters, lifecycle.
-fn build<H: CapsuleHardware>(
-    context: Option<&ros2_client::Context>,
-    settings: &RosOptions,
-    core: &PlantCore<H>,
-    opts: &PlantOptions,
-    transport: Transport,
-) -> Result<Built> {
-    if opts.joint_commands && opts.pacing == Pacing::Lockstep {
-        bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
+    type Built = Built<H>;
+    type Ended = Ended<H>;
+    type Outcome = (LoopStats, CapsuleState);
+
+    /// Build: the recording's file first (an unwritable place is an error before anything else
+    /// starts), then DDS: endpoints, conflict watch, emergency stop, parameters, lifecycle.
+    fn build(self, context: Option<&ros2_client::Context>) -> Result<Built<H>> {
+        let PlantNode {
+            settings,
+            core,
+            opts,
+            transport,
+        } = self;
+        if opts.joint_commands && opts.pacing == Pacing::Lockstep {
+            bail!("JointState commands need real-time pacing: in lock-step none answers a particular sample");
+        }
+        let file = opts
+            .record
+            .as_ref()
+            .map(|r| InPlantRecording::create_file(r, &settings))
+            .transpose()?;
+        let Seat {
+            context,
+            mut node,
+            graph,
+            composed,
+        } = Seat::take(context, &settings)?;
+        let (io, rules) =
+            Endpoints::create(&mut node, &settings, &graph, &opts, core.rate_hz, transport)?;
+        let conflicts = conflicts::watch(graph.clone(), rules);
+        crate::emergency_stop::serve(
+            &mut node,
+            &graph,
+            &settings,
+            core.emergency_stop(),
+            core.stopper(),
+        )?;
+        // ROS parameters (read-only here): served by their own task, never by the sample loop
+        let params = capsule_ros_base::param_services::serve(
+            &context,
+            &mut node,
+            &graph,
+            &settings,
+            opts.params.clone(),
+            capsule_ros_base::params::no_rules,
+            || Time::from_nanos(capsule_record::writer::now_ns() as i64),
+        )?;
+        let (lifecycle, requests) = lifecycle_services::serve(&mut node, &graph, &settings)?;
+        let recording = match (file, &opts.record) {
+            (Some(rec), Some(r)) if composed => {
+                Some(InPlantRecording::start_apart(rec, r, &settings)?)
+            }
+            (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, &settings)?),
+            _ => None,
+        };
+        announce(&settings, &opts, core.rate_hz);
+        Ok(Built {
+            settings,
+            core,
+            opts,
+            io,
+            graph,
+            conflicts,
+            lifecycle,
+            control: LoopControl {
+                halt: Arc::default(),
+                woken: Arc::new(Notify::new()),
+                requests,
+            },
+            recording,
+            _params: params,
+        })
     }
-    let file = opts
-        .record
-        .as_ref()
-        .map(|r| InPlantRecording::create_file(r, settings))
-        .transpose()?;
-    let composed = context.is_some();
-    let context = match context {
-        Some(c) => c.clone(),
-        None => settings.context()?,
-    };
-    let (mut node, graph) = settings.loop_node(&context)?;
-    let (io, rules) =
-        Endpoints::create(&mut node, settings, &graph, opts, core.rate_hz, transport)?;
-    let conflicts = conflicts::watch(graph.clone(), rules);
-    crate::emergency_stop::serve(
-        &mut node,
-        &graph,
-        settings,
-        core.emergency_stop(),
-        core.stopper(),
-    )?;
-    // ROS parameters (read-only here): served by their own task, never by the sample loop
-    let params = capsule_ros_base::param_services::serve(
-        &context,
-        &mut node,
-        &graph,
-        settings,
-        opts.params.clone(),
-        capsule_ros_base::params::no_rules,
-        || Time::from_nanos(capsule_record::writer::now_ns() as i64),
-    )?;
-    let (lifecycle, requests) = lifecycle_services::serve(&mut node, &graph, settings)?;
-    let recording = match (file, &opts.record) {
-        (Some(rec), Some(r)) if composed => Some(InPlantRecording::start_apart(rec, r, settings)?),
-        (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, settings)?),
-        _ => None,
-    };
-    announce(settings, opts, core.rate_hz);
-    Ok(Built {
-        io,
-        graph,
-        conflicts,
-        lifecycle,
-        control: LoopControl {
-            halt: Arc::default(),
-            woken: Arc::new(Notify::new()),
-            requests,
-        },
-        recording,
-        _params: params,
-    })
+
+    /// Wait for the graph: `--wait-subscribers` readers of the state before the first sample.
+    async fn wait_for_graph(built: &Built<H>) -> Result<()> {
+        let (settings, opts) = (&built.settings, &built.opts);
+        if opts.wait_subscribers == 0 {
+            return Ok(());
+        }
+        let writer = built.io.state_guid;
+        if !built
+            .graph
+            .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
+            .await
+        {
+            bail!(
+                "only {} of {} subscribers matched {} within {:?}",
+                built.graph.subscribers(writer),
+                opts.wait_subscribers,
+                settings.resolve_name(topics::STATE),
+                opts.startup_timeout
+            );
+        }
+        // Our writer has matched them; their readers match our writer when they process our
+        // announcement, which can be a moment later, and a reader that has not yet matched
+        // drops what it gets. Give them that moment, or the first samples miss the recorder.
+        tokio::time::sleep(MATCH_GRACE).await;
+        info!("{} subscribers matched: starting", opts.wait_subscribers);
+        Ok(())
+    }
+
+    /// Run the loop: on a thread of its own, started unconfigured; `--autostart` configures and
+    /// activates it; a signal ends it.
+    async fn run_loop(built: Built<H>) -> Result<Ended<H>> {
+        let Built {
+            core,
+            opts,
+            io,
+            conflicts,
+            lifecycle,
+            control,
+            recording,
+            _params,
+            ..
+        } = built;
+        let (halt, woken) = (control.halt.clone(), control.woken.clone());
+        let stop = move || {
+            halt.store(true, Ordering::SeqCst);
+            woken.notify_one();
+        };
+        let autostart = opts.autostart;
+        let copies = io.copies();
+        let mut ended = spawn_loop(core, io, opts, control, recording)?;
+        if autostart {
+            if let Err(e) = lifecycle.autostart().await {
+                stop();
+                let _ = (&mut ended).await;
+                return Err(e);
+            }
+        }
+        let shutdown = capsule_ros_base::signals::shutdown_signal();
+        tokio::pin!(shutdown);
+        let thread = tokio::select! {
+            done = &mut ended => done.context("the sample loop's thread ended without a word")?,
+            sig = &mut shutdown => {
+                match sig {
+                    Ok(s) => info!("{s}: shutting down"),
+                    Err(e) => warn!("{}", chain(&e)),
+                }
+                stop();
+                ended.await.context("the sample loop's thread ended without a word")?
+            }
+        };
+        Ok(Ended {
+            thread,
+            conflicts,
+            copies,
+        })
+    }
+
+    /// Finish: the last sample's way out, the statistics, the recording.
+    async fn finish(ended: Ended<H>) -> Result<(LoopStats, CapsuleState)> {
+        let Ended {
+            thread: (result, mut core, recording, io),
+            conflicts,
+            copies,
+        } = ended;
+        // DDS sends from its own thread: let the last sample leave (and be repaired) before its
+        // writer and the participant go
+        tokio::time::sleep(MATCH_GRACE).await;
+        // in-process, this waits for the DDS copies to go out: their counts are final after it
+        drop(io);
+        if let Some(c) = copies {
+            let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
+            core.stats.dds_copies = Some(super::DdsCopyStats {
+                published: load(&c.published),
+                unread: load(&c.unread),
+                dropped: load(&c.dropped),
+            });
+            info!("state's DDS copies: {}", c.describe());
+        }
+        core.stats.finish();
+        core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
+        let stats = core.stats.clone();
+        match stats.percentiles() {
+            Some((p50, p99, max)) => info!(
+                "loop: {} samples ({} before the first answer), {} lost, {} answered late, {} re-sent, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused, {} saturated at {} N",
+                stats.published,
+                stats.before_first_answer,
+                stats.unanswered,
+                stats.late_answers,
+                stats.resent,
+                p50 * 1e3,
+                p99 * 1e3,
+                max * 1e3,
+                core.rejected(),
+                stats.saturated_commands,
+                core.max_force_n()
+            ),
+            None => info!("loop: {} samples, no command answered", stats.published),
+        }
+        let result = match recording {
+            Some(r) => r.finish(result),
+            None => result,
+        };
+        result.map(|()| (stats, core.state()))
+    }
 }
 
 fn announce(settings: &RosOptions, opts: &PlantOptions, rate_hz: f64) {
@@ -155,87 +316,14 @@ fn announce(settings: &RosOptions, opts: &PlantOptions, rate_hz: f64) {
     }
 }
 
-/// Wait for the graph: `--wait-subscribers` readers of the state before the first sample.
-async fn wait_for_graph(built: &Built, settings: &RosOptions, opts: &PlantOptions) -> Result<()> {
-    if opts.wait_subscribers == 0 {
-        return Ok(());
-    }
-    let writer = built.io.state_guid;
-    if !built
-        .graph
-        .wait_subscribers(writer, opts.wait_subscribers, opts.startup_timeout)
-        .await
-    {
-        bail!(
-            "only {} of {} subscribers matched {} within {:?}",
-            built.graph.subscribers(writer),
-            opts.wait_subscribers,
-            settings.resolve_name(topics::STATE),
-            opts.startup_timeout
-        );
-    }
-    // Our writer has matched them; their readers match our writer when they process our
-    // announcement, which can be a moment later, and a reader that has not yet matched
-    // drops what it gets. Give them that moment, or the first samples miss the recorder.
-    tokio::time::sleep(MATCH_GRACE).await;
-    info!("{} subscribers matched: starting", opts.wait_subscribers);
-    Ok(())
-}
-
 /// What the loop's thread gives back: with the endpoints, which must outlive the grace after
 /// the last sample (a writer that goes with the thread takes its unsent samples with it).
-type Ended<H> = (
+type LoopEnd<H> = (
     Result<()>,
     PlantCore<H>,
     Option<InPlantRecording>,
     Endpoints,
 );
-
-/// Run the loop: on a thread of its own, started unconfigured; `--autostart` configures and
-/// activates it; a signal ends it.
-async fn run_loop<H: CapsuleHardware + 'static>(
-    built: Built,
-    core: PlantCore<H>,
-    opts: PlantOptions,
-) -> Result<(Ended<H>, Arc<AtomicU64>)> {
-    let Built {
-        io,
-        conflicts,
-        lifecycle,
-        control,
-        recording,
-        _params,
-        ..
-    } = built;
-    let (halt, woken) = (control.halt.clone(), control.woken.clone());
-    let stop = move || {
-        halt.store(true, Ordering::SeqCst);
-        woken.notify_one();
-    };
-    let autostart = opts.autostart;
-    let mut ended = spawn_loop(core, io, opts, control, recording)?;
-    if autostart {
-        if let Err(e) = lifecycle.autostart().await {
-            stop();
-            let _ = (&mut ended).await;
-            return Err(e);
-        }
-    }
-    let shutdown = capsule_ros_base::ros::shutdown_signal();
-    tokio::pin!(shutdown);
-    let ended = tokio::select! {
-        done = &mut ended => done.context("the sample loop's thread ended without a word")?,
-        sig = &mut shutdown => {
-            match sig {
-                Ok(s) => info!("{s}: shutting down"),
-                Err(e) => warn!("{}", chain(&e)),
-            }
-            stop();
-            ended.await.context("the sample loop's thread ended without a word")?
-        }
-    };
-    Ok((ended, conflicts))
-}
 
 /// Starts the sample loop's thread (a runtime of its own: nothing it does waits on the node's).
 fn spawn_loop<H: CapsuleHardware + 'static>(
@@ -244,7 +332,7 @@ fn spawn_loop<H: CapsuleHardware + 'static>(
     opts: PlantOptions,
     mut control: LoopControl,
     mut rec: Option<InPlantRecording>,
-) -> Result<oneshot::Receiver<Ended<H>>> {
+) -> Result<oneshot::Receiver<LoopEnd<H>>> {
     let (tx, rx) = oneshot::channel();
     std::thread::Builder::new()
         .name("capsule_plant_loop".into())
@@ -306,51 +394,4 @@ async fn drive<H: CapsuleHardware>(
             return Ok(());
         }
     }
-}
-
-/// Finish: the last sample's way out, the statistics, the recording.
-async fn finish<H: CapsuleHardware>(
-    (result, mut core, recording, io): Ended<H>,
-    conflicts: &AtomicU64,
-    copies: Option<Arc<CopyCounts>>,
-) -> Result<(LoopStats, CapsuleState)> {
-    // DDS sends from its own thread: let the last sample leave (and be repaired) before its
-    // writer and the participant go
-    tokio::time::sleep(MATCH_GRACE).await;
-    // in-process, this waits for the DDS copies to go out: their counts are final after it
-    drop(io);
-    if let Some(c) = copies {
-        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
-        core.stats.dds_copies = Some(super::DdsCopyStats {
-            published: load(&c.published),
-            unread: load(&c.unread),
-            dropped: load(&c.dropped),
-        });
-        info!("state's DDS copies: {}", c.describe());
-    }
-    core.stats.finish();
-    core.stats.graph_conflicts = conflicts.load(Ordering::Relaxed);
-    let stats = core.stats.clone();
-    match stats.percentiles() {
-        Some((p50, p99, max)) => info!(
-            "loop: {} samples ({} before the first answer), {} lost, {} answered late, {} re-sent, latency p50 {:.3} ms p99 {:.3} ms max {:.3} ms, {} commands refused, {} saturated at {} N",
-            stats.published,
-            stats.before_first_answer,
-            stats.unanswered,
-            stats.late_answers,
-            stats.resent,
-            p50 * 1e3,
-            p99 * 1e3,
-            max * 1e3,
-            core.rejected(),
-            stats.saturated_commands,
-            core.max_force_n()
-        ),
-        None => info!("loop: {} samples, no command answered", stats.published),
-    }
-    let result = match recording {
-        Some(r) => r.finish(result),
-        None => result,
-    };
-    result.map(|()| (stats, core.state()))
 }

@@ -88,7 +88,7 @@ impl InPlantRecording {
     /// Creates the file first (an unwritable place is an error before anything else starts).
     pub(super) fn create_file(
         r: &InPlantRecordOptions,
-        settings: &capsule_ros_base::ros::RosOptions,
+        settings: &capsule_ros_base::ros_options::RosOptions,
     ) -> Result<GraphRecording> {
         GraphRecording::create(
             &r.output,
@@ -105,7 +105,7 @@ impl InPlantRecording {
     pub(super) fn start_apart(
         rec: GraphRecording,
         r: &InPlantRecordOptions,
-        settings: &capsule_ros_base::ros::RosOptions,
+        settings: &capsule_ros_base::ros_options::RosOptions,
     ) -> Result<InPlantRecording> {
         let mut apart = settings.clone();
         apart.node_name = format!("{}_recording", settings.node_name);
@@ -121,9 +121,9 @@ impl InPlantRecording {
         rec: GraphRecording,
         r: &InPlantRecordOptions,
         node: &mut ros2_client::Node,
-        settings: &capsule_ros_base::ros::RosOptions,
+        settings: &capsule_ros_base::ros_options::RosOptions,
     ) -> Result<InPlantRecording> {
-        use capsule_ros_base::ros::{qos, subscribe};
+        use capsule_ros_base::{endpoints::subscribe, qos};
         // reliable, deep: status and service events are few and must all be kept
         let deep = qos::data().history(ros2_client::qos::History::KeepLast { depth: 1000 });
         let specs = crate::recorder::graph_topics(&r.controller_node);

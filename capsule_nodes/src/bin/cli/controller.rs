@@ -7,13 +7,11 @@ use std::time::Duration;
 use anyhow::Result;
 use capsule_args::{ranges, scene_file::SceneFile};
 use capsule_controller_node::{
-    controller::ControllerOptions,
-    controller_params,
-    controller_settings::{self, ControllerFlags},
+    controller::ControllerOptions, controller_params, controller_settings::ControllerFlags,
 };
 use capsule_ros_base::{
-    ros::{RosArgs, RosEnv, RosOptions},
     ros_args,
+    ros_options::{RosArgs, RosEnv, RosOptions},
 };
 use clap::Parser;
 
@@ -56,17 +54,13 @@ pub fn build(
     };
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
     // the settings table's precedence: default, scene, flag; then -p / --params-file
-    let mut params = controller_params::start_table(
+    let (params, core) = controller_params::start(
         &cli.settings,
         file.as_ref(),
         cli.scene.as_deref().unwrap_or_default(),
         settings.use_sim_time,
-    )
-    .map_err(anyhow::Error::msg)?;
-    controller_settings::start_config(&params)?;
-    controller_params::rules(&mut params).map_err(|e| anyhow::anyhow!("--mode/--gain: {e}"))?;
-    ros_args::apply_overrides(&mut params, overrides, controller_params::rules)?;
-    let core = controller_params::core_from(&params);
+        overrides,
+    )?;
     Ok((
         settings,
         ControllerOptions {

@@ -18,8 +18,8 @@ use capsule_plant_node::{
     recorder, views,
 };
 use capsule_ros_base::{
-    ros::{RosArgs, RosEnv, RosOptions},
     ros_args,
+    ros_options::{RosArgs, RosEnv, RosOptions},
 };
 use clap::Parser;
 
