@@ -27,6 +27,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use tracing::{info, warn};
 
 use crate::{
+    controller_actions::{ControllerActions, CoreAccess},
     controller_core::ControllerCore,
     controller_diagnostics::ControllerDiag,
     controller_params::{self, LiveSync},
@@ -93,9 +94,11 @@ pub async fn run_in(
     )?;
     let in_process = matches!(transport, Transport::InProcess(_));
     let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
+    let actions = ControllerActions::build(&settings, &mut node, &graph)?;
     let handlers = Arc::new(Mutex::new(Handlers::new(
         opts.core, handle, clock, &settings,
     )));
+    let actions = tokio::spawn(actions.run(NodeCore(handlers.clone())));
     let mut copies = None;
     if let Transport::InProcess(link) = transport {
         let (answer, counts) = outputs.in_process(&settings, graph, &handlers)?;
@@ -119,11 +122,24 @@ pub async fn run_in(
         inputs.switch_status = Some(rx);
     }
     let stopped = run_loop(inputs, &mut outputs, &handlers, opts.status_period, end).await;
+    actions.abort();
     if let Some(c) = copies {
         info!("force's DDS copies: {}", c.describe());
     }
     drop(node);
     stopped
+}
+
+/// The actions' hook into the node: its core and its ROS time, through the handlers.
+struct NodeCore(Arc<Mutex<Handlers>>);
+
+impl CoreAccess for NodeCore {
+    fn with_core<T>(&self, f: impl FnOnce(&mut ControllerCore) -> T) -> T {
+        f(&mut lock(&self.0).core)
+    }
+    fn now(&self) -> capsule_msgs::Time {
+        lock(&self.0).clock.now()
+    }
 }
 
 /// The handlers, also after a panic elsewhere (the link names it and answers nothing more).
