@@ -8,10 +8,11 @@ capsule_msgs::action::dds_::..._) and action_msgs' (GoalStatusArray, CancelGoal)
 
 Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   action_peer.py move DIST [--tolerance M] [--timeout S] [--cancel-after S]
-                 [--preempt DIST2 --preempt-after S] [--drift-s S]
+                 [--preempt DIST2 --preempt-after S] [--drift-s S [--period-s T]]
         send a Move goal, read its feedback and statuses, cancel it or send a second goal
-        after a while if asked, wait for the result(s); with --drift-s, read the capsule's
-        position for that long after the end. One JSON line per goal.
+        after a while if asked, wait for the result(s); with --drift-s, the capsule's travel
+        over that long after the end, on the section (drive period T, the control point's by
+        default). One JSON line per goal.
   action_peer.py refuse DIST...    send each goal; one JSON line each: accepted or not
   action_peer.py switch --gain K --pulse-periods N --target-period P --max-tries T
         a SwitchAttractor goal, its feedback and result; one JSON line
@@ -89,7 +90,7 @@ class ActionClient:
         self.feedback = cp.reader(dp, f"{self.action}/_action/feedback",
                                   self.t[f"{name}_FeedbackMessage"], cp.reliable(depth=64))
         self.status = cp.reader(dp, f"{self.action}/_action/status", self.t["GoalStatusArray"],
-                                cp.reliable(Policy.Durability.TransientLocal, depth=1))
+                                cp.reliable(Policy.Durability.TransientLocal, depth=16))
         self.statuses = {}  # goal id bytes -> statuses seen, in order, repeats collapsed
         self.feedbacks = {}  # goal id bytes -> (time received, feedback)
         self.lock = threading.Lock()
@@ -156,20 +157,26 @@ def goal_report(client, gid, box, sent_at, extra=None):
     return out
 
 
-def drift(dp, seconds):
-    """The capsule's net travel over SECONDS: the mean position over the last 5 drive periods
-    (at the control point 0.45 s) minus the mean over the first 5 (the intra-period swing
-    averages out)."""
+def drift(dp, seconds, period_s):
+    """The capsule's net travel over SECONDS, read on the Poincare section: the position at the
+    first sample of each drive period (PERIOD_S, by the samples' stamps), last minus first (the
+    orbit's swing within a period, 1.5 mm at the control point, cancels out)."""
     states = cp.reader(dp, "capsule/state", cp.T.CapsuleState, cp.reliable(depth=256))
-    got = []
+    first = {}  # period index -> (phase, position)
     deadline = time.time() + seconds
     while time.time() < deadline:
-        got.extend(x.capsule_position for x in cp.valid(states.take(N=256)))
+        for x in cp.valid(states.take(N=256)):
+            t = x.header.stamp.sec + 1e-9 * x.header.stamp.nanosec
+            k, phase = divmod(t, period_s)
+            if k not in first or phase < first[k][0]:
+                first[k] = (phase, x.capsule_position)
         time.sleep(0.01)
-    n = min(450, len(got) // 2)
-    if n < 50:
-        cp.fail(f"only {len(got)} state samples in {seconds} s")
-    return sum(got[-n:]) / n - sum(got[:n]) / n
+    # whole periods only: drop the first and the last, which may have started before or ended
+    # after the window
+    ks = sorted(first)[1:-1]
+    if len(ks) < 3:
+        cp.fail(f"only {len(ks)} drive periods seen in {seconds} s")
+    return first[ks[-1]][1] - first[ks[0]][1]
 
 
 def cmd_move(args):
@@ -208,7 +215,7 @@ def cmd_move(args):
         c.pump()
         time.sleep(0.02)
     if args.drift_s:
-        extra["drift_m"] = drift(dp, args.drift_s)
+        extra["drift_m"] = drift(dp, args.drift_s, args.period_s)
     print(json.dumps(goal_report(c, gid, boxes[0], t0, extra)), flush=True)
     if second:
         print(json.dumps(goal_report(c, second[0], boxes[1], second[1])), flush=True)
@@ -256,6 +263,8 @@ def main():
     a = sub.add_parser("move")
     a.add_argument("distance", type=float)
     cp.options(a, float, tolerance=0.0, goal_timeout=0.0, drift_s=0.0)
+    # the control point's drive period: 2 pi / (1.1 sqrt(200 / 0.05)) s
+    cp.options(a, float, period_s=2 * math.pi / (1.1 * math.sqrt(200 / 0.05)))
     cp.options(a, float, cancel_after=None, preempt=None, preempt_after=0.5)
     a = sub.add_parser("refuse")
     a.add_argument("distances", nargs="+")
