@@ -135,7 +135,11 @@ impl ControllerActions {
                 };
                 match started {
                     Err(why) => {
-                        warn!("{}: goal {} m refused: {why}", self.moves.name(), goal.distance_m);
+                        warn!(
+                            "{}: goal {} m refused: {why}",
+                            self.moves.name(),
+                            goal.distance_m
+                        );
                         self.moves.refuse(req);
                     }
                     Ok(replaced) => {
@@ -271,19 +275,16 @@ impl ControllerActions {
     fn finish_switch(&mut self, core: &impl CoreAccess, why: &str) {
         if let Some(r) = self.switching.take() {
             let result = self.switch_result(core, r, format!("aborted: {why}"));
-            self.switches.finish(r.id, GoalStatus::STATUS_ABORTED, result);
+            self.switches
+                .finish(r.id, GoalStatus::STATUS_ABORTED, result);
         }
     }
 
     /// Reports the switch goal's end, once the core's switch is done or gone.
     fn end_switch(&mut self, core: &impl CoreAccess) {
         let Some(r) = self.switching else { return };
-        let (mode, state) = core.with_core(|c| {
-            (
-                c.mode(),
-                c.attractor_switch().map(|s| s.state().code()),
-            )
-        });
+        let (mode, state) =
+            core.with_core(|c| (c.mode(), c.attractor_switch().map(|s| s.state().code())));
         let status = match state {
             Some(ControllerStatus::SWITCH_SUCCEEDED) => GoalStatus::STATUS_SUCCEEDED,
             Some(ControllerStatus::SWITCH_FAILED) => GoalStatus::STATUS_ABORTED,

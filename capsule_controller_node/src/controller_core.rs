@@ -215,7 +215,11 @@ impl ControllerCore {
         // a new drive ends an attractor switch (its orbits are gone) as a new mode does
         if (mode, kp) != self.settled_mode() || (drive_changed && self.running_switch().is_some()) {
             self.pending.clear();
-            self.change_mode_for(mode, kp, "the mode or gain parameter changed during the goal");
+            self.change_mode_for(
+                mode,
+                kp,
+                "the mode or gain parameter changed during the goal",
+            );
         }
     }
 
@@ -325,7 +329,9 @@ impl ControllerCore {
                         reason: format!("{mode} with k_p = {}", short(kp)),
                     }
                 } else {
-                    self.abort_move(&format!("set_mode {mode} (scheduled) during the goal ended it"));
+                    self.abort_move(&format!(
+                        "set_mode {mode} (scheduled) during the goal ended it"
+                    ));
                     self.pending.retain(|(t, _, _)| *t < at);
                     self.pending.push((at, mode, kp));
                     SetModeResponse {
@@ -847,9 +853,17 @@ mod tests {
             c.start_move(bad).err().as_deref(),
             Some("distance_m = NaN is not finite")
         );
-        assert_eq!((c.mode(), c.law().kp), (Mode::Forward, 0.2), "refused: unchanged");
+        assert_eq!(
+            (c.mode(), c.law().kp),
+            (Mode::Forward, 0.2),
+            "refused: unchanged"
+        );
         assert!(matches!(c.start_move(goal), Ok(None)));
-        assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0), "OFF until the first section");
+        assert_eq!(
+            (c.mode(), c.law().kp),
+            (Mode::Off, 0.0),
+            "OFF until the first section"
+        );
         assert!(c.move_progress().is_some());
         // a new goal preempts the running one, which ends aborted saying why
         let old = c.start_move(goal).ok().flatten();

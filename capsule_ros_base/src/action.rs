@@ -17,15 +17,15 @@ use std::time::Instant;
 
 use capsule_msgs::actions::{GoalStatus, Uuid};
 use capsule_msgs::Time;
-use ros2_client::action::{
-    ActionServer, ActionServerQosPolicies, CancelGoalRequest, CancelGoalResponse, GoalId,
-    GoalInfo, GoalStatusEnum,
-};
-use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
-use ros2_client::action::{GetResultResponse, SendGoalResponse};
-use ros2_client::{builtin_interfaces, ActionTypeName, Node, RmwRequestId};
-use ros2_client::qos::{Durability, History};
 use capsule_record::cdr;
+use ros2_client::action::{
+    ActionServer, ActionServerQosPolicies, CancelGoalRequest, CancelGoalResponse, GoalId, GoalInfo,
+    GoalStatusEnum,
+};
+use ros2_client::action::{GetResultResponse, SendGoalResponse};
+use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
+use ros2_client::qos::{Durability, History};
+use ros2_client::{builtin_interfaces, ActionTypeName, Node, RmwRequestId};
 use serde::{de::DeserializeOwned, Serialize};
 use tracing::warn;
 
@@ -287,9 +287,7 @@ where
     /// Ends goal `id` with a terminal status and its result: the status topic says so, and
     /// every `get_result` waiting for it (and every later one, until it expires) gets it.
     pub fn finish(&mut self, id: GoalId, status: i8, result: R) {
-        let waiting = self
-            .goals
-            .finish(id, status, result.clone(), self.steady());
+        let waiting = self.goals.finish(id, status, result.clone(), self.steady());
         self.publish_status();
         for req in waiting {
             self.answer_result(req, status, result.clone());
@@ -360,7 +358,8 @@ where
 /// The goal id and stamp of a cancel request. Its field is crate-private in ros2-client
 /// 0.12.1: read through its wire form (CDR) as capsule_msgs' `CancelGoalRequest`.
 fn read_cancel(cancel: &CancelGoalRequest) -> Option<(GoalId, Time)> {
-    let ours: capsule_msgs::actions::CancelGoalRequest = cdr::decode(&cdr::encode(cancel).ok()?).ok()?;
+    let ours: capsule_msgs::actions::CancelGoalRequest =
+        cdr::decode(&cdr::encode(cancel).ok()?).ok()?;
     let info = ours.goal_info;
     Some((goal_id_from_bytes(info.goal_id)?, info.stamp))
 }

@@ -108,8 +108,9 @@ impl<K: Copy + PartialEq, R: Clone, Q> GoalTable<K, R, Q> {
             }
             _ => return Vec::new(),
         }
-        let (answer, keep): (Vec<_>, Vec<_>) =
-            std::mem::take(&mut self.waiting).into_iter().partition(|(k, _)| *k == id);
+        let (answer, keep): (Vec<_>, Vec<_>) = std::mem::take(&mut self.waiting)
+            .into_iter()
+            .partition(|(k, _)| *k == id);
         self.waiting = keep;
         answer.into_iter().map(|(_, q)| q).collect()
     }

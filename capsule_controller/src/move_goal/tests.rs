@@ -45,15 +45,13 @@ fn bad_goals_are_refused_with_the_field_and_the_reason() {
             .map(|e| e.to_string())
             .unwrap_or_default()
     };
-    assert_eq!(
-        refused(request(f64::NAN)),
-        "distance_m = NaN is not finite"
-    );
+    assert_eq!(refused(request(f64::NAN)), "distance_m = NaN is not finite");
     assert_eq!(
         refused(request(f64::NEG_INFINITY)),
         "distance_m = -inf is not finite"
     );
-    assert!(refused(request(10.5)).starts_with("distance_m = 10.5 is beyond the configured limit of 10 m"));
+    assert!(refused(request(10.5))
+        .starts_with("distance_m = 10.5 is beyond the configured limit of 10 m"));
     for tolerance_m in [-1e-3, f64::NAN] {
         assert!(refused(MoveRequest {
             tolerance_m,
@@ -107,7 +105,11 @@ fn the_first_period_is_off_and_the_travel_counts_from_the_first_section() {
     assert_eq!(run.sample(7.08, 1.2), 0.0);
     assert_eq!(run.progress().travelled_m, 0.0);
     let g = run.sample(7.1 + 1e-6, 1.3);
-    assert_eq!(g, MoveConfig::DEFAULT.cruise_gain, "cruising far from the target");
+    assert_eq!(
+        g,
+        MoveConfig::DEFAULT.cruise_gain,
+        "cruising far from the target"
+    );
     run.sample(7.15, 1.301);
     assert!((run.progress().travelled_m - 0.001).abs() < 1e-12);
     assert!((run.progress().remaining_m - 0.009).abs() < 1e-12);

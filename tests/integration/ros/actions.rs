@@ -7,7 +7,10 @@ use super::harness::{assert_contains, json_number, netns_with_peer};
 
 /// The peer's JSON line for a goal whose message starts with `prefix` (`"message": "reached`).
 fn goal_line<'a>(lines: &[&'a str], i: usize) -> &'a str {
-    lines.get(i).copied().unwrap_or_else(|| panic!("no goal line {i}: {lines:?}"))
+    lines
+        .get(i)
+        .copied()
+        .unwrap_or_else(|| panic!("no goal line {i}: {lines:?}"))
 }
 
 #[test]
@@ -103,7 +106,11 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
     // get_result of a goal never sent: UNKNOWN, at once
     assert_contains(goal_line(&goals, 6), &["\"status\": \"UNKNOWN\""]);
     // our own client too; a NaN refused before anything is sent
-    run.assert_stdout(&["result: status=SUCCEEDED reached=true", "cli rc=0", "cli nan rc=2"]);
+    run.assert_stdout(&[
+        "result: status=SUCCEEDED reached=true",
+        "cli rc=0",
+        "cli nan rc=2",
+    ]);
 }
 
 #[test]
