@@ -8,10 +8,10 @@ capsule_msgs::action::dds_::..._) and action_msgs' (GoalStatusArray, CancelGoal)
 
 Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
   action_peer.py move DIST [--tolerance M] [--timeout S] [--cancel-after S]
-                 [--preempt DIST2 --preempt-after S] [--drift-s S [--period-s T]]
+                 [--preempt DIST2 --preempt-after S] [--drift-s S [--drift-after W] [--period-s T]]
         send a Move goal, read its feedback and statuses, cancel it or send a second goal
         after a while if asked, wait for the result(s); with --drift-s, the capsule's travel
-        over that long after the end, on the section (drive period T, the control point's by
+        over that long from W s after the end, on the section (drive period T, the control point's by
         default). One JSON line per goal.
   action_peer.py refuse DIST...    send each goal; one JSON line each: accepted or not
   action_peer.py switch --gain K --pulse-periods N --target-period P --max-tries T
@@ -171,11 +171,11 @@ def drift(dp, seconds, period_s):
             if k not in first or phase < first[k][0]:
                 first[k] = (phase, x.capsule_position)
         time.sleep(0.01)
-    # whole periods only: drop the first and the last, which may have started before or ended
-    # after the window
-    ks = sorted(first)[1:-1]
+    # periods whose first sample came within 2 ms of the period's start (a lost sample there
+    # would read the swing, up to 1.5 mm, as travel)
+    ks = [k for k in sorted(first) if first[k][0] < 0.002]
     if len(ks) < 3:
-        cp.fail(f"only {len(ks)} drive periods seen in {seconds} s")
+        cp.fail(f"only {len(ks)} drive periods seen from their start in {seconds} s")
     return first[ks[-1]][1] - first[ks[0]][1]
 
 
@@ -215,6 +215,7 @@ def cmd_move(args):
         c.pump()
         time.sleep(0.02)
     if args.drift_s:
+        time.sleep(args.drift_after)
         extra["drift_m"] = drift(dp, args.drift_s, args.period_s)
     print(json.dumps(goal_report(c, gid, boxes[0], t0, extra)), flush=True)
     if second:
@@ -262,7 +263,7 @@ def main():
     sub = p.add_subparsers(dest="cmd", required=True)
     a = sub.add_parser("move")
     a.add_argument("distance", type=float)
-    cp.options(a, float, tolerance=0.0, goal_timeout=0.0, drift_s=0.0)
+    cp.options(a, float, tolerance=0.0, goal_timeout=0.0, drift_s=0.0, drift_after=0.0)
     # the control point's drive period: 2 pi / (1.1 sqrt(200 / 0.05)) s
     cp.options(a, float, period_s=2 * math.pi / (1.1 * math.sqrt(200 / 0.05)))
     cp.options(a, float, cancel_after=None, preempt=None, preempt_after=0.5)
