@@ -321,13 +321,12 @@ impl MoveRun {
         if crossed {
             self.on_section(index, x2_m);
         }
-        if self.phase != Phase::Done && self.request.timeout_s > 0.0 {
-            if t_s - t0 >= self.request.timeout_s {
-                self.end(MoveEnd::Aborted(format!(
-                    "timeout: {} s passed",
-                    short(self.request.timeout_s)
-                )));
-            }
+        let timed_out = self.request.timeout_s > 0.0 && t_s - t0 >= self.request.timeout_s;
+        if self.phase != Phase::Done && timed_out {
+            self.end(MoveEnd::Aborted(format!(
+                "timeout: {} s passed",
+                short(self.request.timeout_s)
+            )));
         }
         self.kp
     }

@@ -89,7 +89,7 @@ impl ControllerActions {
     pub async fn run(mut self, core: impl CoreAccess) {
         let mut tick = tokio::time::interval(POLL);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        let mut n: u32 = 0;
+        let mut until_feedback = FEEDBACK_EVERY;
         loop {
             tick.tick().await;
             self.read_estop(&core);
@@ -101,8 +101,9 @@ impl ControllerActions {
             }
             self.end_moves(&core);
             self.end_switch(&core);
-            n = n.wrapping_add(1);
-            if n % FEEDBACK_EVERY == 0 {
+            until_feedback -= 1;
+            if until_feedback == 0 {
+                until_feedback = FEEDBACK_EVERY;
                 self.feedback(&core);
             }
         }
