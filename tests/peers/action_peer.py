@@ -187,6 +187,7 @@ def cmd_move(args):
     gid, accepted = c.send_goal(**goal)
     if not accepted:
         cp.fail(f"goal {goal} refused")
+    print("action_peer: goal accepted", file=sys.stderr, flush=True)
     boxes = [{}]
     threading.Thread(target=c.result, args=(gid, boxes[0]), daemon=True).start()
     extra = {}

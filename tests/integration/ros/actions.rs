@@ -119,7 +119,8 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
 #[test]
 fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     // the goal is accepted while the plant is configured but inactive (lock-step: sim time
-    // stands still), so both runs start it at the same sample
+    // stands still), and the plant activated once the peer saw it accepted, so both runs start
+    // it at the same sample
     let run = netns_with_peer(
         150,
         r#"
@@ -128,8 +129,8 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
           start_controller --use-sim-time
           start_plant --pacing lockstep --autostart false
           $B/capsule_ros lifecycle-set /capsule_plant configure || exit 1
-          python3 "$ROOT/tests/peers/action_peer.py" move 0.01 > $TMP/r$i.json & R=$!
-          sleep 2
+          python3 "$ROOT/tests/peers/action_peer.py" move 0.01 > $TMP/r$i.json 2> $TMP/e$i & R=$!
+          for k in $(seq 300); do grep -q "goal accepted" $TMP/e$i && break; sleep 0.1; done
           $B/capsule_ros lifecycle-set /capsule_plant activate || exit 1
           wait $R || exit 1
           echo "RUN$i $(cat $TMP/r$i.json)"
