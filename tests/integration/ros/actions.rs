@@ -28,6 +28,7 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
         ap move 0.02 --preempt -0.002 --preempt-after 0.5
         ap move 0.05 & A=$!
         sleep 1; peer set-mode 0 0; wait $A
+        ap move 0.05 --goal-timeout 0.3
         ap unknown-result
         RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move 0.003; echo "cli rc=$?"
         RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move nan; echo "cli nan rc=$?"
@@ -69,11 +70,11 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
             "\"message\": \"canceled: travelled",
         ],
     );
-    // it stops: from 1 s after the end, 1.5 s with less than 3 mm of travel, against 25 mm at
+    // it stops: from 1 s after the end, 1.5 s with less than 5 mm of travel, against 25 mm at
     // the goal's speed (OFF keeps the drive: in real time on a loaded host its orbit has crept
-    // up to 1.3 mm in 1.5 s, docs/ros.md; in lock-step under 0.4 mm in 20 periods)
+    // 1.3 to 3 mm in 1.5 s, docs/ros.md; in lock-step under 0.4 mm in 20 periods)
     let drift = json_number(g, "drift_m").unwrap_or(f64::NAN);
-    assert!(drift.abs() < 3e-3, "drift {drift} m after the cancel: {g}");
+    assert!(drift.abs() < 5e-3, "drift {drift} m after the cancel: {g}");
     // NaN, infinities and beyond the 10 m limit refused; a plain goal taken
     let refusals = run.lines_starting("{\"distance\"");
     assert_eq!(refusals.len(), 5, "{}", run.all());
@@ -106,8 +107,13 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
             "aborted: set_mode OFF during the goal ended it",
         ],
     );
+    // the goal's timeout ends it
+    assert_contains(
+        goal_line(&goals, 6),
+        &["\"status\": \"ABORTED\"", "aborted: timeout: 0.3 s passed"],
+    );
     // get_result of a goal never sent: UNKNOWN, at once
-    assert_contains(goal_line(&goals, 6), &["\"status\": \"UNKNOWN\""]);
+    assert_contains(goal_line(&goals, 7), &["\"status\": \"UNKNOWN\""]);
     // our own client too; a NaN refused before anything is sent
     run.assert_stdout(&[
         "result: status=SUCCEEDED reached=true",
