@@ -16,6 +16,7 @@ pub mod identify;
 pub mod identity;
 pub mod linear;
 pub mod lyapunov;
+pub mod move_landing;
 pub mod robustness;
 pub mod run;
 pub mod schedule;

@@ -30,6 +30,7 @@ use futures::StreamExt;
 use ros2_client::{Context, Node};
 use tracing::{info, warn};
 
+use crate::controller_actions::{ControllerActions, CoreAccess};
 use crate::controller_core::ControllerCore;
 use crate::controller_endpoints::{Inputs, Outputs};
 use crate::controller_handlers::{lock, Handlers};
@@ -93,6 +94,8 @@ struct Built<E> {
     seat: (Context, Node),
     inputs: Inputs,
     outputs: Outputs,
+    /// The Move and SwitchAttractor action servers, run beside the loop.
+    actions: ControllerActions,
     handlers: Arc<Mutex<Handlers>>,
     /// In-process: what becomes of the commands' DDS copies.
     copies: Option<Arc<CopyCounts>>,
@@ -146,6 +149,7 @@ impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
         )?;
         let in_process = matches!(transport, Transport::InProcess(_));
         let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
+        let actions = ControllerActions::build(&settings, &mut node, &graph)?;
         let handlers = Arc::new(Mutex::new(Handlers::new(
             opts.core, handle, clock, &settings,
         )));
@@ -163,6 +167,7 @@ impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
             seat: (context, node),
             inputs,
             outputs,
+            actions,
             handlers,
             copies,
             status_period: opts.status_period,
@@ -176,18 +181,21 @@ impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
         Ok(())
     }
 
-    /// Run the loop: each input to its handler, until `end`.
+    /// Run the loop: each input to its handler, until `end`; the action servers beside it.
     async fn run_loop(built: Built<E>) -> Result<Ended> {
         let Built {
             seat,
             inputs,
             mut outputs,
+            actions,
             handlers,
             copies,
             status_period,
             end,
         } = built;
+        let actions = tokio::spawn(actions.run(NodeCore(handlers.clone())));
         let stopped = serve(inputs, &mut outputs, &handlers, status_period, end).await;
+        actions.abort();
         Ok(Ended {
             stopped,
             seat,
@@ -213,6 +221,18 @@ impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
         drop(outputs);
         drop(context);
         stopped
+    }
+}
+
+/// The actions' hook into the node: its core and its ROS time, through the handlers.
+struct NodeCore(Arc<Mutex<Handlers>>);
+
+impl CoreAccess for NodeCore {
+    fn with_core<T>(&self, f: impl FnOnce(&mut ControllerCore) -> T) -> T {
+        f(&mut lock(&self.0).core)
+    }
+    fn now(&self) -> capsule_msgs::Time {
+        lock(&self.0).clock.now()
     }
 }
 

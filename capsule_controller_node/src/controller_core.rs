@@ -16,6 +16,7 @@ use capsule_plant::AffineLaw;
 
 use capsule_controller::{
     mode::{Mode, ModeConfig, ProgressMeter, Staleness},
+    move_goal::{MoveConfig, MoveProgress, MoveRequest, MoveRun},
     switch::{AttractorSwitch, OrbitWatch, SwitchConfig, SwitchRequest},
     velocity::LineFit,
 };
@@ -51,6 +52,8 @@ pub struct ControllerCore {
     switch: Option<(AttractorSwitch, Mode)>,
     /// The switch changed phase or started a pulse since the last [`ControllerCore::take_switch_event`].
     switch_event: bool,
+    /// The Move action's goal, running or ended and not yet taken ([`crate::controller_actions`]).
+    move_run: Option<MoveRun>,
 }
 
 /// Why a state sample was not used.
@@ -119,6 +122,7 @@ impl ControllerCore {
             watch: OrbitWatch::new(law.period(), &SwitchConfig::DEFAULT),
             switch: None,
             switch_event: false,
+            move_run: None,
         }
     }
 
@@ -151,6 +155,7 @@ impl ControllerCore {
         self.feedback.reset();
         self.watch.reset();
         self.velocity.reset();
+        self.abort_move("a new plant publishes: the travel so far was the last plant's");
         // an attractor switch was about the last plant's orbit
         if let Some((mode, kp)) = self.running_switch().map(|_| self.settled_mode()) {
             self.change_mode(mode, kp);
@@ -210,7 +215,11 @@ impl ControllerCore {
         // a new drive ends an attractor switch (its orbits are gone) as a new mode does
         if (mode, kp) != self.settled_mode() || (drive_changed && self.running_switch().is_some()) {
             self.pending.clear();
-            self.change_mode(mode, kp);
+            self.change_mode_for(
+                mode,
+                kp,
+                "the mode or gain parameter changed during the goal",
+            );
         }
     }
 
@@ -228,6 +237,13 @@ impl ControllerCore {
         self.ignored_samples += 1;
         self.ignored_why = Some(why);
         None
+    }
+
+    /// Goes to `mode` with `kp` (ending an attractor switch in progress: cancelled; a move
+    /// goal: aborted, saying `why`).
+    fn change_mode_for(&mut self, mode: Mode, kp: f64, why: &str) {
+        self.abort_move(why);
+        self.change_mode(mode, kp);
     }
 
     /// Goes to `mode` with `kp` (ending an attractor switch in progress: cancelled).
@@ -265,7 +281,11 @@ impl ControllerCore {
         }
         let (mode, kp) = self.settled_mode();
         self.pending.clear();
-        self.change_mode(Mode::SwitchAttractor, kp);
+        self.change_mode_for(
+            Mode::SwitchAttractor,
+            kp,
+            "set_mode SWITCH_ATTRACTOR during the goal ended it",
+        );
         let sw = AttractorSwitch::new(request, self.switch_settings, kp, self.law.period());
         self.switch = Some((sw, mode));
         SetModeResponse {
@@ -297,7 +317,11 @@ impl ControllerCore {
                 let now = self.last.map(|(_, t)| t).unwrap_or(i64::MIN);
                 if req.effective_from.is_zero() || at <= now {
                     self.pending.clear();
-                    self.change_mode(mode, kp);
+                    self.change_mode_for(
+                        mode,
+                        kp,
+                        &format!("set_mode {mode} during the goal ended it"),
+                    );
                     SetModeResponse {
                         accepted: true,
                         mode: mode.code(),
@@ -305,6 +329,9 @@ impl ControllerCore {
                         reason: format!("{mode} with k_p = {}", short(kp)),
                     }
                 } else {
+                    self.abort_move(&format!(
+                        "set_mode {mode} (scheduled) during the goal ended it"
+                    ));
                     self.pending.retain(|(t, _, _)| *t < at);
                     self.pending.push((at, mode, kp));
                     SetModeResponse {
@@ -377,6 +404,7 @@ impl ControllerCore {
                 }
             }
         }
+        self.drive_move(s);
         let f = self.law.force_at(tau, x1, x2);
         if !f.is_finite() {
             return self.ignore(Ignored::ForceNotFinite);
@@ -395,6 +423,81 @@ impl ControllerCore {
         Some(cmd)
     }
 
+    /// A move goal's law on sample `s`: the gain (and with it the mode) it holds.
+    fn drive_move(&mut self, s: &CapsuleState) {
+        let Some(run) = self.move_run.as_mut().filter(|r| r.outcome().is_none()) else {
+            return;
+        };
+        let kp = run.sample(s.header.stamp.as_secs_f64(), s.capsule_position);
+        self.law.kp = kp;
+        self.mode = match kp {
+            k if k > 0.0 => Mode::Forward,
+            k if k < 0.0 => Mode::Backward,
+            _ => Mode::Off,
+        };
+    }
+
+    /// Starts a move goal; refused with the reason when the request is bad or the plant is not
+    /// under control (the running goal, if any, goes on). Returns the goal it replaces (the
+    /// running one aborted, saying so), OFF until the new goal's first decision.
+    pub fn start_move(&mut self, request: MoveRequest) -> Result<Option<MoveRun>, String> {
+        if !self.commanding {
+            return Err("no fresh state from the plant (not active, or gone)".into());
+        }
+        if self.feedback.refused() {
+            return Err("the plant refuses our commands (not active?)".into());
+        }
+        let config = MoveConfig {
+            cruise_gain: self.config.direction_gain,
+            ..MoveConfig::DEFAULT
+        };
+        let period_s = self.law.period() * self.scale.time_s();
+        let run = MoveRun::start(request, config, period_s).map_err(|e| e.to_string())?;
+        self.pending.clear();
+        self.change_mode_for(Mode::Off, 0.0, "a new goal preempted it");
+        Ok(self.move_run.replace(run))
+    }
+
+    /// Ends the running move goal (if any) for `why`, OFF.
+    pub fn abort_move(&mut self, why: &str) {
+        if let Some(run) = self.move_run.as_mut().filter(|r| r.outcome().is_none()) {
+            run.abort(why.to_string());
+            self.mode = Mode::Off;
+            self.law.kp = 0.0;
+        }
+    }
+
+    /// Cancels the running attractor switch (if any): back to the mode it came from.
+    pub fn cancel_switch(&mut self) {
+        if let Some((mode, kp)) = self.running_switch().map(|_| self.settled_mode()) {
+            self.change_mode(mode, kp);
+        }
+    }
+
+    /// Cancels the running move goal (if any), OFF.
+    pub fn cancel_move(&mut self) {
+        if let Some(run) = self.move_run.as_mut().filter(|r| r.outcome().is_none()) {
+            run.cancel();
+            self.mode = Mode::Off;
+            self.law.kp = 0.0;
+        }
+    }
+
+    /// The running move goal's progress and the mode it holds (`None`: none runs).
+    pub fn move_progress(&self) -> Option<(MoveProgress, Mode)> {
+        let run = self.move_run.as_ref().filter(|r| r.outcome().is_none())?;
+        Some((run.progress(), self.mode))
+    }
+
+    /// The move goal that ended, once (`None`: none did).
+    pub fn take_ended_move(&mut self) -> Option<MoveRun> {
+        if self.move_run.as_ref()?.outcome().is_some() {
+            self.move_run.take()
+        } else {
+            None
+        }
+    }
+
     /// True once after each change of the attractor switch's phase (a pulse started, released,
     /// judged): the node publishes a status then, so that every pulse shows on the topic.
     pub fn take_switch_event(&mut self) -> bool {
@@ -405,6 +508,7 @@ impl ControllerCore {
     pub fn check_stale(&mut self, now: f64) -> bool {
         if self.commanding && self.staleness.is_stale(now) {
             self.commanding = false;
+            self.abort_move("the state went stale (plant gone?)");
             return true;
         }
         false
@@ -725,6 +829,71 @@ mod tests {
         }
         assert_eq!(positions_only.ignored_samples(), 0);
         assert!(positions_only.commanding());
+    }
+
+    #[test]
+    fn move_goals_are_refused_without_the_plant_and_ended_by_a_mode_or_a_new_goal() {
+        let mut c = core(Mode::Forward, 0.2);
+        let goal = MoveRequest {
+            distance_m: 0.01,
+            tolerance_m: 0.0,
+            timeout_s: 0.0,
+        };
+        assert!(c
+            .start_move(goal)
+            .is_err_and(|e| e.starts_with("no fresh state")));
+        for k in 0..10 {
+            c.on_state(&state(k, k as f64 * 1e-3, 0.1, 0.0), 0.0);
+        }
+        let bad = MoveRequest {
+            distance_m: f64::NAN,
+            ..goal
+        };
+        assert_eq!(
+            c.start_move(bad).err().as_deref(),
+            Some("distance_m = NaN is not finite")
+        );
+        assert_eq!(
+            (c.mode(), c.law().kp),
+            (Mode::Forward, 0.2),
+            "refused: unchanged"
+        );
+        assert!(matches!(c.start_move(goal), Ok(None)));
+        assert_eq!(
+            (c.mode(), c.law().kp),
+            (Mode::Off, 0.0),
+            "OFF until the first section"
+        );
+        assert!(c.move_progress().is_some());
+        // a new goal preempts the running one, which ends aborted saying why
+        let old = c.start_move(goal).ok().flatten();
+        let why = old
+            .and_then(|r| r.outcome().cloned())
+            .map(|o| o.message(0.01))
+            .unwrap_or_default();
+        assert!(why.starts_with("aborted: a new goal preempted it"), "{why}");
+        let r = c.set_mode(&SetModeRequest {
+            mode: SetModeRequest::BACKWARD,
+            ..SetModeRequest::default()
+        });
+        assert!(r.accepted);
+        assert!(c.move_progress().is_none());
+        let why = c
+            .take_ended_move()
+            .and_then(|r| r.outcome().cloned())
+            .map(|o| o.message(0.01))
+            .unwrap_or_default();
+        assert!(
+            why.starts_with("aborted: set_mode BACKWARD during the goal ended it"),
+            "{why}"
+        );
+        assert!(c.take_ended_move().is_none(), "taken once");
+        assert_eq!(c.mode(), Mode::Backward);
+        // cancel: OFF
+        assert!(c.start_move(goal).is_ok());
+        c.cancel_move();
+        assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
+        assert!(c.take_ended_move().is_some());
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //!   `controller_endpoints`: its DDS side; `controller_handlers`: what it does with each input;
 //!   [`controller_core`]: its decisions without DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
 //!   parameters; [`controller_settings`]: its settings table
+//! - [`controller_actions`]: its actions (Move, SwitchAttractor) on DDS
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
 
@@ -12,6 +13,7 @@
 
 pub mod command_feedback;
 pub mod controller;
+pub mod controller_actions;
 pub mod controller_core;
 pub mod controller_diagnostics;
 mod controller_endpoints;

@@ -1,6 +1,10 @@
 //! The interface files themselves: embedded texts, ROS / DDS type names, `ros2msg` schemas,
 //! and a small parser of the `.msg` / `.srv` syntax (fields and constants).
 
+use crate::actions::{
+    MoveFeedback, MoveGoal, MoveResult, SwitchAttractorFeedback, SwitchAttractorGoal,
+    SwitchAttractorResult,
+};
 use crate::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
 };
@@ -12,11 +16,16 @@ pub const HEADER_MSG: &str = include_str!("../std_interfaces/std_msgs/msg/Header
 /// The text of `srv/SetMode.srv`.
 pub const SET_MODE_SRV: &str = include_str!("../srv/SetMode.srv");
 
+/// The text of `action/Move.action`.
+pub const MOVE_ACTION: &str = include_str!("../action/Move.action");
+/// The text of `action/SwitchAttractor.action`.
+pub const SWITCH_ATTRACTOR_ACTION: &str = include_str!("../action/SwitchAttractor.action");
+
 /// A type with a ROS 2 interface definition.
 pub trait RosInterface {
     /// Package name.
     const PACKAGE: &'static str;
-    /// `msg` or `srv`.
+    /// `msg`, `srv` or `action`.
     const KIND: &'static str;
     /// Type name inside the package (`CapsuleState`, `SetMode_Request`).
     const NAME: &'static str;
@@ -207,6 +216,13 @@ pub fn split_service(text: &str) -> (&str, &str) {
     (text, "")
 }
 
+/// Splits a `.action` text into its goal, result and feedback parts at the `---` lines.
+pub fn split_action(text: &str) -> (&str, &str, &str) {
+    let (goal, rest) = split_service(text);
+    let (result, feedback) = split_service(rest);
+    (goal, result, feedback)
+}
+
 /// `impl RosInterface for Type: "package" / "kind" / "Name" = definition`.
 macro_rules! interface {
     ($ty:ty: $package:literal / $kind:literal / $name:literal = $definition:expr) => {
@@ -231,6 +247,18 @@ interface!(SetModeRequest: "capsule_msgs" / "srv" / "SetMode_Request" =
     split_service(SET_MODE_SRV).0);
 interface!(SetModeResponse: "capsule_msgs" / "srv" / "SetMode_Response" =
     split_service(SET_MODE_SRV).1);
+interface!(MoveGoal: "capsule_msgs" / "action" / "Move_Goal" =
+    split_action(MOVE_ACTION).0);
+interface!(MoveResult: "capsule_msgs" / "action" / "Move_Result" =
+    split_action(MOVE_ACTION).1);
+interface!(MoveFeedback: "capsule_msgs" / "action" / "Move_Feedback" =
+    split_action(MOVE_ACTION).2);
+interface!(SwitchAttractorGoal: "capsule_msgs" / "action" / "SwitchAttractor_Goal" =
+    split_action(SWITCH_ATTRACTOR_ACTION).0);
+interface!(SwitchAttractorResult: "capsule_msgs" / "action" / "SwitchAttractor_Result" =
+    split_action(SWITCH_ATTRACTOR_ACTION).1);
+interface!(SwitchAttractorFeedback: "capsule_msgs" / "action" / "SwitchAttractor_Feedback" =
+    split_action(SWITCH_ATTRACTOR_ACTION).2);
 interface!(Header: "std_msgs" / "msg" / "Header" = HEADER_MSG);
 interface!(Time: "builtin_interfaces" / "msg" / "Time" = TIME_MSG);
 

@@ -1,6 +1,6 @@
 //! capsule's ROS 2 interfaces as plain serde types (no ROS, no I/O).
 //!
-//! The `.msg` / `.srv` files beside this crate are the contract: they form a regular rosidl
+//! The `.msg` / `.srv` / `.action` files beside this crate are the contract: they form a regular rosidl
 //! interface package (`package.xml`, `CMakeLists.txt`) that colcon builds for rclcpp / rclpy,
 //! and the structs here serialise field for field, in the same order, to the same CDR layout.
 //! A test parses the interface files and checks every struct against them, so the two cannot
@@ -11,6 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod actions;
 pub mod hashes;
 pub mod interface;
 pub mod names;

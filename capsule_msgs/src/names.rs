@@ -52,6 +52,11 @@ pub mod topics {
     pub const STATUS: &str = concat!("~/", status!());
     /// Mode service, private to the controller node.
     pub const SET_MODE: &str = concat!("~/", set_mode!());
+    /// The Move action (`capsule_msgs/action/Move`), private to the controller node.
+    pub const MOVE: &str = "~/move";
+    /// The attractor switch as an action (`capsule_msgs/action/SwitchAttractor`), private to
+    /// the controller node.
+    pub const SWITCH_ATTRACTOR: &str = "~/switch_attractor";
     /// Simulation clock (absolute, as in ROS).
     pub const CLOCK: &str = "/clock";
     /// JointState commands, as topic_based_ros2_control sends them (the plant's
@@ -133,6 +138,14 @@ pub mod type_names {
     pub const SET_MODE_EVENT: &str = "capsule_msgs/msg/SetModeEvent";
     /// Simulation clock.
     pub const CLOCK: &str = "rosgraph_msgs/msg/Clock";
+    /// The Move action.
+    pub const MOVE: &str = "capsule_msgs/action/Move";
+    /// The attractor switch as an action.
+    pub const SWITCH_ATTRACTOR: &str = "capsule_msgs/action/SwitchAttractor";
+    /// Every action's status topic.
+    pub const GOAL_STATUS_ARRAY: &str = "action_msgs/msg/GoalStatusArray";
+    /// Every action's cancel service.
+    pub const CANCEL_GOAL: &str = "action_msgs/srv/CancelGoal";
     /// Joint states and JointState commands.
     pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 

@@ -18,10 +18,14 @@
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
 //! - [`service`]: service servers whose answers wait for the client's reply reader
+//! - [`action`], [`action_goals`]: action servers as rcl_action serves them (status topic,
+//!   `get_result`, cancel policy)
 //! - [`error`]: the nodes' error, [`error::NodeError`]
 
 #![warn(missing_docs)]
 
+pub mod action;
+pub mod action_goals;
 pub mod affinity;
 pub mod clock;
 pub mod conflicts;

@@ -8,6 +8,7 @@
 
 mod harness;
 
+mod actions;
 mod colcon;
 mod composed;
 mod device;

@@ -1,5 +1,5 @@
-//! ROS 2's own interface tools read capsule_msgs (#19): rosidl_adapter turns every .msg/.srv
-//! into IDL, rosidl_parser parses it, rosidl_generator_c and rosidl_typesupport_introspection_c
+//! ROS 2's own interface tools read capsule_msgs (#19, #38): rosidl_adapter turns every
+//! .msg/.srv/.action into IDL, rosidl_parser parses it, rosidl_generator_c and rosidl_typesupport_introspection_c
 //! generate the C type support, which is compiled and run (tests/peers/rosidl_check.py, with
 //! Debian's python3-rosidl, rosidl-generator-c-cpp, librcutils-dev, librosidl-*-dev;
 //! `.ci/ros-setup.sh` installs what is missing). What those tools read must be what our crate
@@ -7,6 +7,10 @@
 //! `capsule_msgs::interface`.
 
 use crate::common::succeeded;
+use capsule_msgs::actions::{
+    MoveFeedback, MoveGoal, MoveResult, SwitchAttractorFeedback, SwitchAttractorGoal,
+    SwitchAttractorResult,
+};
 use capsule_msgs::interface::{parse_definition, RosInterface, HEADER_MSG, TIME_MSG};
 use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
@@ -37,6 +41,11 @@ fn rosidl_report() -> Value {
     for (pkg, name, text) in [
         ("builtin_interfaces", "Time", TIME_MSG),
         ("std_msgs", "Header", HEADER_MSG),
+        (
+            "unique_identifier_msgs",
+            "UUID",
+            include_str!("../../capsule_msgs/std_interfaces/unique_identifier_msgs/msg/UUID.msg"),
+        ),
     ] {
         let dir = deps.join(pkg).join("msg");
         std::fs::create_dir_all(&dir).expect("create the dependency directory");
@@ -129,6 +138,61 @@ fn check<T: RosInterface>(report: &Value) {
     );
 }
 
+/// The types rosidl derives from an action (its services' halves and its feedback message)
+/// have the members `capsule_msgs::actions`' generic wire types serialise, in that order, and
+/// the C namespace that gives their DDS names.
+fn check_derived(report: &Value, action: &str) {
+    let uuid = "unique_identifier_msgs/msg/UUID";
+    let own = |part: &str| format!("capsule_msgs/action/{action}_{part}");
+    let expected: [(&str, Vec<(&str, String)>); 5] = [
+        (
+            "SendGoal_Request",
+            vec![("goal_id", uuid.into()), ("goal", own("Goal"))],
+        ),
+        (
+            "SendGoal_Response",
+            vec![
+                ("accepted", "boolean".into()),
+                ("stamp", "builtin_interfaces/msg/Time".into()),
+            ],
+        ),
+        ("GetResult_Request", vec![("goal_id", uuid.into())]),
+        (
+            "GetResult_Response",
+            vec![("status", "int8".into()), ("result", own("Result"))],
+        ),
+        (
+            "FeedbackMessage",
+            vec![("goal_id", uuid.into()), ("feedback", own("Feedback"))],
+        ),
+    ];
+    for (part, members) in expected {
+        let key = format!("capsule_msgs/{action}_{part}");
+        let idl: Vec<(String, String)> = report["idl"][&key]["members"]
+            .as_array()
+            .unwrap_or_else(|| panic!("rosidl_parser did not derive {key}"))
+            .iter()
+            .map(|m| {
+                (
+                    m[0].as_str().unwrap_or("").into(),
+                    m[1].as_str().unwrap_or("").into(),
+                )
+            })
+            .collect();
+        let expected: Vec<(String, String)> = members
+            .iter()
+            .map(|(n, t)| (n.to_string(), t.clone()))
+            .collect();
+        assert_eq!(idl, expected, "{key}: members as rosidl derives them");
+        let c = &report["introspection"][&key];
+        assert_eq!(
+            c["namespace"].as_str(),
+            Some("capsule_msgs__action"),
+            "{key}: the C namespace (DDS capsule_msgs::action::dds_::{action}_{part}_)"
+        );
+    }
+}
+
 #[test]
 fn rosidl_reads_every_interface_of_capsule_msgs() {
     let report = rosidl_report();
@@ -139,8 +203,17 @@ fn rosidl_reads_every_interface_of_capsule_msgs() {
     check::<ControllerStatus>(&report);
     check::<SetModeRequest>(&report);
     check::<SetModeResponse>(&report);
+    check::<MoveGoal>(&report);
+    check::<MoveResult>(&report);
+    check::<MoveFeedback>(&report);
+    check::<SwitchAttractorGoal>(&report);
+    check::<SwitchAttractorResult>(&report);
+    check::<SwitchAttractorFeedback>(&report);
     check::<Header>(&report);
     check::<Time>(&report);
+    for action in ["Move", "SwitchAttractor"] {
+        check_derived(&report, action);
+    }
     // the C structs of the two standard types have the layout ROS 2 gives them everywhere
     assert_eq!(
         report["introspection"]["builtin_interfaces/Time"]["size"],

@@ -71,7 +71,7 @@ from cyclonedds.core import Qos, Policy
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.internal import InvalidSample
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import int32, int64, uint8, uint32, uint64, float64, sequence
+from cyclonedds.idl.types import array, int8, int32, int64, uint8, uint32, uint64, float64, sequence
 import cyclonedds.idl.annotations as annotate
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -83,7 +83,7 @@ from cyclonedds.util import duration
 # and response fields of a service; the type names stay those of the .srv halves.
 SERVICE_HEADER = {"client_guid": uint64, "sequence": int64}
 
-PRIMITIVES = {"bool": bool, "byte": uint8, "uint8": uint8, "int32": int32, "uint32": uint32,
+PRIMITIVES = {"bool": bool, "byte": uint8, "uint8": uint8, "int8": int8, "int32": int32, "uint32": uint32,
               "int64": int64, "uint64": uint64, "float64": float64, "string": str}
 
 # The standard ROS 2 interfaces the peer uses, as the ROS 2 distribution defines them (one type
@@ -178,7 +178,7 @@ def idl_type(full_name, fields, known, header=None):
         elif bound.startswith("<="):
             ty = sequence[ty, int(bound[2:-1])]
         elif bound:
-            raise ValueError(f"{full_name}: fixed-size array {words[0]} not supported")
+            ty = array[ty, int(bound[:-1])]
         ann[words[1]] = ty
     cls = types.new_class(name, (IdlStruct,), {"typename": f"{pkg}::{kind}::dds_::{name}_"},
                           lambda ns: ns.update({"__annotations__": ann}))

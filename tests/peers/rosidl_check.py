@@ -4,10 +4,10 @@ generators with their introspection type support, compiled and run.
 
 Usage: rosidl_check.py MSGS_DIR DEPS_DIR WORK_DIR
 
-MSGS_DIR is capsule_msgs/ (its msg/ and srv/); DEPS_DIR holds the two dependency interfaces
-Debian does not package (std_msgs/msg/Header.msg, builtin_interfaces/msg/Time.msg), written
-by the caller. Every step is ROS 2's code (Debian bookworm: python3-rosidl, rosidl-core,
-librosidl-*): .msg/.srv -> .idl (rosidl_adapter), .idl -> parse tree (rosidl_parser),
+MSGS_DIR is capsule_msgs/ (its msg/, srv/ and action/); DEPS_DIR holds the dependency
+interfaces Debian does not package (std_msgs/msg/Header.msg, builtin_interfaces/msg/Time.msg,
+unique_identifier_msgs/msg/UUID.msg, which an action's derived types use), written by the caller. Every step is ROS 2's code (Debian bookworm: python3-rosidl, rosidl-core,
+librosidl-*): .msg/.srv/.action -> .idl (rosidl_adapter), .idl -> parse tree (rosidl_parser),
 .idl -> C structs, functions and introspection type support (rosidl_generator_c,
 rosidl_typesupport_introspection_c), compiled with cc and run: the program walks the
 introspection tables and prints every member. Writes WORK_DIR/rosidl.json:
@@ -21,11 +21,13 @@ import shutil
 import subprocess
 import sys
 
+from rosidl_adapter.action import convert_action_to_idl
 from rosidl_adapter.msg import convert_msg_to_idl
 from rosidl_adapter.srv import convert_srv_to_idl
 from rosidl_generator_c import generate_c
 from rosidl_parser.definition import (
     AbstractNestedType,
+    Action,
     BasicType,
     Constant,
     Message,
@@ -48,11 +50,12 @@ def fail(step, err):
 
 
 def to_idl(package, pkg_dir, rel, out_root):
-    """rosidl_adapter: one .msg/.srv -> <out_root>/<package>/<kind>/<Name>.idl."""
+    """rosidl_adapter: one .msg/.srv/.action -> <out_root>/<package>/<kind>/<Name>.idl."""
     kind = rel.parent.name
     out = out_root / package / kind
     out.mkdir(parents=True, exist_ok=True)
-    convert = convert_msg_to_idl if kind == "msg" else convert_srv_to_idl
+    convert = {"msg": convert_msg_to_idl, "srv": convert_srv_to_idl,
+               "action": convert_action_to_idl}[kind]
     try:
         return convert(pkg_dir, package, rel, out)
     except Exception as e:  # the adapter raises plain exceptions on bad syntax
@@ -90,11 +93,19 @@ def parse(idl_root, package, kind, name):
         if isinstance(el, Message):
             views[el.structure.namespaced_type.name] = message_view(el)
         elif isinstance(el, Service):
-            views[el.request_message.structure.namespaced_type.name] = message_view(
-                el.request_message)
-            views[el.response_message.structure.namespaced_type.name] = message_view(
-                el.response_message)
+            add_service(views, el)
+        elif isinstance(el, Action):
+            # the three parts and the types rosidl derives from them (A_SendGoal, ...)
+            for msg in (el.goal, el.result, el.feedback, el.feedback_message):
+                views[msg.structure.namespaced_type.name] = message_view(msg)
+            add_service(views, el.send_goal_service)
+            add_service(views, el.get_result_service)
     return views
+
+
+def add_service(views, service):
+    for msg in (service.request_message, service.response_message):
+        views[msg.structure.namespaced_type.name] = message_view(msg)
 
 
 def configure(template, out, package):
@@ -141,6 +152,7 @@ static const char *type_name(uint8_t id) {
     case rosidl_typesupport_introspection_c__ROS_TYPE_FLOAT: return "float";
     case rosidl_typesupport_introspection_c__ROS_TYPE_BOOLEAN: return "boolean";
     case rosidl_typesupport_introspection_c__ROS_TYPE_UINT8: return "uint8";
+    case rosidl_typesupport_introspection_c__ROS_TYPE_INT8: return "int8";
     case rosidl_typesupport_introspection_c__ROS_TYPE_INT32: return "int32";
     case rosidl_typesupport_introspection_c__ROS_TYPE_UINT32: return "uint32";
     case rosidl_typesupport_introspection_c__ROS_TYPE_INT64: return "int64";
@@ -183,9 +195,11 @@ def main():
     packages = {
         "builtin_interfaces": (deps / "builtin_interfaces", ["msg/Time.msg"]),
         "std_msgs": (deps / "std_msgs", ["msg/Header.msg"]),
+        "unique_identifier_msgs": (deps / "unique_identifier_msgs", ["msg/UUID.msg"]),
         "capsule_msgs": (msgs, sorted(
             [f"msg/{p.name}" for p in (msgs / "msg").glob("*.msg")]
-            + [f"srv/{p.name}" for p in (msgs / "srv").glob("*.srv")])),
+            + [f"srv/{p.name}" for p in (msgs / "srv").glob("*.srv")]
+            + [f"action/{p.name}" for p in (msgs / "action").glob("*.action")])),
     }
     views, sources, messages = {}, [], []
     for package, (pkg_dir, files) in packages.items():

@@ -209,6 +209,12 @@ fn every_rust_type_matches_its_interface_file_field_for_field() {
         case::<ControllerStatus>(),
         case::<SetModeRequest>(),
         case::<SetModeResponse>(),
+        case::<MoveGoal>(),
+        case::<MoveResult>(),
+        case::<MoveFeedback>(),
+        case::<SwitchAttractorGoal>(),
+        case::<SwitchAttractorResult>(),
+        case::<SwitchAttractorFeedback>(),
         case::<Header>(),
         case::<Time>(),
     ];
@@ -282,13 +288,15 @@ fn package_files_list_every_interface_and_dependency() {
         "msg/ActuatorForce.msg",
         "msg/ControllerStatus.msg",
         "srv/SetMode.srv",
+        "action/Move.action",
+        "action/SwitchAttractor.action",
     ] {
         assert!(
             cmake.contains(&format!("\"{file}\"")),
             "CMakeLists.txt misses {file}"
         );
     }
-    for dep in ["std_msgs", "builtin_interfaces"] {
+    for dep in ["std_msgs", "builtin_interfaces", "action_msgs"] {
         assert!(
             package.contains(&format!("<depend>{dep}</depend>")),
             "package.xml misses {dep}"

@@ -1,4 +1,5 @@
-//! `capsule_ros`: a small ROS client of the capsule graph (mode requests, the demo run).
+//! `capsule_ros`: a small ROS client of the capsule graph (mode requests, move goals, the demo
+//! run).
 
 use std::time::{Duration, Instant};
 
@@ -100,6 +101,27 @@ enum Cmd {
         #[arg(long, default_value_t = 1.0, value_parser = ranges::positive(1e9))]
         periods: f64,
     },
+    /// Send a Move goal to the controller (its `move` action), print the feedback and the
+    /// result, as `ros2 action send_goal --feedback` does; Ctrl-C cancels the goal. Exit
+    /// status 3 when refused, 4 when it ended without reaching the target
+    #[command(allow_negative_numbers = true)]
+    Move {
+        /// Signed travel [m]: > 0 forward, < 0 backward, [-1e3, 1e3]
+        #[arg(value_parser = ranges::within(-1e3, 1e3))]
+        distance_m: f64,
+        /// Landing tolerance [m] (0: the controller's default), [0, 1e3]
+        #[arg(long, default_value_t = 0.0, value_parser = ranges::non_negative(1e3))]
+        tolerance_m: f64,
+        /// The goal's time limit [s] (0: none), [0, 1e6]
+        #[arg(long, default_value_t = 0.0, value_parser = ranges::non_negative(ranges::MAX_SECONDS))]
+        timeout_s: f64,
+        /// The action
+        #[arg(long, default_value = "/capsule_controller/move")]
+        action: String,
+        /// Give up waiting for the answer to the goal after this long [s], (0, 1e6]
+        #[arg(long, default_value_t = 10.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
+        answer_timeout_s: f64,
+    },
     /// Schedule the segments (the controller must start in the first one), watch the state,
     /// and print each segment's mean progression per drive period
     #[command(allow_negative_numbers = true)]
@@ -199,6 +221,20 @@ async fn run(cli: Cli) -> Result<()> {
             };
             let watch = SwitchWatch::new(&scene, before_periods, after_periods);
             switch_attractor(&settings, &cli.service, watch, req, timeout_s).await
+        }
+        Cmd::Move {
+            distance_m,
+            tolerance_m,
+            timeout_s,
+            action,
+            answer_timeout_s,
+        } => {
+            let goal = capsule_msgs::actions::MoveGoal {
+                distance_m,
+                tolerance_m,
+                timeout_s,
+            };
+            move_goal(&settings, &action, goal, answer_timeout_s).await
         }
         Cmd::Period { scene, periods } => {
             let sc = SceneFile::read(std::path::Path::new(&scene))?.scene;
@@ -636,6 +672,69 @@ fn switch_name(state: u8) -> &'static str {
         .iter()
         .find(|(_, v)| *v == state)
         .map_or("?", |(n, _)| n.trim_start_matches("SWITCH_"))
+}
+
+/// `capsule_ros move`: the goal, its feedback and its result.
+async fn move_goal(
+    settings: &RosOptions,
+    action: &str,
+    goal: capsule_msgs::actions::MoveGoal,
+    answer_s: f64,
+) -> Result<()> {
+    use capsule_msgs::actions::GoalStatus;
+    use capsule_tools::move_client::{MoveClient, MoveEnded};
+    let context = settings.context()?;
+    let mut node = settings.node(&context)?;
+    let client = MoveClient::new(&mut node, settings, action)?;
+    // no goal limit: wait as long as a goal can take; Ctrl-C cancels it
+    let result_wait = if goal.timeout_s > 0.0 {
+        goal.timeout_s + 30.0
+    } else {
+        ranges::MAX_SECONDS
+    };
+    let cancel = async {
+        let _ = tokio::signal::ctrl_c().await;
+        eprintln!("Ctrl-C: canceling the goal");
+    };
+    let ended = client
+        .run(
+            &node,
+            goal,
+            Duration::from_secs_f64(answer_s),
+            Duration::from_secs_f64(result_wait),
+            |f| {
+                println!(
+                    "feedback: travelled_m={:.6} remaining_m={:.6} speed_m_per_s={:.6} mode={}",
+                    f.travelled_m,
+                    f.remaining_m,
+                    f.speed_m_per_s,
+                    capsule_msgs::mode_name(f.mode).unwrap_or("?")
+                )
+            },
+            cancel,
+        )
+        .await?;
+    match ended {
+        MoveEnded::Refused => {
+            println!("Goal refused (the controller's log says why)");
+            std::process::exit(3);
+        }
+        MoveEnded::Ended(status, r) => {
+            println!(
+                "result: status={} reached={} travelled_m={:.6} error_m={:.6} elapsed_s={:.3} message={}",
+                GoalStatus::name(status),
+                r.reached,
+                r.travelled_m,
+                r.error_m,
+                r.elapsed_s,
+                r.message
+            );
+            if status != GoalStatus::STATUS_SUCCEEDED {
+                std::process::exit(4);
+            }
+        }
+    }
+    Ok(())
 }
 
 fn main() -> std::process::ExitCode {

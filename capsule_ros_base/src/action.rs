@@ -1,0 +1,370 @@
+//! An action server on DDS that behaves as rcl_action's: ros2-client's endpoints (its
+//! `ActionServer` names the three services and two topics and their types as rosidl does),
+//! driven with the goal bookkeeping of [`crate::action_goals`], not with ros2-client's
+//! `AsyncActionServer`, which keeps no result after it was sent once, answers no `get_result`
+//! for an ended or unknown goal, and drops ended goals from the status topic at the next goal.
+//!
+//! ros2-client 0.12.1 hands out its three servers only one at a time (`&mut` getters), so the
+//! requests are polled ([`Action::poll`]), e.g. every 10 ms; answers wait for the client's
+//! reply reader as [`crate::service`]'s do.
+//!
+//! QoS as rcl_action's defaults: services reliable and volatile (keep last 10), feedback
+//! reliable and volatile, status reliable and transient local (keep last 1), so a client that
+//! joins late reads the statuses.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use capsule_msgs::actions::{GoalStatus, Uuid};
+use capsule_msgs::Time;
+use capsule_record::cdr;
+use ros2_client::action::{
+    ActionServer, ActionServerQosPolicies, CancelGoalRequest, CancelGoalResponse, GoalId, GoalInfo,
+    GoalStatusEnum,
+};
+use ros2_client::action::{GetResultResponse, SendGoalResponse};
+use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
+use ros2_client::qos::{Durability, History};
+use ros2_client::{builtin_interfaces, ActionTypeName, Node, RmwRequestId};
+use serde::{de::DeserializeOwned, Serialize};
+use tracing::warn;
+
+use crate::action_goals::{GoalTable, ResultAnswer, RESULT_TIMEOUT_S};
+use crate::error::{Context as _, Result};
+use crate::graph::Graph;
+use crate::service::MATCH_WAIT;
+use crate::{endpoints::Wire, qos, ros_options::RosOptions};
+
+/// A request to an action server.
+#[derive(Debug, Clone)]
+pub enum Request<G> {
+    /// A new goal: accept it ([`Action::accept`]) or refuse it ([`Action::refuse`]).
+    Goal {
+        /// The goal's id.
+        id: GoalId,
+        /// The request, to answer.
+        req: RmwRequestId,
+        /// The goal.
+        goal: G,
+    },
+    /// A cancel: handled by [`Action::cancel`], which names the goals to stop.
+    Cancel {
+        /// The request, to answer.
+        req: RmwRequestId,
+        /// The goal named (zero: none).
+        id: GoalId,
+        /// Accepted at or before (zero: none).
+        stamp: Time,
+    },
+}
+
+type Endpoints<G, R, F> = ActionServer<Wire<G>, Wire<R>, Wire<F>>;
+
+/// One action served: goals `G`, results `R`, feedback `F`.
+pub struct Action<G, R, F>
+where
+    G: Serialize + DeserializeOwned + Clone,
+    R: Serialize + DeserializeOwned + Clone,
+    F: Serialize + DeserializeOwned,
+{
+    server: Arc<Endpoints<G, R, F>>,
+    goals: GoalTable<GoalId, R, RmwRequestId>,
+    graph: Graph,
+    /// The action's resolved name (`/capsule_controller/move`).
+    name: Arc<str>,
+    start: Instant,
+}
+
+/// The bytes of a goal id.
+pub fn goal_id_bytes(id: &GoalId) -> Uuid {
+    *id.uuid.as_bytes()
+}
+
+fn to_ros_time(t: Time) -> builtin_interfaces::Time {
+    builtin_interfaces::Time::from_nanos(t.to_nanos())
+}
+
+fn status_enum(status: i8) -> GoalStatusEnum {
+    match status {
+        GoalStatus::STATUS_ACCEPTED => GoalStatusEnum::Accepted,
+        GoalStatus::STATUS_EXECUTING => GoalStatusEnum::Executing,
+        GoalStatus::STATUS_CANCELING => GoalStatusEnum::Canceling,
+        GoalStatus::STATUS_SUCCEEDED => GoalStatusEnum::Succeeded,
+        GoalStatus::STATUS_CANCELED => GoalStatusEnum::Canceled,
+        GoalStatus::STATUS_ABORTED => GoalStatusEnum::Aborted,
+        _ => GoalStatusEnum::Unknown,
+    }
+}
+
+impl<G, R, F> Action<G, R, F>
+where
+    G: Clone + Serialize + DeserializeOwned + Send + Sync + 'static,
+    R: Clone + Default + Serialize + DeserializeOwned + Send + Sync + 'static,
+    F: Serialize + DeserializeOwned + Send + Sync + 'static,
+{
+    /// Serves the action `name` (resolved as [`RosOptions::ros_name`]) of type `type_name`
+    /// (`pkg/action/Name`) on `node`, in the settings' service mapping.
+    pub fn new(
+        settings: &RosOptions,
+        node: &mut Node,
+        graph: &Graph,
+        name: &str,
+        type_name: &str,
+    ) -> Result<Self> {
+        let (package, ty) = capsule_msgs::names::type_names::split(type_name);
+        let service = qos::service();
+        let policies = ActionServerQosPolicies {
+            goal_service: service.clone(),
+            result_service: service.clone(),
+            cancel_service: service,
+            feedback_publisher: qos::service(),
+            status_publisher: qos::service()
+                .durability(Durability::TransientLocal)
+                .history(History::KeepLast { depth: 1 }),
+        };
+        let server = node
+            .create_action_server::<Wire<G>, Wire<R>, Wire<F>>(
+                settings.mapping.into(),
+                &settings.ros_name(name)?,
+                &ActionTypeName::new(package, ty),
+                policies,
+            )
+            .with_context(|| format!("action {name}"))?;
+        Ok(Action {
+            server: Arc::new(server),
+            goals: GoalTable::new(RESULT_TIMEOUT_S),
+            graph: graph.clone(),
+            name: settings.resolve_name(name).into(),
+            start: Instant::now(),
+        })
+    }
+
+    /// The action's resolved name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Whether goal `id` is known (running, or ended and its result still kept).
+    pub fn knows(&self, id: GoalId) -> bool {
+        self.goals.contains(id)
+    }
+
+    fn steady(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    /// The requests that came since the last call (goals and cancels, in that order);
+    /// `get_result` requests are answered here, now or when their goal ends. Expired results
+    /// are dropped.
+    pub fn poll(&mut self) -> Vec<Request<G>> {
+        let mut out = Vec::new();
+        loop {
+            match self.server.receive_goal() {
+                Ok(Some((req, goal))) => out.push(Request::Goal {
+                    id: goal.goal_id,
+                    req,
+                    goal: goal.goal.0,
+                }),
+                Ok(None) => break,
+                Err(e) => {
+                    warn!("{}: bad goal request: {e:?}", self.name);
+                    break;
+                }
+            }
+        }
+        loop {
+            match self.server.receive_cancel_request() {
+                Ok(Some((req, cancel))) => match read_cancel(&cancel) {
+                    Some((id, stamp)) => out.push(Request::Cancel { req, id, stamp }),
+                    None => warn!("{}: cancel request not readable", self.name),
+                },
+                Ok(None) => break,
+                Err(e) => {
+                    warn!("{}: bad cancel request: {e:?}", self.name);
+                    break;
+                }
+            }
+        }
+        loop {
+            match self.server.receive_result_request() {
+                Ok(Some((req, r))) => match self.goals.result_request(r.goal_id, req) {
+                    ResultAnswer::Now(status, result) => {
+                        self.answer_result(req, status, result.unwrap_or_default())
+                    }
+                    ResultAnswer::Later => {}
+                },
+                Ok(None) => break,
+                Err(e) => {
+                    warn!("{}: bad get_result request: {e:?}", self.name);
+                    break;
+                }
+            }
+        }
+        if self.goals.expire(self.steady()) {
+            self.publish_status();
+        }
+        out
+    }
+
+    /// Accepts goal `id` at `stamp` (the node's ROS time) and starts executing it; false (and
+    /// refused) if its id is known already.
+    pub fn accept(&mut self, id: GoalId, req: RmwRequestId, stamp: Time) -> bool {
+        if !self.goals.accept(id, stamp) {
+            warn!(
+                "{}: goal id {id:?} reused: refused (ids must be unique)",
+                self.name
+            );
+            self.refuse(req);
+            return false;
+        }
+        self.goals.set_status(id, GoalStatus::STATUS_EXECUTING);
+        self.answer_goal(
+            req,
+            SendGoalResponse {
+                accepted: true,
+                stamp: to_ros_time(stamp),
+            },
+        );
+        self.publish_status();
+        true
+    }
+
+    /// Refuses a goal (rcl_action: it never shows on the status topic).
+    pub fn refuse(&self, req: RmwRequestId) {
+        self.answer_goal(
+            req,
+            SendGoalResponse {
+                accepted: false,
+                stamp: builtin_interfaces::Time::ZERO,
+            },
+        );
+    }
+
+    /// Answers a cancel request: the running goals it names become CANCELING and are returned;
+    /// the caller stops them and ends them with [`Action::finish`] (CANCELED).
+    pub fn cancel(&mut self, req: RmwRequestId, id: GoalId, stamp: Time) -> Vec<GoalId> {
+        let (code, picked) = self.goals.cancel_request(id, stamp, GoalId::ZERO);
+        for (g, _) in &picked {
+            self.goals.set_status(*g, GoalStatus::STATUS_CANCELING);
+        }
+        if !picked.is_empty() {
+            self.publish_status();
+        }
+        let return_code = match code {
+            capsule_msgs::actions::CancelGoalResponse::ERROR_NONE => CancelGoalResponseEnum::None,
+            capsule_msgs::actions::CancelGoalResponse::ERROR_UNKNOWN_GOAL_ID => {
+                CancelGoalResponseEnum::UnknownGoal
+            }
+            capsule_msgs::actions::CancelGoalResponse::ERROR_GOAL_TERMINATED => {
+                CancelGoalResponseEnum::GoalTerminated
+            }
+            _ => CancelGoalResponseEnum::Rejected,
+        };
+        let response = CancelGoalResponse {
+            return_code,
+            goals_canceling: picked
+                .iter()
+                .map(|(goal_id, s)| GoalInfo {
+                    goal_id: *goal_id,
+                    stamp: to_ros_time(*s),
+                })
+                .collect(),
+        };
+        let server = Arc::clone(&self.server);
+        self.answer(req, "cancel_goal", move |req| {
+            server.send_cancel_response(req, response).is_ok()
+        });
+        picked.into_iter().map(|(g, _)| g).collect()
+    }
+
+    /// Publishes feedback of goal `id`.
+    pub fn feedback(&self, id: GoalId, feedback: F) {
+        if self.server.send_feedback(id, Wire(feedback)).is_err() {
+            warn!("{}: feedback not sent", self.name);
+        }
+    }
+
+    /// Ends goal `id` with a terminal status and its result: the status topic says so, and
+    /// every `get_result` waiting for it (and every later one, until it expires) gets it.
+    pub fn finish(&mut self, id: GoalId, status: i8, result: R) {
+        let waiting = self.goals.finish(id, status, result.clone(), self.steady());
+        self.publish_status();
+        for req in waiting {
+            self.answer_result(req, status, result.clone());
+        }
+    }
+
+    fn answer_goal(&self, req: RmwRequestId, response: SendGoalResponse) {
+        let server = Arc::clone(&self.server);
+        self.answer(req, "send_goal", move |req| {
+            server.send_goal_response(req, response).is_ok()
+        });
+    }
+
+    fn answer_result(&self, req: RmwRequestId, status: i8, result: R) {
+        let server = Arc::clone(&self.server);
+        let response = GetResultResponse {
+            status: status_enum(status),
+            result: Wire(result),
+        };
+        self.answer(req, "get_result", move |req| {
+            server.send_result(req, response).is_ok()
+        });
+    }
+
+    /// Sends an answer on a task of its own once the client's reply reader has matched ours
+    /// (or after [`MATCH_WAIT`]), as [`crate::service::Service::answer`] does.
+    fn answer(
+        &self,
+        req: RmwRequestId,
+        service: &'static str,
+        send: impl FnOnce(RmwRequestId) -> bool + Send + 'static,
+    ) {
+        let graph = self.graph.clone();
+        let name = Arc::clone(&self.name);
+        tokio::spawn(async move {
+            let client = req.writer_gid.to_bytes16();
+            let requests = format!("rq{name}/_action/{service}Request");
+            let replies = format!("rr{name}/_action/{service}Reply");
+            graph
+                .wait_client_readers(&requests, &replies, &client[..8], MATCH_WAIT)
+                .await;
+            if !send(req) {
+                warn!("{name}: {service} answer not sent");
+            }
+        });
+    }
+
+    fn publish_status(&self) {
+        let list = action_msgs::GoalStatusArray {
+            status_list: self
+                .goals
+                .statuses()
+                .map(|(goal_id, stamp, status)| action_msgs::GoalStatus {
+                    goal_info: GoalInfo {
+                        goal_id,
+                        stamp: to_ros_time(stamp),
+                    },
+                    status: status_enum(status),
+                })
+                .collect(),
+        };
+        if let Err(e) = self.server.send_goal_statuses(list) {
+            warn!("{}: status not sent: {e:?}", self.name);
+        }
+    }
+}
+
+/// The goal id and stamp of a cancel request. Its field is crate-private in ros2-client
+/// 0.12.1: read through its wire form (CDR) as capsule_msgs' `CancelGoalRequest`.
+fn read_cancel(cancel: &CancelGoalRequest) -> Option<(GoalId, Time)> {
+    let ours: capsule_msgs::actions::CancelGoalRequest =
+        cdr::decode(&cdr::encode(cancel).ok()?).ok()?;
+    let info = ours.goal_info;
+    Some((goal_id_from_bytes(info.goal_id)?, info.stamp))
+}
+
+/// A goal id from its bytes (through its wire form, 16 octets).
+pub fn goal_id_from_bytes(bytes: Uuid) -> Option<GoalId> {
+    cdr::decode(&cdr::encode(&bytes).ok()?).ok()
+}
