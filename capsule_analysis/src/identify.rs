@@ -133,13 +133,58 @@ pub struct Free {
     pub hi: f64,
 }
 
+/// How close (as a fraction of the log-range) to a bound a fitted value counts as pinned.
+const PINNED: f64 = 0.01;
+
 impl Free {
-    /// Unit of the fitted number: the nominal value, or 1 where it is zero.
-    fn scale(&self) -> f64 {
-        if self.nominal != 0.0 {
-            self.nominal.abs()
+    /// Whether the key is fitted in the smooth bounded log coordinate (a positive nominal).
+    fn logarithmic(&self) -> bool {
+        self.nominal > 0.0
+    }
+
+    /// The value at coordinate `u`. A positive nominal: `nominal exp(L tanh(u / L))`,
+    /// `L = ln BOUND_FACTOR`, i.e. relative changes near the nominal value and the bounds
+    /// approached smoothly: a clamp would give a step outside the bounds a zero derivative,
+    /// and Levenberg-Marquardt never comes back from there (what pinned delta at its bound
+    /// after the first step from a nominal scene 25 % off). Otherwise the value itself, clamped.
+    fn value(&self, u: f64) -> f64 {
+        if self.logarithmic() {
+            let l = BOUND_FACTOR.ln();
+            self.nominal * (l * (u / l).tanh()).exp()
+        } else {
+            u.clamp(self.lo, self.hi)
+        }
+    }
+
+    /// The coordinate of the nominal value.
+    fn start(&self) -> f64 {
+        if self.logarithmic() {
+            0.0
+        } else {
+            self.nominal
+        }
+    }
+
+    /// `d value / d u` at `u`.
+    fn slope(&self, u: f64) -> f64 {
+        if self.logarithmic() {
+            let c = (u / BOUND_FACTOR.ln()).cosh();
+            self.value(u) / (c * c)
         } else {
             1.0
+        }
+    }
+
+    /// The bound `value` ended at, if it did.
+    fn pinned(&self, value: f64) -> Option<f64> {
+        if self.logarithmic() {
+            let l = BOUND_FACTOR.ln();
+            let r = (value / self.nominal).ln();
+            (l - r.abs() <= PINNED * l).then(|| if r > 0.0 { self.hi } else { self.lo })
+        } else {
+            [self.lo, self.hi]
+                .into_iter()
+                .find(|b| (value - b).abs() <= 1e-6 * (self.hi - self.lo))
         }
     }
 }
@@ -260,7 +305,7 @@ impl Outer<'_> {
     fn candidate(&self, p: &DVector<f64>) -> (Scene, f64) {
         let mut s = self.base.clone();
         for (i, f) in self.free.iter().enumerate() {
-            let v = (p[i] * f.scale()).clamp(f.lo, f.hi);
+            let v = f.value(p[i]);
             // every free key was read from this scene: setting it cannot fail
             let _ = s.set_number(&f.key, v);
         }
@@ -296,6 +341,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
         self.states = fits.iter().map(|f| f.state).collect();
         self.res = fits.into_iter().map(|f| f.residuals).collect();
         let ss: f64 = self.res.iter().flatten().map(|r| r * r).sum();
+        if std::env::var("IDENTIFY_TRACE").is_ok() {
+            eprintln!("eval {} p {:?} ss {:.6e}", self.evaluations, x.iter().map(|v| format!("{v:.5}")).collect::<Vec<_>>(), ss);
+        }
         if self.best.as_ref().is_none_or(|b| ss < b.0) {
             self.best = Some((ss, self.states.clone()));
         }
@@ -398,7 +446,7 @@ pub fn identify(
     }
     let forcing = Forcing::new(rec, scene.device.as_ref());
     let delay0 = scene.device.map_or(0.0, |d| d.latency_s);
-    let mut p0: Vec<f64> = free.iter().map(|f| f.nominal / f.scale()).collect();
+    let mut p0: Vec<f64> = free.iter().map(Free::start).collect();
     p0.push(delay0 / rec.h_s);
     let twin0 = Twin {
         scene,
@@ -428,24 +476,22 @@ pub fn identify(
         .with_gtol(1e-10)
         .with_patience(settings.patience)
         .minimize(outer);
+    let (fitted, delay_s) = outer.candidate(&outer.p);
+    for f in &free {
+        let v = fitted.number(&f.key)?;
+        if let Some(bound) = f.pinned(v) {
+            return Err(IdentifyError::Pinned {
+                key: f.key.clone(),
+                bound,
+                nominal: f.nominal,
+            });
+        }
+    }
     if !report.termination.was_successful() {
         return Err(IdentifyError::NoConvergence(format!(
             "{:?} after {} evaluations",
             report.termination, outer.evaluations
         )));
-    }
-    let (fitted, delay_s) = outer.candidate(&outer.p);
-    for f in &free {
-        let v = fitted.number(&f.key)?;
-        for bound in [f.lo, f.hi] {
-            if (v - bound).abs() <= 1e-6 * f.scale() {
-                return Err(IdentifyError::Pinned {
-                    key: f.key.clone(),
-                    bound,
-                    nominal: f.nominal,
-                });
-            }
-        }
     }
     let report = summarise(
         &outer,
@@ -662,7 +708,7 @@ fn summarise(
         .enumerate()
         .map(|(i, f)| {
             let v = fitted.number(&f.key).unwrap_or(f64::NAN);
-            estimate(i, f.key.clone(), f.nominal, v, f.scale())
+            estimate(i, f.key.clone(), f.nominal, v, f.slope(outer.p[i]))
         })
         .collect();
     let nominal_delay = outer.base.device.map_or(0.0, |d| d.latency_s);
