@@ -12,7 +12,14 @@
 //! - The free keys and the measurement delay are fitted to all windows together by
 //!   Levenberg-Marquardt (`levenberg-marquardt`) on the residuals with the window states
 //!   projected out (variable projection, Kaufman's Jacobian: `(I - J_s J_s^+) J_p` per window,
-//!   `J_s` and `J_p` by forward differences of the exact simulator).
+//!   `J_s` and `J_p` by forward differences of the exact simulator). A key with a positive
+//!   nominal value is fitted in a smooth bounded log coordinate (`Free::value`): relative
+//!   changes, and no clamp for a step to die in.
+//! - The twin measures what the device's sensor sends on average (`twin::SensorPick`: where the
+//!   reading's age is a coin toss between two samples, the mean of both). Where the age varies,
+//!   a second stage refits with each residual weighted by the error that variation gives it
+//!   (the capsule's speed times the spread of the age, `pick_weights`), from the first stage's
+//!   twin: the slow samples (turning points on the stop, the stuck shell) carry the gap.
 //! - Uncertainty: the standard error from the projected Jacobian at the optimum, as a
 //!   cluster-robust ("sandwich") estimate with the windows as clusters,
 //!   `A^-1 (sum_w J_w^T r_w r_w^T J_w) A^-1` with `A = J^T J`: the residuals within a window are
@@ -23,10 +30,12 @@
 //!   column-scaled Jacobian; a pair correlated beyond 0.95, or a direction whose singular value
 //!   is under 1e-3 of the largest, is reported in words and its numbers are not.
 
-use crate::twin::{fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, Twin};
+use crate::twin::{
+    fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, SensorPick, Twin,
+};
 use capsule_plant::scene::{KeyError, Scene};
 use capsule_plant::State;
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, MinimizationReport};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -180,7 +189,7 @@ impl Free {
         if self.logarithmic() {
             let l = BOUND_FACTOR.ln();
             let r = (value / self.nominal).ln();
-            (l - r.abs() <= PINNED * l).then(|| if r > 0.0 { self.hi } else { self.lo })
+            (l - r.abs() <= PINNED * l).then_some(if r > 0.0 { self.hi } else { self.lo })
         } else {
             [self.lo, self.hi]
                 .into_iter()
@@ -242,8 +251,9 @@ pub struct Estimate {
 pub struct Report {
     /// The free keys, in the order given.
     pub parameters: Vec<Estimate>,
-    /// The measurement delay (measurement `k` is the capsule at `t_k - delay`): fitted, not
-    /// written to the scene.
+    /// The mean measurement delay (measurement `k` is the capsule at `t_k - delay`, averaged
+    /// over the sensor's pick; nominal: the pick's mean for the scene's `[device]`): fitted,
+    /// not written to the scene.
     pub delay: Estimate,
     /// RMS of the position residuals (`x1 - x2` and `x2` together) \[m\].
     pub residual_rms_m: f64,
@@ -276,7 +286,7 @@ pub struct Report {
 pub struct Identified {
     /// The nominal scene with the fitted values (nominal where not identified).
     pub scene: Scene,
-    /// The measurement delay fitted \[s\].
+    /// The mean measurement delay fitted \[s\] (the twin spreads it as the sensor picks).
     pub delay_s: f64,
     /// The report.
     pub report: Report,
@@ -287,6 +297,8 @@ struct Outer<'a> {
     base: &'a Scene,
     free: &'a [Free],
     forcing: &'a Forcing,
+    pick: &'a SensorPick,
+    weights: Option<&'a [[f64; 2]]>,
     rec: &'a Recorded,
     starts: &'a [usize],
     n: usize,
@@ -328,6 +340,8 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
         let twin = Twin {
             scene: &scene,
             forcing: self.forcing,
+            pick: self.pick,
+            weights: self.weights,
             delay_s,
         };
         let (rec, n) = (self.rec, self.n);
@@ -341,9 +355,6 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
         self.states = fits.iter().map(|f| f.state).collect();
         self.res = fits.into_iter().map(|f| f.residuals).collect();
         let ss: f64 = self.res.iter().flatten().map(|r| r * r).sum();
-        if std::env::var("IDENTIFY_TRACE").is_ok() {
-            eprintln!("eval {} p {:?} ss {:.6e}", self.evaluations, x.iter().map(|v| format!("{v:.5}")).collect::<Vec<_>>(), ss);
-        }
         if self.best.as_ref().is_none_or(|b| ss < b.0) {
             self.best = Some((ss, self.states.clone()));
         }
@@ -365,6 +376,16 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
     }
 }
 
+/// Levenberg-Marquardt's relative tolerances (sum of squares, parameters) of the fit: the
+/// window states are refitted at each evaluation, which leaves the sum of squares rough at
+/// about 1e-7 of itself; below 1e-6 the evaluations moved the parameters by under 1 % of their
+/// standard errors (ftol 1e-10 and xtol 1e-8 took 17 evaluations for what 11 found).
+const TOLERANCE: f64 = 1e-6;
+
+/// The same for the first, unweighted stage where a second one follows: it needs only to
+/// bring the second near.
+const FIRST_TOLERANCE: f64 = 1e-4;
+
 /// Forward-difference step of the scaled parameters.
 const PARAM_STEP: f64 = 1e-6;
 
@@ -381,6 +402,8 @@ impl Outer<'_> {
                 let twin = Twin {
                     scene: &base_scene,
                     forcing: self.forcing,
+                    pick: self.pick,
+                    weights: self.weights,
                     delay_s: base_delay,
                 };
                 let js = state_jacobian(&twin, self.rec, *a, self.n, *s, Some(r0));
@@ -393,6 +416,8 @@ impl Outer<'_> {
                     let t = Twin {
                         scene: &scene,
                         forcing: self.forcing,
+                        pick: self.pick,
+                        weights: self.weights,
                         delay_s,
                     };
                     let r = t.residuals(self.rec, *a, self.n, *s);
@@ -445,54 +470,58 @@ pub fn identify(
         });
     }
     let forcing = Forcing::new(rec, scene.device.as_ref());
-    let delay0 = scene.device.map_or(0.0, |d| d.latency_s);
+    let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
+    let delay0 = pick.mean_delay_s();
     let mut p0: Vec<f64> = free.iter().map(Free::start).collect();
     p0.push(delay0 / rec.h_s);
     let twin0 = Twin {
         scene,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         delay_s: delay0,
     };
     let half = (n / 16).max(3);
     let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
-    let mut outer = Outer {
+    let outer = Outer {
         base: scene,
         free: &free,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         rec,
         starts: &starts,
         n,
-        p: DVector::from_vec(p0.clone()),
+        p: DVector::from_vec(p0),
         states,
         best: None,
         res: Vec::new(),
         evaluations: 0,
         jac: OnceLock::new(),
     };
-    outer.set_params(&DVector::from_vec(p0));
-    let (outer, report) = LevenbergMarquardt::new()
-        .with_ftol(1e-10)
-        .with_xtol(1e-8)
-        .with_gtol(1e-10)
-        .with_patience(settings.patience)
-        .minimize(outer);
+    let first = if pick.spreads() {
+        FIRST_TOLERANCE
+    } else {
+        TOLERANCE
+    };
+    let (mut outer, mut report) = minimise(outer, &free, settings, first)?;
+    // where the reading's age varies, its error grows with the capsule's speed: the second
+    // stage weights the residuals by it, from the first stage's twin
+    let weights;
+    if pick.spreads() {
+        let noise_m = scene.device.map_or(0.0, |d| {
+            (d.noise_m * d.noise_m + d.quantum_m * d.quantum_m / 12.0).sqrt()
+        });
+        weights = pick_weights(&outer, noise_m);
+        let weighted = Outer {
+            weights: Some(&weights),
+            best: None,
+            jac: OnceLock::new(),
+            ..outer
+        };
+        (outer, report) = minimise(weighted, &free, settings, TOLERANCE)?;
+    }
     let (fitted, delay_s) = outer.candidate(&outer.p);
-    for f in &free {
-        let v = fitted.number(&f.key)?;
-        if let Some(bound) = f.pinned(v) {
-            return Err(IdentifyError::Pinned {
-                key: f.key.clone(),
-                bound,
-                nominal: f.nominal,
-            });
-        }
-    }
-    if !report.termination.was_successful() {
-        return Err(IdentifyError::NoConvergence(format!(
-            "{:?} after {} evaluations",
-            report.termination, outer.evaluations
-        )));
-    }
     let report = summarise(
         &outer,
         &free,
@@ -516,11 +545,86 @@ pub fn identify(
     })
 }
 
+/// Levenberg-Marquardt on `outer` from its parameters to a relative change of `tolerance` (of
+/// the sum of squares and of the parameters); refused where it did not converge or a value
+/// ended at its bound.
+fn minimise<'a>(
+    mut outer: Outer<'a>,
+    free: &[Free],
+    settings: &Settings,
+    tolerance: f64,
+) -> Result<(Outer<'a>, MinimizationReport<f64>), IdentifyError> {
+    let p = outer.p.clone();
+    outer.set_params(&p);
+    let (outer, report) = LevenbergMarquardt::new()
+        .with_ftol(tolerance)
+        .with_xtol(tolerance)
+        .with_gtol(1e-10)
+        .with_patience(settings.patience)
+        .minimize(outer);
+    let (fitted, _) = outer.candidate(&outer.p);
+    for f in free {
+        let v = fitted.number(&f.key)?;
+        if let Some(bound) = f.pinned(v) {
+            return Err(IdentifyError::Pinned {
+                key: f.key.clone(),
+                bound,
+                nominal: f.nominal,
+            });
+        }
+    }
+    if !report.termination.was_successful() {
+        return Err(IdentifyError::NoConvergence(format!(
+            "{:?} after {} evaluations",
+            report.termination, outer.evaluations
+        )));
+    }
+    Ok((outer, report))
+}
+
+/// Weights of the residuals, per sample of the recording: `floor / sqrt(floor^2 + var)`, `var`
+/// the variance the reading's age gives the measurement (the fitted twin's positions over the
+/// pick's delays, [`Twin::spread`]), `floor` the sensor's noise but at least a tenth of the
+/// RMS spread (a noiseless sensor would weigh the standstills a million times the motion).
+/// From the twin, not from the data: weights made from the measured positions carry their
+/// noise and biased delta by 2 standard errors.
+fn pick_weights(outer: &Outer, noise_m: f64) -> Vec<[f64; 2]> {
+    let (scene, delay_s) = outer.candidate(&outer.p);
+    let twin = Twin {
+        scene: &scene,
+        forcing: outer.forcing,
+        pick: outer.pick,
+        weights: None,
+        delay_s,
+    };
+    let spreads: Vec<(usize, Vec<[f64; 2]>)> = outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .filter_map(|(a, s)| Some((*a, twin.spread(*a, outer.n, *s).ok()?)))
+        .collect();
+    let (sum, count) = spreads
+        .iter()
+        .flat_map(|(_, v)| v.iter().flatten())
+        .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+    let floor = noise_m.max(0.1 * (sum / count.max(1) as f64).sqrt());
+    let mut w = vec![[1.0; 2]; outer.rec.len()];
+    if floor <= 0.0 {
+        return w;
+    }
+    for (a, v) in spreads {
+        for (i, var) in v.iter().enumerate() {
+            w[a + i] = var.map(|x| floor / (floor * floor + x).sqrt());
+        }
+    }
+    w
+}
+
 /// Sums of squared residuals at the optimum: all, of the displacement `x1 - x2` (even rows),
 /// of the capsule (odd rows), and how many residuals are not zero.
-fn residual_sums(outer: &Outer) -> (f64, f64, f64, usize) {
+fn residual_sums(res: &[Vec<f64>]) -> (f64, f64, f64, usize) {
     let (mut ss, mut ss_rel, mut ss_x2, mut count) = (0.0, 0.0, 0.0, 0usize);
-    for w in &outer.res {
+    for w in res {
         for (i, r) in w.iter().enumerate() {
             if *r != 0.0 {
                 count += 1;
@@ -666,9 +770,24 @@ fn summarise(
     delay_s: f64,
     termination: String,
 ) -> Report {
+    let raw = Twin {
+        scene: fitted,
+        forcing: outer.forcing,
+        pick: outer.pick,
+        weights: None,
+        delay_s,
+    };
     let j = outer.projected_jacobian();
     let np = j.ncols();
-    let (ss, ss_rel, ss_x2, count) = residual_sums(outer);
+    let (ss, _, _, count) = residual_sums(&outer.res);
+    // in metres: the residuals without the weights
+    let metres: Vec<Vec<f64>> = outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .map(|(a, s)| raw.residuals(outer.rec, *a, outer.n, *s))
+        .collect();
+    let (ss_m, ss_rel, ss_x2, _) = residual_sums(&metres);
     let (textbook, robust) = covariances(outer, &j, ss, count);
     // correlations from the robust estimate (the textbook one where it is degenerate)
     let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
@@ -711,7 +830,7 @@ fn summarise(
             estimate(i, f.key.clone(), f.nominal, v, f.slope(outer.p[i]))
         })
         .collect();
-    let nominal_delay = outer.base.device.map_or(0.0, |d| d.latency_s);
+    let nominal_delay = outer.pick.mean_delay_s();
     let delay = estimate(
         free.len(),
         "delay_s".into(),
@@ -723,7 +842,7 @@ fn summarise(
     Report {
         parameters,
         delay,
-        residual_rms_m: (ss / count as f64).sqrt(),
+        residual_rms_m: (ss_m / count as f64).sqrt(),
         residual_rms_displacement_m: (ss_rel / half).sqrt(),
         residual_rms_capsule_m: (ss_x2 / half).sqrt(),
         windows: outer.starts.len(),
