@@ -275,7 +275,7 @@ pub struct Report {
     pub window_samples: usize,
     /// Positions compared.
     pub residuals: usize,
-    /// Evaluations of all windows.
+    /// Evaluations of the windows (a first of two stages evaluates every other window).
     pub evaluations: usize,
     /// Why the optimiser stopped.
     pub termination: String,
@@ -491,6 +491,12 @@ pub fn identify(
     };
     let half = (n / 16).max(3);
     let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
+    // where the reading's age varies, its error grows with the capsule's speed: a second stage
+    // weights the residuals by it, from the first stage's twin; the first only brings the
+    // second near, and every other window does for it
+    let two_stages = pick.spreads();
+    let step = if two_stages { 2 } else { 1 };
+    let first_starts: Vec<usize> = starts.iter().step_by(step).copied().collect();
     let outer = Outer {
         base: scene,
         free: &free,
@@ -498,34 +504,48 @@ pub fn identify(
         pick: &pick,
         weights: None,
         rec,
-        starts: &starts,
+        starts: &first_starts,
         n,
         p: DVector::from_vec(p0),
-        states,
+        states: states.iter().step_by(step).copied().collect(),
         best: None,
         res: Vec::new(),
         evaluations: 0,
         jac: OnceLock::new(),
     };
-    let first = if pick.spreads() {
+    let first = if two_stages {
         FIRST_TOLERANCE
     } else {
         TOLERANCE
     };
     let (mut outer, mut report) = minimise(outer, &free, settings, first)?;
-    // where the reading's age varies, its error grows with the capsule's speed: the second
-    // stage weights the residuals by it, from the first stage's twin
     let weights;
-    if pick.spreads() {
+    if two_stages {
+        // every window's state at the first stage's parameters, then the weights
+        let fitted_states = std::mem::take(&mut outer.states);
+        let mut all = Outer {
+            starts: &starts,
+            states: states
+                .iter()
+                .enumerate()
+                .map(|(i, s)| fitted_states.get(i / 2).filter(|_| i % 2 == 0).unwrap_or(s))
+                .copied()
+                .collect(),
+            best: None,
+            jac: OnceLock::new(),
+            ..outer
+        };
+        let p = all.p.clone();
+        all.set_params(&p);
         let noise_m = scene.device.map_or(0.0, |d| {
             (d.noise_m * d.noise_m + d.quantum_m * d.quantum_m / 12.0).sqrt()
         });
-        weights = pick_weights(&outer, noise_m);
+        weights = pick_weights(&all, noise_m);
         let weighted = Outer {
             weights: Some(&weights),
             best: None,
             jac: OnceLock::new(),
-            ..outer
+            ..all
         };
         (outer, report) = minimise(weighted, &free, settings, TOLERANCE)?;
     }

@@ -96,12 +96,6 @@ fn check_capsule(factors: [f64; 4]) -> String {
     ));
     assert!(v.recorded_progression_m < 0.0, "{}", lines.join("\n"));
     assert!(v.progression_error.abs() < 0.05, "{}", lines.join("\n"));
-    // the nominal twin does not predict it: the identification is what makes it right
-    let nominal_v = validate(&nominal(), fit.delay_s, &backward).expect("validation");
-    lines.push(format!(
-        "the nominal scene predicts {:+.2} %",
-        100.0 * nominal_v.progression_error
-    ));
     lines.join("\n")
 }
 
