@@ -460,23 +460,7 @@ pub fn identify(
     settings: &Settings,
 ) -> Result<Identified, IdentifyError> {
     let free = free_keys(scene, keys)?;
-    if !(0..rec.len()).any(|k| rec.measured(k)) {
-        return Err(IdentifyError::NoPositions);
-    }
-    let n = window_samples(scene, rec.h_s, settings.window_periods);
-    let starts = windows(rec, n);
-    let numbers = free.len() + 1;
-    let needed = WINDOWS_PER_NUMBER * numbers;
-    if starts.len() < needed {
-        return Err(IdentifyError::TooShort {
-            keys: free.len(),
-            numbers,
-            windows: starts.len(),
-            samples: n,
-            needed,
-            per: WINDOWS_PER_NUMBER,
-        });
-    }
+    let (n, starts) = checked_windows(scene, rec, free.len(), settings)?;
     let forcing = Forcing::new(rec, scene.device.as_ref());
     let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
     let delay0 = pick.mean_delay_s();
@@ -571,6 +555,51 @@ pub fn identify(
         delay_s,
         report,
     })
+}
+
+/// The window length and the windows of `rec`, refused where it measured nothing or has too
+/// few windows for `keys` free keys and the delay.
+fn checked_windows(
+    scene: &Scene,
+    rec: &Recorded,
+    keys: usize,
+    settings: &Settings,
+) -> Result<(usize, Vec<usize>), IdentifyError> {
+    if !(0..rec.len()).any(|k| rec.measured(k)) {
+        return Err(IdentifyError::NoPositions);
+    }
+    let n = window_samples(scene, rec.h_s, settings.window_periods);
+    let starts = windows(rec, n);
+    let numbers = keys + 1;
+    let needed = WINDOWS_PER_NUMBER * numbers;
+    if starts.len() < needed {
+        return Err(IdentifyError::TooShort {
+            keys,
+            numbers,
+            windows: starts.len(),
+            samples: n,
+            needed,
+            per: WINDOWS_PER_NUMBER,
+        });
+    }
+    Ok((n, starts))
+}
+
+/// The residuals of every window without the weights, \[m\].
+fn residuals_in_metres(outer: &Outer, fitted: &Scene, delay_s: f64) -> Vec<Vec<f64>> {
+    let raw = Twin {
+        scene: fitted,
+        forcing: outer.forcing,
+        pick: outer.pick,
+        weights: None,
+        delay_s,
+    };
+    outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .map(|(a, s)| raw.residuals(outer.rec, *a, outer.n, *s))
+        .collect()
 }
 
 /// Levenberg-Marquardt on `outer` from its parameters to a relative change of `tolerance` (of
@@ -802,24 +831,10 @@ fn summarise(
     delay_s: f64,
     termination: String,
 ) -> Report {
-    let raw = Twin {
-        scene: fitted,
-        forcing: outer.forcing,
-        pick: outer.pick,
-        weights: None,
-        delay_s,
-    };
     let j = outer.projected_jacobian();
     let np = j.ncols();
     let (ss, _, _, count) = residual_sums(&outer.res);
-    // in metres: the residuals without the weights
-    let metres: Vec<Vec<f64>> = outer
-        .starts
-        .par_iter()
-        .zip(outer.states.par_iter())
-        .map(|(a, s)| raw.residuals(outer.rec, *a, outer.n, *s))
-        .collect();
-    let (ss_m, ss_rel, ss_x2, _) = residual_sums(&metres);
+    let (ss_m, ss_rel, ss_x2, _) = residual_sums(&residuals_in_metres(outer, fitted, delay_s));
     let (textbook, robust) = covariances(outer, &j, ss, count);
     // correlations from the robust estimate (the textbook one where it is degenerate)
     let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
