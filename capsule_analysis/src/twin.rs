@@ -6,14 +6,14 @@
 //! it (`capsule_plant::device`): the command answering sample `k` is held from sample `k` to
 //! `k + 1`, through the actuator's dead band, saturation and the coil's first-order lag (the
 //! scene's `[device]`; an ideal actuator without one). The measurement of sample `k` is the
-//! capsule at `t_k - delay`: the delay (the sensor's latency and how the device picks its
-//! samples) is a number of the twin, fitted beside the scene's keys.
+//! capsule at `t_k - delay`, averaged over the delays the sensor's pick of a reading can give
+//! (`SensorPick`, from the `[device]`'s latency and jitter): the mean delay is a number of the
+//! twin, fitted beside the scene's keys.
 
 use capsule_plant::device::actuator::Actuator;
 use capsule_plant::device::DeviceModel;
 use capsule_plant::scene::Scene;
 use capsule_plant::{ConstantForce, SimError, Simulator, State};
-
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn, Vector4, U4};
 
