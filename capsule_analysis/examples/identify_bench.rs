@@ -3,8 +3,10 @@
 //! point, the device's capsule off the nominal one by 10-30 %. Prints the fit, the truth and
 //! the wall time (docs/perf/identify.md has the figures).
 //!
-//! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS [G B D X]]`
-//! (G B D X: the factors on gamma, beta, delta and xi)
+//! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS [G B D X
+//! [KEY=VALUE...]]]` (G B D X: the factors on gamma, beta, delta and xi; KEY=VALUE: the
+//! device's `jitter_s`, `latency_s`, `noise_m`, `quantum_m`, `lag_s` or `seed`, for the
+//! experiments docs/perf/identify.md reports)
 
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::emulated_run;
@@ -21,7 +23,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/control_point.toml"),
     )?;
     let mut nominal = Scene::from_toml_str(&text, "control_point")?;
-    let device = DeviceModel::typical(&nominal.physical);
+    let mut device = DeviceModel::typical(&nominal.physical);
+    for a in std::env::args().skip(6) {
+        let (k, v) = a.split_once('=').ok_or(format!("{a}: KEY=VALUE"))?;
+        let v: f64 = v.parse()?;
+        match k {
+            "jitter_s" => device.jitter_s = v,
+            "latency_s" => device.latency_s = v,
+            "noise_m" => device.noise_m = v,
+            "quantum_m" => device.quantum_m = v,
+            "lag_s" => device.lag_s = v,
+            "seed" => device.seed = v as u32,
+            _ => return Err(format!("{k}: not a device setting of this bench").into()),
+        }
+    }
     nominal.device = Some(device);
     let mut truth = nominal.clone();
     // the factors on gamma, beta, delta, xi: arguments 2 to 5, or the acceptance case's
@@ -52,7 +67,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for e in &fit.report.parameters {
         let t = truth.number(&e.key)?;
-        let v = e.value.unwrap_or(f64::NAN);
+        let v = e.raw_value;
         let sd = e.std_error.unwrap_or(f64::NAN);
         println!(
             "{:<14} true {:.6} fitted {:.6} +- {:.6} (textbook {:.6}): error {:+.2} %, {:.2} s.e.",

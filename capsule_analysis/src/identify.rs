@@ -12,7 +12,14 @@
 //! - The free keys and the measurement delay are fitted to all windows together by
 //!   Levenberg-Marquardt (`levenberg-marquardt`) on the residuals with the window states
 //!   projected out (variable projection, Kaufman's Jacobian: `(I - J_s J_s^+) J_p` per window,
-//!   `J_s` and `J_p` by forward differences of the exact simulator).
+//!   `J_s` and `J_p` by forward differences of the exact simulator). A key with a positive
+//!   nominal value is fitted in a smooth bounded log coordinate (`Free::value`): relative
+//!   changes, and no clamp for a step to die in.
+//! - The twin measures what the device's sensor sends on average (`twin::SensorPick`: where the
+//!   reading's age is a coin toss between two samples, the mean of both). Where the age varies,
+//!   a second stage refits with each residual weighted by the error that variation gives it
+//!   (the capsule's speed times the spread of the age, `pick_weights`), from the first stage's
+//!   twin: the slow samples (turning points on the stop, the stuck shell) carry the gap.
 //! - Uncertainty: the standard error from the projected Jacobian at the optimum, as a
 //!   cluster-robust ("sandwich") estimate with the windows as clusters,
 //!   `A^-1 (sum_w J_w^T r_w r_w^T J_w) A^-1` with `A = J^T J`: the residuals within a window are
@@ -23,10 +30,12 @@
 //!   column-scaled Jacobian; a pair correlated beyond 0.95, or a direction whose singular value
 //!   is under 1e-3 of the largest, is reported in words and its numbers are not.
 
-use crate::twin::{fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, Twin};
+use crate::twin::{
+    fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, SensorPick, Twin,
+};
 use capsule_plant::scene::{KeyError, Scene};
 use capsule_plant::State;
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, MinimizationReport};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -43,8 +52,16 @@ pub const BOUND_FACTOR: f64 = 4.0;
 /// Windows needed per fitted number (the free keys and the delay).
 pub const WINDOWS_PER_NUMBER: usize = 5;
 
-/// Correlation beyond which two estimates are reported as not told apart.
+/// Correlation beyond which two estimates are reported as not told apart (where it leaves
+/// either loose: [`TOLD`]).
 pub const STRONG_CORRELATION: f64 = 0.95;
+
+/// A strongly correlated pair is still told apart where the standard error of each is under
+/// this fraction of its value: the correlation widens the standard errors (they are the
+/// marginal ones), and a value known within 10 % is known. The capsule (1.25, 1.2, 0.8, 0.8)
+/// had beta and delta correlated at +0.975 and fitted within 0.02 % and 1 % of the truth,
+/// with standard errors of 0.2 % and 4 %: reported as not told apart before.
+pub const TOLD: f64 = 0.1;
 
 /// Singular value (of the column-scaled Jacobian, relative to the largest) under which a
 /// direction is reported as flat.
@@ -133,13 +150,58 @@ pub struct Free {
     pub hi: f64,
 }
 
+/// How close (as a fraction of the log-range) to a bound a fitted value counts as pinned.
+const PINNED: f64 = 0.01;
+
 impl Free {
-    /// Unit of the fitted number: the nominal value, or 1 where it is zero.
-    fn scale(&self) -> f64 {
-        if self.nominal != 0.0 {
-            self.nominal.abs()
+    /// Whether the key is fitted in the smooth bounded log coordinate (a positive nominal).
+    fn logarithmic(&self) -> bool {
+        self.nominal > 0.0
+    }
+
+    /// The value at coordinate `u`. A positive nominal: `nominal exp(L tanh(u / L))`,
+    /// `L = ln BOUND_FACTOR`, i.e. relative changes near the nominal value and the bounds
+    /// approached smoothly: a clamp would give a step outside the bounds a zero derivative,
+    /// and Levenberg-Marquardt never comes back from there (what pinned delta at its bound
+    /// after the first step from a nominal scene 25 % off). Otherwise the value itself, clamped.
+    fn value(&self, u: f64) -> f64 {
+        if self.logarithmic() {
+            let l = BOUND_FACTOR.ln();
+            self.nominal * (l * (u / l).tanh()).exp()
+        } else {
+            u.clamp(self.lo, self.hi)
+        }
+    }
+
+    /// The coordinate of the nominal value.
+    fn start(&self) -> f64 {
+        if self.logarithmic() {
+            0.0
+        } else {
+            self.nominal
+        }
+    }
+
+    /// `d value / d u` at `u`.
+    fn slope(&self, u: f64) -> f64 {
+        if self.logarithmic() {
+            let c = (u / BOUND_FACTOR.ln()).cosh();
+            self.value(u) / (c * c)
         } else {
             1.0
+        }
+    }
+
+    /// The bound `value` ended at, if it did.
+    fn pinned(&self, value: f64) -> Option<f64> {
+        if self.logarithmic() {
+            let l = BOUND_FACTOR.ln();
+            let r = (value / self.nominal).ln();
+            (l - r.abs() <= PINNED * l).then_some(if r > 0.0 { self.hi } else { self.lo })
+        } else {
+            [self.lo, self.hi]
+                .into_iter()
+                .find(|b| (value - b).abs() <= 1e-6 * (self.hi - self.lo))
         }
     }
 }
@@ -197,8 +259,9 @@ pub struct Estimate {
 pub struct Report {
     /// The free keys, in the order given.
     pub parameters: Vec<Estimate>,
-    /// The measurement delay (measurement `k` is the capsule at `t_k - delay`): fitted, not
-    /// written to the scene.
+    /// The mean measurement delay (measurement `k` is the capsule at `t_k - delay`, averaged
+    /// over the sensor's pick; nominal: the pick's mean for the scene's `[device]`): fitted,
+    /// not written to the scene.
     pub delay: Estimate,
     /// RMS of the position residuals (`x1 - x2` and `x2` together) \[m\].
     pub residual_rms_m: f64,
@@ -212,7 +275,7 @@ pub struct Report {
     pub window_samples: usize,
     /// Positions compared.
     pub residuals: usize,
-    /// Evaluations of all windows.
+    /// Evaluations of the windows (a first of two stages evaluates every other window).
     pub evaluations: usize,
     /// Why the optimiser stopped.
     pub termination: String,
@@ -231,7 +294,7 @@ pub struct Report {
 pub struct Identified {
     /// The nominal scene with the fitted values (nominal where not identified).
     pub scene: Scene,
-    /// The measurement delay fitted \[s\].
+    /// The mean measurement delay fitted \[s\] (the twin spreads it as the sensor picks).
     pub delay_s: f64,
     /// The report.
     pub report: Report,
@@ -242,6 +305,8 @@ struct Outer<'a> {
     base: &'a Scene,
     free: &'a [Free],
     forcing: &'a Forcing,
+    pick: &'a SensorPick,
+    weights: Option<&'a [[f64; 2]]>,
     rec: &'a Recorded,
     starts: &'a [usize],
     n: usize,
@@ -260,7 +325,7 @@ impl Outer<'_> {
     fn candidate(&self, p: &DVector<f64>) -> (Scene, f64) {
         let mut s = self.base.clone();
         for (i, f) in self.free.iter().enumerate() {
-            let v = (p[i] * f.scale()).clamp(f.lo, f.hi);
+            let v = f.value(p[i]);
             // every free key was read from this scene: setting it cannot fail
             let _ = s.set_number(&f.key, v);
         }
@@ -283,6 +348,8 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
         let twin = Twin {
             scene: &scene,
             forcing: self.forcing,
+            pick: self.pick,
+            weights: self.weights,
             delay_s,
         };
         let (rec, n) = (self.rec, self.n);
@@ -317,6 +384,16 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
     }
 }
 
+/// Levenberg-Marquardt's relative tolerances (sum of squares, parameters) of the fit: the
+/// window states are refitted at each evaluation, which leaves the sum of squares rough at
+/// about 1e-7 of itself; below 1e-6 the evaluations moved the parameters by under 1 % of their
+/// standard errors (ftol 1e-10 and xtol 1e-8 took 17 evaluations for what 11 found).
+const TOLERANCE: f64 = 1e-6;
+
+/// The same for the first, unweighted stage where a second one follows: it needs only to
+/// bring the second near.
+const FIRST_TOLERANCE: f64 = 1e-4;
+
 /// Forward-difference step of the scaled parameters.
 const PARAM_STEP: f64 = 1e-6;
 
@@ -333,6 +410,8 @@ impl Outer<'_> {
                 let twin = Twin {
                     scene: &base_scene,
                     forcing: self.forcing,
+                    pick: self.pick,
+                    weights: self.weights,
                     delay_s: base_delay,
                 };
                 let js = state_jacobian(&twin, self.rec, *a, self.n, *s, Some(r0));
@@ -345,6 +424,8 @@ impl Outer<'_> {
                     let t = Twin {
                         scene: &scene,
                         forcing: self.forcing,
+                        pick: self.pick,
+                        weights: self.weights,
                         delay_s,
                     };
                     let r = t.residuals(self.rec, *a, self.n, *s);
@@ -379,74 +460,80 @@ pub fn identify(
     settings: &Settings,
 ) -> Result<Identified, IdentifyError> {
     let free = free_keys(scene, keys)?;
-    if !(0..rec.len()).any(|k| rec.measured(k)) {
-        return Err(IdentifyError::NoPositions);
-    }
-    let n = window_samples(scene, rec.h_s, settings.window_periods);
-    let starts = windows(rec, n);
-    let numbers = free.len() + 1;
-    let needed = WINDOWS_PER_NUMBER * numbers;
-    if starts.len() < needed {
-        return Err(IdentifyError::TooShort {
-            keys: free.len(),
-            numbers,
-            windows: starts.len(),
-            samples: n,
-            needed,
-            per: WINDOWS_PER_NUMBER,
-        });
-    }
+    let (n, starts) = checked_windows(scene, rec, free.len(), settings)?;
     let forcing = Forcing::new(rec, scene.device.as_ref());
-    let delay0 = scene.device.map_or(0.0, |d| d.latency_s);
-    let mut p0: Vec<f64> = free.iter().map(|f| f.nominal / f.scale()).collect();
+    let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
+    let delay0 = pick.mean_delay_s();
+    let mut p0: Vec<f64> = free.iter().map(Free::start).collect();
     p0.push(delay0 / rec.h_s);
     let twin0 = Twin {
         scene,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         delay_s: delay0,
     };
     let half = (n / 16).max(3);
     let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
-    let mut outer = Outer {
+    // where the reading's age varies, its error grows with the capsule's speed: a second stage
+    // weights the residuals by it, from the first stage's twin; the first only brings the
+    // second near, and every other window does for it
+    let two_stages = pick.spreads();
+    let step = if two_stages { 2 } else { 1 };
+    let first_starts: Vec<usize> = starts.iter().step_by(step).copied().collect();
+    let outer = Outer {
         base: scene,
         free: &free,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         rec,
-        starts: &starts,
+        starts: &first_starts,
         n,
-        p: DVector::from_vec(p0.clone()),
-        states,
+        p: DVector::from_vec(p0),
+        states: states.iter().step_by(step).copied().collect(),
         best: None,
         res: Vec::new(),
         evaluations: 0,
         jac: OnceLock::new(),
     };
-    outer.set_params(&DVector::from_vec(p0));
-    let (outer, report) = LevenbergMarquardt::new()
-        .with_ftol(1e-10)
-        .with_xtol(1e-8)
-        .with_gtol(1e-10)
-        .with_patience(settings.patience)
-        .minimize(outer);
-    if !report.termination.was_successful() {
-        return Err(IdentifyError::NoConvergence(format!(
-            "{:?} after {} evaluations",
-            report.termination, outer.evaluations
-        )));
+    let first = if two_stages {
+        FIRST_TOLERANCE
+    } else {
+        TOLERANCE
+    };
+    let (mut outer, mut report) = minimise(outer, &free, settings, first)?;
+    let weights;
+    if two_stages {
+        // every window's state at the first stage's parameters, then the weights
+        let fitted_states = std::mem::take(&mut outer.states);
+        let mut all = Outer {
+            starts: &starts,
+            states: states
+                .iter()
+                .enumerate()
+                .map(|(i, s)| fitted_states.get(i / 2).filter(|_| i % 2 == 0).unwrap_or(s))
+                .copied()
+                .collect(),
+            best: None,
+            jac: OnceLock::new(),
+            ..outer
+        };
+        let p = all.p.clone();
+        all.set_params(&p);
+        let noise_m = scene.device.map_or(0.0, |d| {
+            (d.noise_m * d.noise_m + d.quantum_m * d.quantum_m / 12.0).sqrt()
+        });
+        weights = pick_weights(&all, noise_m);
+        let weighted = Outer {
+            weights: Some(&weights),
+            best: None,
+            jac: OnceLock::new(),
+            ..all
+        };
+        (outer, report) = minimise(weighted, &free, settings, TOLERANCE)?;
     }
     let (fitted, delay_s) = outer.candidate(&outer.p);
-    for f in &free {
-        let v = fitted.number(&f.key)?;
-        for bound in [f.lo, f.hi] {
-            if (v - bound).abs() <= 1e-6 * f.scale() {
-                return Err(IdentifyError::Pinned {
-                    key: f.key.clone(),
-                    bound,
-                    nominal: f.nominal,
-                });
-            }
-        }
-    }
     let report = summarise(
         &outer,
         &free,
@@ -470,11 +557,131 @@ pub fn identify(
     })
 }
 
+/// The window length and the windows of `rec`, refused where it measured nothing or has too
+/// few windows for `keys` free keys and the delay.
+fn checked_windows(
+    scene: &Scene,
+    rec: &Recorded,
+    keys: usize,
+    settings: &Settings,
+) -> Result<(usize, Vec<usize>), IdentifyError> {
+    if !(0..rec.len()).any(|k| rec.measured(k)) {
+        return Err(IdentifyError::NoPositions);
+    }
+    let n = window_samples(scene, rec.h_s, settings.window_periods);
+    let starts = windows(rec, n);
+    let numbers = keys + 1;
+    let needed = WINDOWS_PER_NUMBER * numbers;
+    if starts.len() < needed {
+        return Err(IdentifyError::TooShort {
+            keys,
+            numbers,
+            windows: starts.len(),
+            samples: n,
+            needed,
+            per: WINDOWS_PER_NUMBER,
+        });
+    }
+    Ok((n, starts))
+}
+
+/// The residuals of every window without the weights, \[m\].
+fn residuals_in_metres(outer: &Outer, fitted: &Scene, delay_s: f64) -> Vec<Vec<f64>> {
+    let raw = Twin {
+        scene: fitted,
+        forcing: outer.forcing,
+        pick: outer.pick,
+        weights: None,
+        delay_s,
+    };
+    outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .map(|(a, s)| raw.residuals(outer.rec, *a, outer.n, *s))
+        .collect()
+}
+
+/// Levenberg-Marquardt on `outer` from its parameters to a relative change of `tolerance` (of
+/// the sum of squares and of the parameters); refused where it did not converge or a value
+/// ended at its bound.
+fn minimise<'a>(
+    mut outer: Outer<'a>,
+    free: &[Free],
+    settings: &Settings,
+    tolerance: f64,
+) -> Result<(Outer<'a>, MinimizationReport<f64>), IdentifyError> {
+    let p = outer.p.clone();
+    outer.set_params(&p);
+    let (outer, report) = LevenbergMarquardt::new()
+        .with_ftol(tolerance)
+        .with_xtol(tolerance)
+        .with_gtol(1e-10)
+        .with_patience(settings.patience)
+        .minimize(outer);
+    let (fitted, _) = outer.candidate(&outer.p);
+    for f in free {
+        let v = fitted.number(&f.key)?;
+        if let Some(bound) = f.pinned(v) {
+            return Err(IdentifyError::Pinned {
+                key: f.key.clone(),
+                bound,
+                nominal: f.nominal,
+            });
+        }
+    }
+    if !report.termination.was_successful() {
+        return Err(IdentifyError::NoConvergence(format!(
+            "{:?} after {} evaluations",
+            report.termination, outer.evaluations
+        )));
+    }
+    Ok((outer, report))
+}
+
+/// Weights of the residuals, per sample of the recording: `floor / sqrt(floor^2 + var)`, `var`
+/// the variance the reading's age gives the measurement (the fitted twin's positions over the
+/// pick's delays, [`Twin::spread`]), `floor` the sensor's noise but at least a tenth of the
+/// RMS spread (a noiseless sensor would weigh the standstills a million times the motion).
+/// From the twin, not from the data: weights made from the measured positions carry their
+/// noise and biased delta by 2 standard errors.
+fn pick_weights(outer: &Outer, noise_m: f64) -> Vec<[f64; 2]> {
+    let (scene, delay_s) = outer.candidate(&outer.p);
+    let twin = Twin {
+        scene: &scene,
+        forcing: outer.forcing,
+        pick: outer.pick,
+        weights: None,
+        delay_s,
+    };
+    let spreads: Vec<(usize, Vec<[f64; 2]>)> = outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .filter_map(|(a, s)| Some((*a, twin.spread(*a, outer.n, *s).ok()?)))
+        .collect();
+    let (sum, count) = spreads
+        .iter()
+        .flat_map(|(_, v)| v.iter().flatten())
+        .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+    let floor = noise_m.max(0.1 * (sum / count.max(1) as f64).sqrt());
+    let mut w = vec![[1.0; 2]; outer.rec.len()];
+    if floor <= 0.0 {
+        return w;
+    }
+    for (a, v) in spreads {
+        for (i, var) in v.iter().enumerate() {
+            w[a + i] = var.map(|x| floor / (floor * floor + x).sqrt());
+        }
+    }
+    w
+}
+
 /// Sums of squared residuals at the optimum: all, of the displacement `x1 - x2` (even rows),
 /// of the capsule (odd rows), and how many residuals are not zero.
-fn residual_sums(outer: &Outer) -> (f64, f64, f64, usize) {
+fn residual_sums(res: &[Vec<f64>]) -> (f64, f64, f64, usize) {
     let (mut ss, mut ss_rel, mut ss_x2, mut count) = (0.0, 0.0, 0.0, 0usize);
-    for w in &outer.res {
+    for w in res {
         for (i, r) in w.iter().enumerate() {
             if *r != 0.0 {
                 count += 1;
@@ -545,6 +752,7 @@ fn correlation_of(cov: &DMatrix<f64>) -> Vec<Vec<f64>> {
 fn identifiability(
     j: &DMatrix<f64>,
     correlation: &[Vec<f64>],
+    relative: &[f64],
     name: &dyn Fn(usize) -> String,
 ) -> (Vec<String>, Vec<bool>, Vec<f64>) {
     let np = j.ncols();
@@ -579,7 +787,10 @@ fn identifiability(
     for r in 0..np {
         for c in r + 1..np {
             let rho = correlation[r][c];
-            if rho.abs() > STRONG_CORRELATION {
+            // a strong correlation is in the standard errors (each is the marginal one): the
+            // pair is not told apart where it leaves either of them loose
+            let loose = !(relative[r] <= TOLD && relative[c] <= TOLD);
+            if rho.abs() > STRONG_CORRELATION && loose {
                 statements.push(format!(
                     "{} and {} cannot be told apart from this recording (correlation {rho:+.3}): the data fix a combination of them, not each; free one of them only, or record a run that moves them differently",
                     name(r),
@@ -622,7 +833,8 @@ fn summarise(
 ) -> Report {
     let j = outer.projected_jacobian();
     let np = j.ncols();
-    let (ss, ss_rel, ss_x2, count) = residual_sums(outer);
+    let (ss, _, _, count) = residual_sums(&outer.res);
+    let (ss_m, ss_rel, ss_x2, _) = residual_sums(&residuals_in_metres(outer, fitted, delay_s));
     let (textbook, robust) = covariances(outer, &j, ss, count);
     // correlations from the robust estimate (the textbook one where it is degenerate)
     let cov = if (0..np).all(|i| robust[(i, i)] > 0.0) {
@@ -641,7 +853,21 @@ fn summarise(
             "the measurement delay".to_string()
         }
     };
-    let (statements, unknown, singular_values) = identifiability(&j, &correlation, &name);
+    // each estimate's standard error relative to its value
+    let relative: Vec<f64> = (0..np)
+        .map(|i| {
+            let (v, scale) = match free.get(i) {
+                Some(f) => (
+                    fitted.number(&f.key).unwrap_or(f64::NAN),
+                    f.slope(outer.p[i]),
+                ),
+                None => (delay_s, outer.rec.h_s),
+            };
+            sd[i] * scale / v.abs()
+        })
+        .collect();
+    let (statements, unknown, singular_values) =
+        identifiability(&j, &correlation, &relative, &name);
     let estimate = |i: usize, key: String, nominal: f64, value: f64, scale: f64| Estimate {
         key,
         nominal,
@@ -662,10 +888,10 @@ fn summarise(
         .enumerate()
         .map(|(i, f)| {
             let v = fitted.number(&f.key).unwrap_or(f64::NAN);
-            estimate(i, f.key.clone(), f.nominal, v, f.scale())
+            estimate(i, f.key.clone(), f.nominal, v, f.slope(outer.p[i]))
         })
         .collect();
-    let nominal_delay = outer.base.device.map_or(0.0, |d| d.latency_s);
+    let nominal_delay = outer.pick.mean_delay_s();
     let delay = estimate(
         free.len(),
         "delay_s".into(),
@@ -677,7 +903,7 @@ fn summarise(
     Report {
         parameters,
         delay,
-        residual_rms_m: (ss / count as f64).sqrt(),
+        residual_rms_m: (ss_m / count as f64).sqrt(),
         residual_rms_displacement_m: (ss_rel / half).sqrt(),
         residual_rms_capsule_m: (ss_x2 / half).sqrt(),
         windows: outer.starts.len(),

@@ -3,7 +3,7 @@
 //! start measured, the progression per period recorded against predicted, and where the twin
 //! errs most.
 
-use crate::twin::{fit_window, window_samples, windows, Forcing, Recorded, Twin};
+use crate::twin::{fit_window, window_samples, windows, Forcing, Recorded, SensorPick, Twin};
 use capsule_plant::scene::Scene;
 use capsule_plant::State;
 use rayon::prelude::*;
@@ -146,9 +146,12 @@ pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validatio
         return None;
     }
     let forcing = Forcing::new(rec, scene.device.as_ref());
+    let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
     let twin = Twin {
         scene,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         delay_s,
     };
     let half = (n / 16).max(3);
@@ -282,9 +285,12 @@ pub fn first_state(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<(usize
     let n = window_samples(scene, rec.h_s, 1.0);
     let a = *windows(rec, n).first()?;
     let forcing = Forcing::new(rec, scene.device.as_ref());
+    let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
     let twin = Twin {
         scene,
         forcing: &forcing,
+        pick: &pick,
+        weights: None,
         delay_s,
     };
     let fit = fit_window(&twin, rec, a, n, twin.guess(rec, a, (n / 16).max(3)));

@@ -229,8 +229,9 @@ fn print_report(args: &Args, o: &Outcome, forces: capsule_record::series::ForceS
     if r.statements.is_empty() {
         let smallest = r.singular_values.last().copied().unwrap_or(f64::NAN);
         println!(
-            "identifiable   every number (smallest relative singular value {smallest:.2e}, no correlation beyond {})",
-            capsule_analysis::identify::STRONG_CORRELATION
+            "identifiable   every number (smallest relative singular value {smallest:.2e}, no pair correlated beyond {} with a standard error over {} % of its value)",
+            capsule_analysis::identify::STRONG_CORRELATION,
+            100.0 * capsule_analysis::identify::TOLD
         );
     }
     for s in &r.statements {
