@@ -271,6 +271,15 @@ fn bad_input_is_refused_with_a_reason_and_nothing_written() {
         true,
         true,
     );
+    // a capsule off the nominal one, which one evaluation cannot fit (the nominal capsule's own
+    // recording converges at once: the fit starts at the answer)
+    let off = dir.arg("off.mcap");
+    write_recording(
+        Path::new(&off),
+        &short_run(&off_nominal([1.2, 0.8, 1.3, 1.15]), 6.0),
+        true,
+        true,
+    );
     let out = dir.arg("fitted.toml");
     let cases: [(&str, &[&str], i32, &str); 8] = [
         (
@@ -319,7 +328,7 @@ fn bad_input_is_refused_with_a_reason_and_nothing_written() {
             "no convergence",
             &[
                 "--recording",
-                &good,
+                &off,
                 "--free",
                 "capsule.gamma,capsule.xi",
                 "--patience",
