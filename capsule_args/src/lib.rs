@@ -7,8 +7,7 @@
 //!   rows both hold in [`scale_settings`]
 //! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
-//! - `storage` (feature `recording`, on by default): how a recording is stored (compression,
-//!   splitting), as rosbag2 users set it
+//! - [`storage`]: how a recording is stored (compression, splitting), as rosbag2 users set it
 
 #![warn(missing_docs)]
 
@@ -19,5 +18,4 @@ pub mod ranges;
 pub mod scale_settings;
 pub mod scene_file;
 pub mod settings;
-#[cfg(feature = "recording")]
 pub mod storage;

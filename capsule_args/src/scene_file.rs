@@ -4,7 +4,6 @@
 use std::path::Path;
 
 use capsule_plant::scene::{Fault, Scene, SceneError};
-#[cfg(feature = "recording")]
 use capsule_record::SceneRecord;
 
 use crate::node_table::NodeTable;
@@ -55,7 +54,6 @@ impl SceneFile {
     }
 
     /// The scene as a recording attaches it: named for the file, with the file's text.
-    #[cfg(feature = "recording")]
     pub fn record(&self) -> SceneRecord {
         SceneRecord {
             name: self.stem.clone(),

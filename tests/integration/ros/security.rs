@@ -186,12 +186,15 @@ fn outsiders_see_nothing_and_command_nothing() {
         secure "$TMP/ks"
         start_plant --until-s 120 --enclave /capsule/plant --summary-json "$TMP/plant.json"
         ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/operator fpeer state --samples 100 --timeout 30 || exit 1
-        (unsecure; peer state --samples 1 --timeout 6; echo "CYCLONE_UNSECURED $?")
-        (unsecure; fpeer state --samples 1 --timeout 6; echo "FASTDDS_UNSECURED_STATE $?")
-        (unsecure; fpeer force --force 0.05; echo "FASTDDS_UNSECURED_FORCE $?")
-        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/operator fpeer force --force 0.05; echo "OPERATOR_FORCE $?")
-        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/controller ROS_SECURITY_KEYSTORE="$TMP/other" fpeer state --samples 1 --timeout 6; echo "OTHER_CA_STATE $?")
-        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/controller ROS_SECURITY_KEYSTORE="$TMP/other" fpeer force --force 0.05; echo "OTHER_CA_FORCE $?")
+        # the six outsiders at once: each waits out its own timeout, and none sees another
+        outsiders=""
+        (unsecure; peer state --samples 1 --timeout 6; echo "CYCLONE_UNSECURED $?") & outsiders="$outsiders $!"
+        (unsecure; fpeer state --samples 1 --timeout 6; echo "FASTDDS_UNSECURED_STATE $?") & outsiders="$outsiders $!"
+        (unsecure; fpeer force --force 0.05; echo "FASTDDS_UNSECURED_FORCE $?") & outsiders="$outsiders $!"
+        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/operator fpeer force --force 0.05; echo "OPERATOR_FORCE $?") & outsiders="$outsiders $!"
+        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/controller ROS_SECURITY_KEYSTORE="$TMP/other" fpeer state --samples 1 --timeout 6; echo "OTHER_CA_STATE $?") & outsiders="$outsiders $!"
+        (ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/controller ROS_SECURITY_KEYSTORE="$TMP/other" fpeer force --force 0.05; echo "OTHER_CA_FORCE $?") & outsiders="$outsiders $!"
+        wait $outsiders
         stop $P
         echo "PLANT $(cat $TMP/plant.json)""#,
     );
