@@ -19,19 +19,26 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
         200,
         r#"
         ap() { python3 "$ROOT/tests/peers/action_peer.py" "$@" || echo "PEER FAILED $*"; }
+        # the peer's request/reply mapping for every service: the actions', the lifecycle's,
+        # the emergency stop's
+        export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
         start_plant
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller
+        start_controller
         ap move 0.01
         ap move -0.005 --drift-s 1.5
         ap move 1.0 --cancel-after 0.5 --drift-after 1 --drift-s 1.5
         ap refuse -- nan inf -inf 20 0.01
+        $B/capsule_ros lifecycle-set /capsule_plant deactivate; sleep 0.5
+        ap refuse -- 0.01
+        $B/capsule_ros lifecycle-set /capsule_plant activate; sleep 0.5
+        ap refuse --estop -- 0.01
         ap move 0.02 --preempt -0.002 --preempt-after 0.5
         ap move 0.05 & A=$!
         sleep 1; peer set-mode 0 0; wait $A
         ap move 0.05 --goal-timeout 0.3
         ap unknown-result
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move 0.003; echo "cli rc=$?"
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move nan; echo "cli nan rc=$?"
+        $B/capsule_ros move 0.003; echo "cli rc=$?"
+        $B/capsule_ros move nan; echo "cli nan rc=$?"
         stop $P $C"#,
     );
     run.assert_ok();
@@ -75,18 +82,22 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
     // 1.3 to 3 mm in 1.5 s, docs/ros.md; in lock-step under 0.4 mm in 20 periods)
     let drift = json_number(g, "drift_m").unwrap_or(f64::NAN);
     assert!(drift.abs() < 5e-3, "drift {drift} m after the cancel: {g}");
-    // NaN, infinities and beyond the 10 m limit refused; a plain goal taken
+    // NaN, infinities and beyond the 10 m limit refused; a plain goal taken; then refused
+    // while the plant is configured but not active (it publishes its state, applying no
+    // force), and while its emergency stop is engaged
     let refusals = run.lines_starting("{\"distance\"");
-    assert_eq!(refusals.len(), 5, "{}", run.all());
-    for r in &refusals[..4] {
-        assert_contains(r, &["\"accepted\": false"]);
+    assert_eq!(refusals.len(), 7, "{}", run.all());
+    for (i, r) in refusals.iter().enumerate() {
+        let accepted = if i == 4 { "true" } else { "false" };
+        assert_contains(r, &[&format!("\"accepted\": {accepted}")]);
     }
-    assert_contains(refusals[4], &["\"accepted\": true"]);
     run.assert_stderr(&[
         "distance_m = NaN is not finite",
         "distance_m = inf is not finite",
         "distance_m = -inf is not finite",
         "distance_m = 20 is beyond the configured limit of 10 m",
+        "goal 0.01 m refused: the plant is not active",
+        "goal 0.01 m refused: the plant's emergency stop is engaged",
     ]);
     // the goal cancelled right after it was accepted, then preemption: the first ABORTED
     // saying why, the second reached
@@ -168,13 +179,30 @@ fn the_switch_action_moves_period_3_to_period_1_at_the_fig_20_scene() {
            $B/capsule_controller --scene "$S" & C=$!
            $B/capsule_plant --scene "$S" --pacing lockstep --command-timeout-s 60 --until-s 100 \
                --wait-subscribers 1 & P=$!
-           python3 "$ROOT/tests/peers/action_peer.py" switch --gain 0.3 --pulse-periods 1 \
-               --target-period 1 --max-tries 3 --timeout 150; rc=$?
+           ap() { python3 "$ROOT/tests/peers/action_peer.py" switch --gain 0.3 --pulse-periods 1 \
+               --target-period 1 --max-tries 3 --timeout 150 "$@"; }
+           ap --cancel-after 0.05 || exit 1
+           ap; rc=$?
            kill -TERM $P $C; wait
            exit $rc"#,
     );
     run.assert_ok();
-    let g = run.json_with("final_period");
+    // cancelled while it still observes the orbit: CANCELED, back in the mode it came from, OFF
+    let goals = run.lines_starting("{\"status\"");
+    assert_eq!(goals.len(), 2, "{}", run.all());
+    assert_contains(
+        goals[0],
+        &[
+            "\"status\": \"CANCELED\"",
+            "\"statuses\": [\"EXECUTING\", \"CANCELING\", \"CANCELED\"]",
+            "\"cancel_code\": 0",
+            "\"canceling_ours\": true",
+            "\"tries\": 0",
+            "\"message\": \"canceled\"",
+            "\"mode_after\": \"OFF\"",
+        ],
+    );
+    let g = goals[1];
     assert_contains(
         g,
         &[
@@ -184,6 +212,7 @@ fn the_switch_action_moves_period_3_to_period_1_at_the_fig_20_scene() {
             "\"message\": \"reached the orbit wanted\"",
         ],
     );
+    assert_contains(g, &["\"mode_after\": \"OFF\""]);
     let tries = json_number(g, "tries").unwrap_or(-1.0);
     assert!((1.0..=3.0).contains(&tries), "{g}");
     assert!(json_number(g, "feedback").unwrap_or(0.0) > 0.0, "{g}");
