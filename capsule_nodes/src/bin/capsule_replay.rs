@@ -186,6 +186,17 @@ impl Pub {
 }
 
 async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
+    // the actions' feedback and status are an action server's to publish: a replay stands in
+    // for the graph's topics, not for a server that clients could take for the live one
+    let (actions, msgs): (Vec<Message>, Vec<Message>) = msgs
+        .into_iter()
+        .partition(|m| m.topic.contains("/_action/"));
+    if !actions.is_empty() {
+        eprintln!(
+            "capsule replay: not replaying the actions' feedback and status ({} messages)",
+            actions.len()
+        );
+    }
     let settings = RosOptions::resolve(&args.ros, &RosEnv::from_process(), "capsule_replay")?;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;

@@ -144,7 +144,9 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
         export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
         for i in 1 2; do
           start_controller --use-sim-time
-          start_plant --pacing lockstep --autostart false
+          # the first run recorded in the plant: the goal's feedback and statuses with the rest
+          rec=(); [ $i = 1 ] && rec=(--record-output "$TMP/r1.mcap")
+          start_plant --pacing lockstep --autostart false "${rec[@]}"
           $B/capsule_ros lifecycle-set /capsule_plant configure || exit 1
           python3 "$ROOT/tests/peers/action_peer.py" move 0.01 > $TMP/r$i.json 2> $TMP/e$i & R=$!
           for k in $(seq 300); do grep -q "goal accepted" $TMP/e$i && break; sleep 0.1; done
@@ -152,7 +154,9 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
           wait $R || exit 1
           echo "RUN$i $(cat $TMP/r$i.json)"
           stop $P $C
-        done"#,
+        done
+        echo "READERS $(python3 "$ROOT/tests/peers/mcap_decode.py" "$TMP/r1.mcap" --reader both)"
+        echo "FOXGLOVE $(node "$ROOT/tests/peers/foxglove/decode.mjs" "$TMP/r1.mcap")""#,
     );
     run.assert_ok();
     let result = |tag: &str| -> Vec<Option<f64>> {
@@ -166,6 +170,64 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     assert!(a.iter().all(Option::is_some), "{}", run.all());
     assert_eq!(a, b, "two lock-step runs differ:\n{}", run.all());
     assert_contains(run.line("RUN1"), &["\"status\": \"SUCCEEDED\""]);
+    recorded_goal(&run);
+}
+
+/// The first lock-step run's recording: the goal's feedback and statuses, as rosbag2 records an
+/// action's topics, read by rosbags, mcap-ros2-support and Foxglove's readers alike.
+fn recorded_goal(run: &super::harness::Run) {
+    let parse = |tag: &str| -> serde_json::Value {
+        serde_json::from_str(run.after(tag))
+            .unwrap_or_else(|e| panic!("{tag}: not JSON ({e}):\n{}", run.all()))
+    };
+    let (readers, fox) = (parse("READERS "), parse("FOXGLOVE "));
+    let feedback = "/capsule_controller/move/_action/feedback";
+    let status = "/capsule_controller/move/_action/status";
+    let rosbags = &readers["rosbags"]["topics"];
+    assert_eq!(
+        rosbags[feedback]["type"], "capsule_msgs/action/Move_FeedbackMessage",
+        "{readers}"
+    );
+    assert_eq!(rosbags[status]["type"], "action_msgs/msg/GoalStatusArray");
+    // feedback at 20 Hz over the goal's seconds, all of the one goal
+    let rows = rosbags[feedback]["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    assert!(rows.len() >= 5, "{readers}");
+    let goal = rows[0][0].clone();
+    assert!(rows.iter().all(|r| r[0] == goal), "{readers}");
+    // its statuses: executing, then succeeded (the status topic lists every goal it knows)
+    let statuses: Vec<i64> = rosbags[status]["rows"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|r| r.as_array()?.iter().find(|g| g[0] == goal)?[1].as_i64())
+        .collect();
+    assert_eq!(statuses.first(), Some(&2), "{readers}");
+    assert_eq!(statuses.last(), Some(&4), "{readers}");
+    // mcap-ros2-support decodes the statuses alike; the feedback too, or it refuses rosidl's
+    // derived name (`Move_FeedbackMessage`: it takes no `_` in a message name) and says so
+    let mcap = &readers["mcap"];
+    assert_eq!(mcap["topics"][status]["rows"], rosbags[status]["rows"]);
+    assert!(
+        mcap["topics"][feedback]["rows"] == rosbags[feedback]["rows"]
+            || mcap["refused"][feedback].is_string(),
+        "{readers}"
+    );
+    // Foxglove's readers: every message decoded (both passes), the same counts and feedback
+    for topic in [feedback, status] {
+        assert_eq!(
+            fox["topics"][topic]["count"], rosbags[topic]["count"],
+            "{fox}"
+        );
+    }
+    let last = rows.last().cloned().unwrap_or_default();
+    assert_eq!(
+        fox["topics"][feedback]["last"]["feedback"]["travelled_m"], last[1],
+        "{fox}"
+    );
+    assert_eq!(fox["messages"], fox["indexed_messages"], "{fox}");
 }
 
 #[test]
