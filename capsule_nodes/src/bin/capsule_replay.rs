@@ -185,9 +185,10 @@ impl Pub {
     }
 }
 
-async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
-    // the actions' feedback and status are an action server's to publish: a replay stands in
-    // for the graph's topics, not for a server that clients could take for the live one
+/// `msgs` without the actions' feedback and status, which are an action server's to publish: a
+/// replay stands in for the graph's topics, not for a server that clients could take for the
+/// live one (said on stderr when there were some).
+fn without_actions(msgs: Vec<Message>) -> Vec<Message> {
     let (actions, msgs): (Vec<Message>, Vec<Message>) = msgs
         .into_iter()
         .partition(|m| m.topic.contains("/_action/"));
@@ -197,6 +198,11 @@ async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
             actions.len()
         );
     }
+    msgs
+}
+
+async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
+    let msgs = without_actions(msgs);
     let settings = RosOptions::resolve(&args.ros, &RosEnv::from_process(), "capsule_replay")?;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;

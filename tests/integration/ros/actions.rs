@@ -82,23 +82,7 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
     // 1.3 to 3 mm in 1.5 s, docs/ros.md; in lock-step under 0.4 mm in 20 periods)
     let drift = json_number(g, "drift_m").unwrap_or(f64::NAN);
     assert!(drift.abs() < 5e-3, "drift {drift} m after the cancel: {g}");
-    // NaN, infinities and beyond the 10 m limit refused; a plain goal taken; then refused
-    // while the plant is configured but not active (it publishes its state, applying no
-    // force), and while its emergency stop is engaged
-    let refusals = run.lines_starting("{\"distance\"");
-    assert_eq!(refusals.len(), 7, "{}", run.all());
-    for (i, r) in refusals.iter().enumerate() {
-        let accepted = if i == 4 { "true" } else { "false" };
-        assert_contains(r, &[&format!("\"accepted\": {accepted}")]);
-    }
-    run.assert_stderr(&[
-        "distance_m = NaN is not finite",
-        "distance_m = inf is not finite",
-        "distance_m = -inf is not finite",
-        "distance_m = 20 is beyond the configured limit of 10 m",
-        "goal 0.01 m refused: the plant is not active",
-        "goal 0.01 m refused: the plant's emergency stop is engaged",
-    ]);
+    assert_refusals(&run);
     // the goal cancelled right after it was accepted, then preemption: the first ABORTED
     // saying why, the second reached
     let (first, second) = (goal_line(&goals, 3), goal_line(&goals, 4));
@@ -130,6 +114,26 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
         "result: status=SUCCEEDED reached=true",
         "cli rc=0",
         "cli nan rc=2",
+    ]);
+}
+
+/// NaN, infinities and beyond the 10 m limit refused; a plain goal taken; then refused while the
+/// plant is configured but not active (it publishes its state, applying no force), and while
+/// its emergency stop is engaged.
+fn assert_refusals(run: &super::harness::Run) {
+    let refusals = run.lines_starting("{\"distance\"");
+    assert_eq!(refusals.len(), 7, "{}", run.all());
+    for (i, r) in refusals.iter().enumerate() {
+        let accepted = if i == 4 { "true" } else { "false" };
+        assert_contains(r, &[&format!("\"accepted\": {accepted}")]);
+    }
+    run.assert_stderr(&[
+        "distance_m = NaN is not finite",
+        "distance_m = inf is not finite",
+        "distance_m = -inf is not finite",
+        "distance_m = 20 is beyond the configured limit of 10 m",
+        "goal 0.01 m refused: the plant is not active",
+        "goal 0.01 m refused: the plant's emergency stop is engaged",
     ]);
 }
 
