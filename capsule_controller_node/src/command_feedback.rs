@@ -8,6 +8,14 @@
 //! at least half of them added a refusal, or if, having taken our commands before, it reported
 //! a stale command on every one of them although we answered each. (Before its first command a
 //! plant is stale by definition; on a loaded host the first answer can take more than a window.)
+//!
+//! Whether the plant applies the commands it takes, read from `actuator_force`: an inactive
+//! plant (its lifecycle configured, not active) takes and counts our commands, says it is not
+//! stale, and applies zero force. [`CommandFeedback::INACTIVE_RUN`] new samples in a row applying
+//! exactly zero while our command answering the sample before was not zero mean inactive (an
+//! engaged emergency stop looks the same); one sample applying a force (or not saying, NaN: a
+//! device that does not report it) means active. Only new samples count: a lock-step plant that
+//! is inactive stands still, re-sending one sample, and cannot be told from a paused one.
 
 /// The plant's verdict on our commands, judged per window of samples.
 #[derive(Debug, Clone, Default)]
@@ -17,11 +25,16 @@ pub struct CommandFeedback {
     stale: u32,
     refused: bool,
     taken_once: bool,
+    /// New samples in a row applying zero force while we commanded one.
+    zeros: u32,
+    inactive: bool,
 }
 
 impl CommandFeedback {
     /// Samples per verdict.
     pub const WINDOW: u32 = 50;
+    /// New samples in a row applying zero force that mean an inactive plant (20 ms at 1 kHz).
+    pub const INACTIVE_RUN: u32 = 20;
 
     /// Notes a new sample answered by a command; returns the new verdict when it changed.
     pub fn sample(&mut self, rejected_commands: u32, command_stale: bool) -> Option<bool> {
@@ -39,9 +52,41 @@ impl CommandFeedback {
             window_start: Some(rejected_commands),
             refused,
             taken_once: self.taken_once,
+            zeros: self.zeros,
+            inactive: self.inactive,
             ..CommandFeedback::default()
         };
         changed.then_some(refused)
+    }
+
+    /// Notes the force a new sample says was applied (`applied_n`, NaN: not said) after our
+    /// command `commanded_n` answered the sample before (`None`: none did); returns the new
+    /// verdict on whether the plant is inactive when it changed.
+    pub fn applied(
+        &mut self,
+        applied_n: f64,
+        commanded_n: Option<f64>,
+        command_stale: bool,
+    ) -> Option<bool> {
+        // a stale plant applies zero by its watchdog, and a zero command proves nothing
+        if command_stale || commanded_n.is_none_or(|f| f == 0.0) {
+            return None;
+        }
+        let inactive = if applied_n == 0.0 {
+            self.zeros = self.zeros.saturating_add(1);
+            self.zeros >= Self::INACTIVE_RUN
+        } else {
+            self.zeros = 0;
+            false
+        };
+        let changed = inactive != self.inactive;
+        self.inactive = inactive;
+        changed.then_some(inactive)
+    }
+
+    /// True while the plant applies none of our commands (inactive, or its emergency stop).
+    pub fn inactive(&self) -> bool {
+        self.inactive
     }
 
     /// True while the plant refuses our commands.
@@ -86,5 +131,42 @@ mod tests {
         assert_eq!(changes, [true]);
         f.reset();
         assert!(!f.refused());
+    }
+
+    #[test]
+    fn a_plant_applying_zero_force_on_a_run_of_samples_is_inactive() {
+        let run = CommandFeedback::INACTIVE_RUN;
+        let mut f = CommandFeedback::default();
+        // zero applied while stale, or after a zero command or none: no evidence
+        assert_eq!(f.applied(0.0, Some(0.1), true), None);
+        assert_eq!(f.applied(0.0, Some(0.0), false), None);
+        assert_eq!(f.applied(0.0, None, false), None);
+        assert!(!f.inactive());
+        // zero applied on a run of samples after non-zero commands: inactive, once
+        let changes: Vec<bool> = (0..2 * run)
+            .filter_map(|_| f.applied(0.0, Some(0.1), false))
+            .collect();
+        assert_eq!(changes, [true]);
+        assert!(f.inactive());
+        // the refusal windows leave the verdict alone
+        for _ in 0..CommandFeedback::WINDOW {
+            f.sample(0, false);
+        }
+        assert!(f.inactive());
+        // one force applied (activated): active at once
+        assert_eq!(f.applied(0.09, Some(0.1), false), Some(false));
+        // a run one short of the length is not enough; a device that does not say (NaN) is
+        // taken as applying
+        let changes: Vec<bool> = (0..run - 1)
+            .filter_map(|_| f.applied(0.0, Some(0.1), false))
+            .collect();
+        assert!(changes.is_empty());
+        assert_eq!(f.applied(f64::NAN, Some(0.1), false), None);
+        let changes: Vec<bool> = (0..run - 1)
+            .filter_map(|_| f.applied(0.0, Some(0.1), false))
+            .collect();
+        assert!(changes.is_empty() && !f.inactive());
+        f.reset();
+        assert!(!f.inactive());
     }
 }

@@ -7,9 +7,10 @@
 //! starts; a cancel ends it as CANCELED (a move in OFF; a switch back to the mode it came from);
 //! a `set_mode` call, a parameter change or the other action ends it as ABORTED, saying so.
 //! Goals are refused (the reason in the log, as `send_goal` carries none) when the request is
-//! bad, the plant is not under control (no fresh state, or it refuses our commands) or the
-//! plant's emergency stop is engaged. Feedback at 20 Hz. The decisions are the core's, on
-//! state samples, so under `/clock` in lock-step the same goal gives the same result.
+//! bad, the plant is not under control (no fresh state, or it refuses our commands), is not
+//! active (its samples apply none of our commands) or its emergency stop is engaged. Feedback
+//! at 20 Hz. The decisions are the core's, on state samples, so under `/clock` in lock-step the
+//! same goal gives the same result.
 //!
 //! The node's hook is [`CoreAccess`] (its core and its ROS time) and [`ControllerActions::run`],
 //! a task of its own that polls the action servers every 10 ms.
@@ -223,6 +224,8 @@ impl ControllerActions {
                     Err("goal id reused".to_string())
                 } else if !core.with_core(|c| c.commanding() && !c.plant_refuses()) {
                     Err("the plant is not under control (no fresh state, or it refuses our commands)".to_string())
+                } else if core.with_core(|c| c.plant_inactive()) {
+                    Err("the plant is not active (it applies none of our commands)".to_string())
                 } else {
                     let r = core.with_core(|c| c.set_mode(&set));
                     if r.accepted {

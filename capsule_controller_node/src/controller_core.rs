@@ -56,6 +56,10 @@ pub struct ControllerCore {
     move_run: Option<MoveRun>,
 }
 
+/// Why a move goal is refused or ended when the plant applies none of our commands.
+const NOT_ACTIVE: &str =
+    "the plant is not active (it applies none of our commands: zero force on a run of samples)";
+
 /// Why a state sample was not used.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Ignored {
@@ -165,6 +169,12 @@ impl ControllerCore {
     /// True while the plant's state says it refuses our commands (see [`CommandFeedback`]).
     pub fn plant_refuses(&self) -> bool {
         self.feedback.refused()
+    }
+
+    /// True while the plant's state says it applies none of our commands: not active (see
+    /// [`CommandFeedback::applied`]).
+    pub fn plant_inactive(&self) -> bool {
+        self.feedback.inactive()
     }
 
     /// Current mode.
@@ -377,6 +387,14 @@ impl ControllerCore {
         self.commanding = true;
         self.last = Some((s.seq, stamp));
         self.feedback.sample(s.rejected_commands, s.command_stale);
+        let commanded = self.last_command.as_ref().map(|c| c.force);
+        if self
+            .feedback
+            .applied(s.actuator_force, commanded, s.command_stale)
+            == Some(true)
+        {
+            self.abort_move(NOT_ACTIVE);
+        }
         while let Some(i) = self.pending.iter().position(|(t, _, _)| *t <= stamp) {
             let (_, mode, kp) = self.pending.remove(i);
             self.change_mode(mode, kp);
@@ -445,7 +463,10 @@ impl ControllerCore {
             return Err("no fresh state from the plant (not active, or gone)".into());
         }
         if self.feedback.refused() {
-            return Err("the plant refuses our commands (not active?)".into());
+            return Err("the plant refuses our commands".into());
+        }
+        if self.feedback.inactive() {
+            return Err(NOT_ACTIVE.into());
         }
         let config = MoveConfig {
             cruise_gain: self.config.direction_gain,
@@ -894,6 +915,44 @@ mod tests {
         c.cancel_move();
         assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
         assert!(c.take_ended_move().is_some());
+    }
+
+    #[test]
+    fn move_goals_are_refused_while_the_plant_applies_none_of_our_commands() {
+        let mut c = core(Mode::Off, 0.0);
+        let goal = MoveRequest {
+            distance_m: 0.01,
+            tolerance_m: 0.0,
+            timeout_s: 0.0,
+        };
+        let run = u64::from(CommandFeedback::INACTIVE_RUN);
+        // configured, not active: every sample applied zero force while we drive
+        let sample = |c: &mut ControllerCore, k: u64, applied: f64| {
+            let mut s = state(k, k as f64 * 1e-3, 0.1, 0.0);
+            s.actuator_force = applied;
+            c.on_state(&s, 0.0)
+        };
+        for k in 0..=run {
+            assert!(sample(&mut c, k, 0.0).is_some_and(|f| f.force != 0.0));
+        }
+        assert!(c.plant_inactive());
+        let why = c.start_move(goal).err().unwrap_or_default();
+        assert!(why.starts_with("the plant is not active"), "{why}");
+        // activated: the next sample applies our command, and goals are taken
+        sample(&mut c, run + 1, 0.04);
+        assert!(!c.plant_inactive());
+        assert!(c.start_move(goal).is_ok());
+        // deactivated during the goal: it ends, saying so, OFF
+        for k in run + 2..2 * run + 3 {
+            sample(&mut c, k, 0.0);
+        }
+        let why = c
+            .take_ended_move()
+            .and_then(|r| r.outcome().cloned())
+            .map(|o| o.message(0.01))
+            .unwrap_or_default();
+        assert!(why.starts_with("aborted: the plant is not active"), "{why}");
+        assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
     }
 
     #[test]

@@ -13,6 +13,15 @@ use crate::{
 pub const TIME_MSG: &str = include_str!("../std_interfaces/builtin_interfaces/msg/Time.msg");
 /// `std_msgs/msg/Header` as rosidl defines it.
 pub const HEADER_MSG: &str = include_str!("../std_interfaces/std_msgs/msg/Header.msg");
+/// `unique_identifier_msgs/msg/UUID` as rosidl defines it (a goal's id).
+pub const UUID_MSG: &str = include_str!("../std_interfaces/unique_identifier_msgs/msg/UUID.msg");
+/// `action_msgs/msg/GoalInfo` as rosidl defines it.
+pub const GOAL_INFO_MSG: &str = include_str!("../std_interfaces/action_msgs/msg/GoalInfo.msg");
+/// `action_msgs/msg/GoalStatus` as rosidl defines it.
+pub const GOAL_STATUS_MSG: &str = include_str!("../std_interfaces/action_msgs/msg/GoalStatus.msg");
+/// `action_msgs/msg/GoalStatusArray` as rosidl defines it (every action's status topic).
+pub const GOAL_STATUS_ARRAY_MSG: &str =
+    include_str!("../std_interfaces/action_msgs/msg/GoalStatusArray.msg");
 /// The text of `srv/SetMode.srv`.
 pub const SET_MODE_SRV: &str = include_str!("../srv/SetMode.srv");
 
@@ -135,6 +144,12 @@ pub fn nested_definition(type_name: &str) -> Option<(&'static str, &'static str)
         }
         "builtin_interfaces/Time" | "builtin_interfaces/msg/Time" => {
             Some(("builtin_interfaces/msg/Time", TIME_MSG))
+        }
+        "unique_identifier_msgs/UUID" | "unique_identifier_msgs/msg/UUID" => {
+            Some(("unique_identifier_msgs/msg/UUID", UUID_MSG))
+        }
+        "action_msgs/GoalInfo" | "action_msgs/msg/GoalInfo" => {
+            Some(("action_msgs/msg/GoalInfo", GOAL_INFO_MSG))
         }
         _ => None,
     }

@@ -142,6 +142,11 @@ pub mod type_names {
     pub const MOVE: &str = "capsule_msgs/action/Move";
     /// The attractor switch as an action.
     pub const SWITCH_ATTRACTOR: &str = "capsule_msgs/action/SwitchAttractor";
+    /// The Move action's feedback topic (rosidl's derived message).
+    pub const MOVE_FEEDBACK_MESSAGE: &str = "capsule_msgs/action/Move_FeedbackMessage";
+    /// The SwitchAttractor action's feedback topic (rosidl's derived message).
+    pub const SWITCH_ATTRACTOR_FEEDBACK_MESSAGE: &str =
+        "capsule_msgs/action/SwitchAttractor_FeedbackMessage";
     /// Every action's status topic.
     pub const GOAL_STATUS_ARRAY: &str = "action_msgs/msg/GoalStatusArray";
     /// Every action's cancel service.

@@ -14,6 +14,7 @@
 
 #![warn(missing_docs)]
 
+pub mod action_readers;
 pub mod command_gate;
 pub mod emergency_stop;
 pub mod intra_process;

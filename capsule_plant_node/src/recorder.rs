@@ -1,6 +1,7 @@
 //! The recorder node: subscribes to every topic of the capsule graph (state, force commands,
-//! controller status, `/clock`, the `set_mode` service events and `/diagnostics`) and writes
-//! them to one MCAP file per run through [`capsule_record`].
+//! controller status, `/clock`, the `set_mode` service events, `/diagnostics` and the
+//! actions' feedback and status, [`crate::action_readers`]) and writes them to one MCAP file
+//! per run through [`capsule_record`].
 //!
 //! Bytes: ros2-client hands over deserialised messages, so the recorder serialises them again
 //! with the codec RustDDS uses (`cdr-encoding`, little endian, XCDR1 plain structs): for these
@@ -37,6 +38,8 @@ use tracing::{info, warn};
 
 use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
+
+use crate::action_readers::ActionReaders;
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -180,6 +183,50 @@ pub enum Channel {
     ServiceEvent = 4,
     /// `/diagnostics` (every node's, 1 Hz each: what went wrong and when)
     Diagnostics = 5,
+    /// `<controller>/move/_action/feedback`
+    MoveFeedback = 6,
+    /// `<controller>/move/_action/status`
+    MoveStatus = 7,
+    /// `<controller>/switch_attractor/_action/feedback`
+    SwitchFeedback = 8,
+    /// `<controller>/switch_attractor/_action/status`
+    SwitchStatus = 9,
+}
+
+/// The actions' topics as a recording holds them, in [`Channel`] order after the graph's:
+/// relative name, ROS type, the QoS the controller offers (rcl_action's: feedback reliable and
+/// volatile, status reliable and transient local, keep last 1).
+pub fn action_topics(controller_node: &str) -> [(String, &'static str, OfferedQos); 4] {
+    let [feedback, status] = [
+        OfferedQos::reliable(10),
+        OfferedQos {
+            durability: capsule_record::types::Durability::TransientLocal,
+            ..OfferedQos::reliable(1)
+        },
+    ];
+    let [m, s] = crate::action_readers::action_names(controller_node);
+    [
+        (
+            format!("{m}/_action/feedback"),
+            type_names::MOVE_FEEDBACK_MESSAGE,
+            feedback,
+        ),
+        (
+            format!("{m}/_action/status"),
+            type_names::GOAL_STATUS_ARRAY,
+            status,
+        ),
+        (
+            format!("{s}/_action/feedback"),
+            type_names::SWITCH_ATTRACTOR_FEEDBACK_MESSAGE,
+            feedback,
+        ),
+        (
+            format!("{s}/_action/status"),
+            type_names::GOAL_STATUS_ARRAY,
+            status,
+        ),
+    ]
 }
 
 /// The graph's topics as a recording subscribes to them, in [`Channel`] order: relative name,
@@ -266,6 +313,11 @@ impl GraphRecording {
             // the QoS the capsule nodes offer (reliable, volatile, keep last)
             let depth = if ros_type == type_names::CLOCK { 1 } else { 16 };
             let id = writer.add_topic(&full, ros_type, &OfferedQos::reliable(depth))?;
+            channels.push((id, full, 0));
+        }
+        for (name, ros_type, offered) in action_topics(controller_node) {
+            let full = settings.resolve_name(&name);
+            let id = writer.add_topic(&full, ros_type, &offered)?;
             channels.push((id, full, 0));
         }
         Ok(GraphRecording {
@@ -411,6 +463,7 @@ struct Readers {
     diagnostics: ros2_client::Subscription<DiagnosticArray>,
     /// The state sample last recorded (writer, seq, stamp): its re-sends are not recorded.
     last_state: std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
+    actions: ActionReaders,
 }
 
 impl Readers {
@@ -418,6 +471,7 @@ impl Readers {
     /// publisher has matched (or `opts.wait_publishers` has passed).
     async fn subscribe(
         settings: &RosOptions,
+        context: &ros2_client::Context,
         node: &mut ros2_client::Node,
         graph: &Graph,
         opts: &RecorderOptions,
@@ -448,6 +502,7 @@ impl Readers {
         let clock = subscribe::<Clock>(node, &topics[3], &reader_qos)?;
         let event = subscribe::<SetModeEvent>(node, &topics[4], &qos::service_events())?;
         let diagnostics = subscribe::<DiagnosticArray>(node, &topics[5], &slow_qos)?;
+        let actions = ActionReaders::subscribe(context, node, settings, &opts.controller_node)?;
         if !graph
             .wait_publishers(force.guid(), 1, opts.wait_publishers)
             .await
@@ -466,6 +521,7 @@ impl Readers {
             event,
             diagnostics,
             last_state: std::cell::Cell::default(),
+            actions,
         })
     }
 
@@ -478,7 +534,8 @@ impl Readers {
             + drain_into(&self.force, sink, Channel::Force)?
             + drain_into(&self.status, sink, Channel::Status)?
             + drain_into(&self.clock, sink, Channel::Clock)?
-            + drain_into(&self.event, sink, Channel::ServiceEvent)?)
+            + drain_into(&self.event, sink, Channel::ServiceEvent)?
+            + self.actions.drain(sink)?)
     }
 
     /// Samples still in flight when the graph stops (the plant's last one): keeps draining
@@ -548,7 +605,7 @@ pub async fn run(settings: RosOptions, opts: RecorderOptions) -> Result<Recorder
     )?;
     let context = settings.context()?;
     let (mut node, graph) = settings.loop_node(&context)?;
-    let readers = Readers::subscribe(&settings, &mut node, &graph, &opts).await?;
+    let readers = Readers::subscribe(&settings, &context, &mut node, &graph, &opts).await?;
     info!(
         "{}: recording {} to {}",
         settings.describe(),

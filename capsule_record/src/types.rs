@@ -2,12 +2,16 @@
 //! (ROS 2 service introspection), and the QoS text rosbag2 writes on every channel.
 
 use capsule_msgs::{
-    interface::{nested_definition, ros2msg_text},
+    interface::{
+        nested_definition, ros2msg_text, split_action, GOAL_STATUS_ARRAY_MSG, GOAL_STATUS_MSG,
+        MOVE_ACTION, SWITCH_ATTRACTOR_ACTION,
+    },
     names::type_names,
     ActuatorForce, CapsuleState, ControllerStatus, RosInterface, SetModeRequest, SetModeResponse,
     Time,
 };
 use serde::{Deserialize, Serialize};
+use std::sync::LazyLock;
 
 /// `service_msgs/msg/ServiceEventInfo` (ROS 2 Jazzy): what a service event reports.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -68,6 +72,16 @@ pub const DIAGNOSTIC_STATUS_MSG: &str = "# This message holds the status of an i
 /// `diagnostic_msgs/msg/KeyValue` text (Jazzy).
 pub const KEY_VALUE_MSG: &str = "# What to label this value when viewing.\nstring key\n# A value to track over time.\nstring value\n";
 
+/// `action_msgs/msg/GoalStatusArray` text, its nested type spelled with its package (as
+/// Foxglove resolves a field only against a `MSG:` line of its exact spelling).
+static GOAL_STATUS_ARRAY_TEXT: LazyLock<String> =
+    LazyLock::new(|| GOAL_STATUS_ARRAY_MSG.replace("GoalStatus[]", "action_msgs/GoalStatus[]"));
+
+/// `action_msgs/msg/GoalStatus` text, spelled likewise.
+static GOAL_STATUS_TEXT: LazyLock<String> = LazyLock::new(|| {
+    GOAL_STATUS_MSG.replace("\nGoalInfo goal_info", "\naction_msgs/GoalInfo goal_info")
+});
+
 /// The text of a nested type a recording's schemas name, by its spelling in a field.
 fn nested_text(spelled: &str) -> Option<&'static str> {
     match spelled {
@@ -76,6 +90,7 @@ fn nested_text(spelled: &str) -> Option<&'static str> {
         "service_msgs/ServiceEventInfo" => Some(SERVICE_EVENT_INFO_MSG),
         "capsule_msgs/SetModeRequest" => Some(SetModeRequest::definition()),
         "capsule_msgs/SetModeResponse" => Some(SetModeResponse::definition()),
+        "action_msgs/GoalStatus" => Some(GOAL_STATUS_TEXT.as_str()),
         other => nested_definition(other).map(|d| d.1),
     }
 }
@@ -90,10 +105,44 @@ pub fn ros2msg_schema(type_name: &str) -> Option<String> {
         type_names::CLOCK => (CLOCK_MSG, "rosgraph_msgs"),
         type_names::SET_MODE_EVENT => (SET_MODE_EVENT_MSG, "capsule_msgs"),
         type_names::DIAGNOSTIC_ARRAY => (DIAGNOSTIC_ARRAY_MSG, "diagnostic_msgs"),
+        type_names::GOAL_STATUS_ARRAY => (GOAL_STATUS_ARRAY_TEXT.as_str(), "action_msgs"),
+        type_names::MOVE_FEEDBACK_MESSAGE => {
+            return Some(feedback_message_schema(type_names::MOVE, MOVE_ACTION))
+        }
+        type_names::SWITCH_ATTRACTOR_FEEDBACK_MESSAGE => {
+            return Some(feedback_message_schema(
+                type_names::SWITCH_ATTRACTOR,
+                SWITCH_ATTRACTOR_ACTION,
+            ))
+        }
         _ => return None,
     };
     Some(ros2msg_text(root, package, &nested_text))
 }
+
+/// The schema of `action`'s `_FeedbackMessage` (`pkg/action/A`, its `.action` text): the goal
+/// id and the feedback part, as rosidl derives the message (`unique_identifier_msgs/UUID
+/// goal_id`, `A_Feedback feedback`; spelled with its package here, as Foxglove resolves it).
+fn feedback_message_schema(action: &str, action_text: &'static str) -> String {
+    let (package, name) = type_names::split(action);
+    let feedback = format!("{package}/{name}_Feedback");
+    let root = format!("unique_identifier_msgs/UUID goal_id\n{feedback} feedback\n");
+    let (_, _, feedback_text) = split_action(action_text);
+    ros2msg_text(&root, package, &|t| {
+        if t == feedback {
+            Some(feedback_text)
+        } else {
+            nested_text(t)
+        }
+    })
+}
+
+/// The types of the actions' topics a recording holds (feedback and status).
+pub const ACTION_TOPIC_TYPES: [&str; 3] = [
+    type_names::MOVE_FEEDBACK_MESSAGE,
+    type_names::SWITCH_ATTRACTOR_FEEDBACK_MESSAGE,
+    type_names::GOAL_STATUS_ARRAY,
+];
 
 /// Every type name [`ros2msg_schema`] knows.
 pub const KNOWN_TYPES: [&str; 6] = [
@@ -181,7 +230,7 @@ mod tests {
 
     #[test]
     fn every_field_type_has_a_msg_block_of_exactly_its_spelling() {
-        for t in KNOWN_TYPES {
+        for t in KNOWN_TYPES.into_iter().chain(ACTION_TOPIC_TYPES) {
             let s = ros2msg_schema(t).unwrap_or_default();
             assert!(!s.is_empty(), "{t}");
             let blocks: Vec<&str> = s.lines().filter_map(|l| l.strip_prefix("MSG: ")).collect();

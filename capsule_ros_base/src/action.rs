@@ -60,6 +60,53 @@ pub enum Request<G> {
 
 type Endpoints<G, R, F> = ActionServer<Wire<G>, Wire<R>, Wire<F>>;
 
+/// The status topic's QoS (rcl_action's): reliable, transient local, keep last 1.
+pub fn status_qos() -> ros2_client::QosProfile {
+    qos::service()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+/// The feedback and status topics of the action `name` (resolved as [`RosOptions::ros_name`])
+/// of type `type_name` (`pkg/action/Name`), as an action client or a recorder reads them:
+/// `<name>/_action/feedback` (`pkg::action::dds_::Name_FeedbackMessage_`) and
+/// `<name>/_action/status` (`action_msgs::msg::dds_::GoalStatusArray_`), without the client's
+/// three services. (ros2-client names an action's DDS types only inside its own action client
+/// and server, so the topics are made on the participant.)
+pub fn feedback_and_status_topics(
+    context: &ros2_client::Context,
+    settings: &RosOptions,
+    name: &str,
+    type_name: &str,
+) -> Result<[rustdds::Topic; 2]> {
+    let (package, ty) = capsule_msgs::names::type_names::split(type_name);
+    let full = settings.resolve_name(name);
+    let topic = |suffix: &str, dds_type: String, qos: ros2_client::QosProfile| {
+        let qos: rustdds::QosPolicies = (&qos).into();
+        context
+            .domain_participant()
+            .create_topic(
+                format!("rt{full}/_action/{suffix}"),
+                dds_type,
+                &qos,
+                rustdds::TopicKind::NoKey,
+            )
+            .with_context(|| format!("topic {full}/_action/{suffix}"))
+    };
+    Ok([
+        topic(
+            "feedback",
+            format!("{package}::action::dds_::{ty}_FeedbackMessage_"),
+            qos::service(),
+        )?,
+        topic(
+            "status",
+            "action_msgs::msg::dds_::GoalStatusArray_".to_string(),
+            status_qos(),
+        )?,
+    ])
+}
+
 /// One action served: goals `G`, results `R`, feedback `F`.
 pub struct Action<G, R, F>
 where
@@ -118,9 +165,7 @@ where
             result_service: service.clone(),
             cancel_service: service,
             feedback_publisher: qos::service(),
-            status_publisher: qos::service()
-                .durability(Durability::TransientLocal)
-                .history(History::KeepLast { depth: 1 }),
+            status_publisher: status_qos(),
         };
         let server = node
             .create_action_server::<Wire<G>, Wire<R>, Wire<F>>(

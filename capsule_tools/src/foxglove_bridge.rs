@@ -7,7 +7,7 @@
 //! reader, so the plant's loop does not know it exists) or on a thread of its own in
 //! `capsule_container` ([`BridgeThread`]: state and commands from the in-process link,
 //! [`Source::InProcess`]); the controller's status it reads over DDS in a participant of its
-//! own. It serves four JSON channels, each with a JSON schema:
+//! own. It serves JSON channels, each with a JSON schema:
 //!
 //! - the state topic (`/capsule/state`): `t`, `x1`, `x2`, `y1`, `y2`, `x1_minus_x2`,
 //!   `y1_minus_y2`, `force`, ... in SI (what the paper's plots show, in metres and seconds);
@@ -15,7 +15,11 @@
 //!   progression per period, mean speed;
 //! - the force commands (`/capsule/actuator_force`): `t` (the stamp of the sample answered),
 //!   `state_seq`, `force` \[N\] as commanded (the state's `force` is the one applied);
-//! - [`FRAME_TOPIC`]: a `foxglove.FrameTransform` of the capsule body in `odom` (the 3D panel).
+//! - [`FRAME_TOPIC`]: a `foxglove.FrameTransform` of the capsule body in `odom` (the 3D panel);
+//! - the controller's actions, each under its topic's name: the feedback of a goal (Move's
+//!   travelled, remaining, speed and mode; SwitchAttractor's state, tries and orbit period) and
+//!   the statuses of the goals (accepted, executing, succeeded, ...), read over DDS
+//!   ([`capsule_plant_node::action_readers`]).
 //!
 //! State, frame and commands are thinned by their stamps to at most `--max-rate-hz`, and nothing is
 //! encoded while no client subscribes. The server binds 127.0.0.1 only ([`check_host`]).
@@ -32,7 +36,11 @@ use futures::StreamExt;
 use serde_json::json;
 use tracing::{info, warn};
 
+use capsule_msgs::actions::{GoalStatus, GoalStatusArray};
+use capsule_msgs::names::type_names;
+use capsule_plant_node::action_readers::{ActionReaders, ActionSample};
 use capsule_plant_node::intra_process::Link;
+use capsule_plant_node::recorder::{action_topics, Channel};
 use capsule_plant_node::views::BODY_FRAME;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 use ros2_client::Subscription;
@@ -130,6 +138,38 @@ pub const STATUS_SCHEMA: &str = object_schema!(
 "#
 );
 
+/// JSON schema of the Move action's feedback channel.
+pub const MOVE_FEEDBACK_SCHEMA: &str = object_schema!(
+    "capsule.MoveFeedback",
+    r#"
+  "t": {"type": "number", "description": "when the controller sent it [s] (its DDS source time, wall clock)"},
+  "goal_id": {"type": "string", "description": "hex"},
+  "travelled_m": {"type": "number"}, "remaining_m": {"type": "number"},
+  "speed_m_per_s": {"type": "number"}, "mode": {"type": "integer"}, "mode_name": {"type": "string"}
+"#
+);
+
+/// JSON schema of the SwitchAttractor action's feedback channel.
+pub const SWITCH_FEEDBACK_SCHEMA: &str = object_schema!(
+    "capsule.SwitchAttractorFeedback",
+    r#"
+  "t": {"type": "number", "description": "when the controller sent it [s] (its DDS source time, wall clock)"},
+  "goal_id": {"type": "string", "description": "hex"},
+  "switch_state": {"type": "integer"}, "tries": {"type": "integer"}, "orbit_period": {"type": "integer"}
+"#
+);
+
+/// JSON schema of an action's status channel (`action_msgs/msg/GoalStatusArray`).
+pub const GOAL_STATUS_SCHEMA: &str = object_schema!(
+    "capsule.GoalStatusArray",
+    r#"
+  "t": {"type": "number", "description": "when the controller sent it [s] (its DDS source time, wall clock)"},
+  "goals": {"type": "array", "items": {"type": "object", "properties": {
+    "goal_id": {"type": "string"}, "accepted_t": {"type": "number"},
+    "status": {"type": "integer"}, "status_name": {"type": "string"}}}}
+"#
+);
+
 /// JSON schema of `foxglove.FrameTransform` (Foxglove's well-known schema, JSON encoding).
 pub const FRAME_SCHEMA: &str = object_schema!(
     "foxglove.FrameTransform",
@@ -189,6 +229,45 @@ pub fn status_json(s: &ControllerStatus) -> serde_json::Value {
         "drive_amplitude_si": s.drive_amplitude_si,
         "drive_frequency_hz": s.drive_frequency_hz,
     })
+}
+
+/// An action sample as its channel's JSON, stamped `t` \[s\].
+pub fn action_json(sample: &ActionSample, t: f64) -> serde_json::Value {
+    let hex = |id: &[u8; 16]| id.iter().map(|b| format!("{b:02x}")).collect::<String>();
+    let statuses = |a: &GoalStatusArray| {
+        let goals: Vec<serde_json::Value> = a
+            .status_list
+            .iter()
+            .map(|g| {
+                json!({
+                    "goal_id": hex(&g.goal_info.goal_id),
+                    "accepted_t": g.goal_info.stamp.as_secs_f64(),
+                    "status": g.status,
+                    "status_name": GoalStatus::name(g.status),
+                })
+            })
+            .collect();
+        json!({"t": t, "goals": goals})
+    };
+    match sample {
+        ActionSample::MoveFeedback(m) => json!({
+            "t": t,
+            "goal_id": hex(&m.goal_id),
+            "travelled_m": m.feedback.travelled_m,
+            "remaining_m": m.feedback.remaining_m,
+            "speed_m_per_s": m.feedback.speed_m_per_s,
+            "mode": m.feedback.mode,
+            "mode_name": capsule_msgs::mode_name(m.feedback.mode).unwrap_or("?"),
+        }),
+        ActionSample::SwitchFeedback(m) => json!({
+            "t": t,
+            "goal_id": hex(&m.goal_id),
+            "switch_state": m.feedback.switch_state,
+            "tries": m.feedback.tries,
+            "orbit_period": m.feedback.orbit_period,
+        }),
+        ActionSample::MoveStatus(a) | ActionSample::SwitchStatus(a) => statuses(a),
+    }
 }
 
 fn stamp_json(t: Time) -> serde_json::Value {
@@ -331,12 +410,14 @@ impl Feed {
     }
 }
 
-/// The four channels and their thinning: what the bridge does with each message.
+/// The channels and their thinning: what the bridge does with each message.
 struct Outputs {
     state: Arc<RawChannel>,
     status: Arc<RawChannel>,
     frame: Arc<RawChannel>,
     force: Arc<RawChannel>,
+    /// The actions' feedback and status, in [`Channel`] order (move's, then the switch's).
+    actions: [Arc<RawChannel>; 4],
     thin: StampThinner,
     thin_force: StampThinner,
 }
@@ -365,6 +446,17 @@ impl Outputs {
             log(&self.status, status_json(s));
         }
     }
+
+    fn action(&mut self, s: &ActionSample, info: &ros2_client::MessageInfo) {
+        let ch = &self.actions[s.channel() as usize - Channel::MoveFeedback as usize];
+        if ch.has_sinks() {
+            let t = info
+                .source_timestamp()
+                .or(info.received_timestamp())
+                .map_or(0.0, |t| t.to_nanos() as f64 * 1e-9);
+            log(ch, action_json(s, t));
+        }
+    }
 }
 
 /// The bridge started: its feed and status reader (on a DDS participant of its own), its
@@ -373,6 +465,7 @@ pub struct Bridge {
     // the participant and node outlive the readers (dropped after them: fields drop in order)
     feed: Feed,
     status_sub: Subscription<ControllerStatus>,
+    actions: ActionReaders,
     outputs: Outputs,
     server: foxglove::WebSocketServerHandle,
     _node: ros2_client::Node,
@@ -404,16 +497,33 @@ impl Bridge {
                 &qos::data(),
             )
             .with_context(|| format!("topic {status_name}"))?;
+        let action_channel = |(name, ros_type, _): &(String, &str, _)| {
+            let schema = match *ros_type {
+                type_names::MOVE_FEEDBACK_MESSAGE => MOVE_FEEDBACK_SCHEMA,
+                type_names::SWITCH_ATTRACTOR_FEEDBACK_MESSAGE => SWITCH_FEEDBACK_SCHEMA,
+                _ => GOAL_STATUS_SCHEMA,
+            };
+            channel(&settings.resolve_name(name), schema)
+        };
+        let [a, b, c, d] = action_topics(&opts.controller_node);
         let outputs = Outputs {
             state: channel(&state_name, STATE_SCHEMA)?,
             status: channel(&status_name, STATUS_SCHEMA)?,
             frame: channel(FRAME_TOPIC, FRAME_SCHEMA)?,
             force: channel(&force_name, FORCE_SCHEMA)?,
+            actions: [
+                action_channel(&a)?,
+                action_channel(&b)?,
+                action_channel(&c)?,
+                action_channel(&d)?,
+            ],
             thin: StampThinner::new(opts.max_rate_hz),
             thin_force: StampThinner::new(opts.max_rate_hz),
         };
         let feed = Feed::create(source, &mut node, settings, &outputs, opts.max_rate_hz)?;
         let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
+        let actions =
+            ActionReaders::subscribe(&context, &mut node, settings, &opts.controller_node)?;
         let server = foxglove::WebSocketServer::new()
             .name(capsule_msgs::names::nodes::FOXGLOVE)
             .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)
@@ -432,6 +542,7 @@ impl Bridge {
         Ok(Bridge {
             feed,
             status_sub,
+            actions,
             outputs,
             server,
             _node: node,
@@ -450,10 +561,12 @@ impl Bridge {
         let Bridge {
             feed,
             status_sub,
+            actions,
             mut outputs,
             server,
             ..
         } = self;
+        let mut action_tick = tokio::time::interval(ACTION_POLL);
         let statuses = status_sub.async_stream();
         tokio::pin!(statuses, stop);
         let out = &mut outputs;
@@ -480,6 +593,7 @@ impl Bridge {
                             Ok((s, _)) => out.status(&s),
                             Err(e) => warn!("bad status: {e:?}"),
                         },
+                        _ = action_tick.tick() => show_actions(&actions, out),
                     }
                 }
             }
@@ -500,6 +614,7 @@ impl Bridge {
                             Ok((s, _)) => out.status(&s),
                             Err(e) => warn!("bad status: {e:?}"),
                         },
+                        _ = action_tick.tick() => show_actions(&actions, out),
                     }
                 }
             }
@@ -507,6 +622,21 @@ impl Bridge {
         // close the clients' connections before leaving
         server.stop().wait().await;
         stopped
+    }
+}
+
+/// How often the bridge takes the actions' feedback and statuses (20 Hz feedback; polled, as
+/// four more streams in the select would be).
+const ACTION_POLL: Duration = Duration::from_millis(20);
+
+/// Shows what the action readers hold.
+fn show_actions(actions: &ActionReaders, out: &mut Outputs) {
+    let shown = actions.take(|sample, info| {
+        out.action(&sample, info);
+        Ok(())
+    });
+    if let Err(e) = shown {
+        warn!("action topics: {e}");
     }
 }
 
@@ -680,7 +810,15 @@ mod tests {
             (Some(2.25), Some(7))
         );
         assert_eq!(j["force"], -0.5);
-        for schema in [STATE_SCHEMA, STATUS_SCHEMA, FRAME_SCHEMA, FORCE_SCHEMA] {
+        for schema in [
+            STATE_SCHEMA,
+            STATUS_SCHEMA,
+            FRAME_SCHEMA,
+            FORCE_SCHEMA,
+            MOVE_FEEDBACK_SCHEMA,
+            SWITCH_FEEDBACK_SCHEMA,
+            GOAL_STATUS_SCHEMA,
+        ] {
             let v: serde_json::Value = serde_json::from_str(schema).unwrap_or_default();
             assert!(v["title"].is_string(), "{schema}");
         }

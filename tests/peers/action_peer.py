@@ -13,9 +13,13 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
         after a while if asked, wait for the result(s); with --drift-s, the capsule's travel
         over that long from W s after the end, on the section (drive period T, the control point's by
         default). One JSON line per goal.
-  action_peer.py refuse DIST...    send each goal; one JSON line each: accepted or not
+  action_peer.py refuse [--estop] DIST...
+        send each goal; one JSON line each: accepted or not; with --estop, the plant's
+        emergency stop engaged first (std_srvs/srv/SetBool on --estop-service) and released after
   action_peer.py switch --gain K --pulse-periods N --target-period P --max-tries T
-        a SwitchAttractor goal, its feedback and result; one JSON line
+                 [--cancel-after S]
+        a SwitchAttractor goal, its feedback and result, cancelled after S s if asked, and the
+        controller's mode on its status after the end; one JSON line
   action_peer.py unknown-result    get_result for a goal id never sent: answered at once
 
 Exit status 0 = the protocol held (answers came, statuses in order); 1 = a check failed.
@@ -223,16 +227,48 @@ def cmd_move(args):
         print(json.dumps(goal_report(c, second[0], boxes[1], second[1])), flush=True)
 
 
+def set_estop(dp, service, engaged, timeout):
+    """Engages or releases the plant's emergency stop and waits until its latched topic says
+    so, then 0.3 s for the controller's reader of it."""
+    r = cp.ServiceClient(dp, service, cp.T.SetBool_Request, cp.T.SetBool_Response,
+                         timeout).call(data=engaged)
+    if not r.success:
+        cp.fail(f"emergency stop {engaged}: {r.message}")
+    latched = cp.reader(dp, "capsule/emergency_stop", cp.T.Bool,
+                        cp.reliable(Policy.Durability.TransientLocal, depth=1))
+    deadline = time.time() + timeout
+    while not any(b.data == engaged for b in cp.valid(latched.take(N=4))):
+        if time.time() > deadline:
+            cp.fail(f"capsule/emergency_stop never said {engaged}")
+        time.sleep(0.01)
+    time.sleep(0.3)
+
+
 def cmd_refuse(args):
     dp = cp.participant()
     c = ActionClient(dp, args.action, "Move", args.timeout)
+    if args.estop:
+        set_estop(dp, args.estop_service, True, args.timeout)
     for d in args.distances:
         gid, accepted = c.send_goal(distance_m=float(d), tolerance_m=0.0, timeout_s=0.0)
-        print(json.dumps({"distance": d, "accepted": accepted}), flush=True)
+        print(json.dumps({"distance": d, "accepted": accepted, "estop": args.estop}), flush=True)
         if accepted:
             c.cancel(gid)
+    if args.estop:
+        set_estop(dp, args.estop_service, False, args.timeout)
     # a refused goal never shows on the status topic
     c.pump()
+
+
+def mode_after(dp, timeout):
+    """The mode on the first controller status published from now on."""
+    status = cp.reader(dp, "capsule_controller/status", cp.T.ControllerStatus)
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        for st in cp.valid(status.take(N=16)):
+            return st.mode_name
+        time.sleep(0.01)
+    cp.fail(f"no controller status within {timeout} s")
 
 
 def cmd_switch(args):
@@ -245,8 +281,22 @@ def cmd_switch(args):
         cp.fail("switch goal refused")
     box = {}
     threading.Thread(target=c.result, args=(gid, box), daemon=True).start()
+    extra = {}
+    if args.cancel_after is not None:
+        end = time.time() + args.cancel_after
+        while time.time() < end:
+            c.pump()
+            time.sleep(0.01)
+        code, canceling = c.cancel(gid)
+        extra = {"cancel_code": code, "canceling_ours": canceling == [bytes(gid.uuid)]}
     wait_results(c, [box], args.timeout)
-    print(json.dumps(goal_report(c, gid, box, t0)), flush=True)
+    # the statuses published after the end
+    end = time.time() + 0.3
+    while time.time() < end:
+        c.pump()
+        time.sleep(0.02)
+    extra["mode_after"] = mode_after(dp, 10.0)
+    print(json.dumps(goal_report(c, gid, box, t0, extra)), flush=True)
 
 
 def cmd_unknown_result(args):
@@ -270,8 +320,10 @@ def main():
     cp.options(a, float, cancel_after=None, preempt=None, preempt_after=0.5)
     a = sub.add_parser("refuse")
     a.add_argument("distances", nargs="+")
+    a.add_argument("--estop", action="store_true")
+    cp.options(a, str, estop_service="/capsule_plant/emergency_stop")
     a = sub.add_parser("switch")
-    cp.options(a, float, gain=0.3)
+    cp.options(a, float, gain=0.3, cancel_after=None)
     cp.options(a, int, pulse_periods=1, target_period=1, max_tries=3)
     sub.add_parser("unknown-result")
     for a in sub.choices.values():

@@ -7,7 +7,11 @@ Uses only the readers' own ROS 2 decoders (mcap + mcap-ros2-support, rosbags Any
 custom decoding. For each reader it prints, per topic, the type, the count, and the fields the
 tests compare (floats as their IEEE-754 bit patterns; state: seq, stamp, mass_position, capsule_velocity, stuck; force: state_seq,
 force; service events: event_type, mode, gain, accepted; clock: ns; status: mode,
-commands_sent; diagnostics: the first status's level, message and key=value pairs), plus the file's profile and the rosbag2 metadata keys.
+commands_sent; diagnostics: the first status's level, message and key=value pairs; action
+feedback: goal id, travelled_m or orbit_period; action status: goal id and status of each), plus
+the file's profile and the rosbag2 metadata keys. The mcap reader's refusals of a schema are
+listed per topic under "refused" with the reader's reason (mcap-ros2-support refuses rosidl's
+`_` in derived names such as `Move_FeedbackMessage`), and that topic's messages left out.
 """
 import argparse
 import json
@@ -40,6 +44,12 @@ def row(topic_type, m):
         return [stamp_ns(m.clock)]
     if topic_type.endswith("/ControllerStatus"):
         return [int(m.mode), int(m.commands_sent)]
+    if topic_type.endswith("_FeedbackMessage"):
+        f = m.feedback
+        first = "travelled_m" if hasattr(f, "travelled_m") else "orbit_period"
+        return [bytes(m.goal_id.uuid).hex(), getattr(f, first)]
+    if topic_type.endswith("/GoalStatusArray"):
+        return [[bytes(s.goal_info.goal_id.uuid).hex(), int(s.status)] for s in m.status_list]
     if topic_type.endswith("/DiagnosticArray"):
         s = m.status[0]
         level = s.level[0] if isinstance(s.level, (bytes, bytearray)) else int(s.level)
@@ -66,7 +76,21 @@ def with_mcap(path):
         for rec in reader.iter_metadata():
             meta[rec.name] = sorted(rec.metadata.keys())
         schemas = {}
-        for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
+        # decoders made per channel, as iter_decoded_messages makes them, but a schema the
+        # reader refuses is reported (per topic, with its reason) instead of ending the read
+        factory, decoders, refused = DecoderFactory(), {}, {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if channel.id not in decoders:
+                try:
+                    decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
+                    if decoders[channel.id] is None:
+                        refused[channel.topic] = "no decoder for this encoding"
+                except Exception as e:
+                    decoders[channel.id] = None
+                    refused[channel.topic] = f"{type(e).__name__}: {e}"
+            if decoders[channel.id] is None:
+                continue
+            decoded = decoders[channel.id](message.data)
             add(out, channel.topic, schema.name, decoded, message.log_time)
             schemas[channel.topic] = {
                 "schema": schema.name,
@@ -80,7 +104,7 @@ def with_mcap(path):
         if summary is not None and summary.statistics is not None:
             stats = summary.statistics.message_count
     return {"profile": header.profile, "metadata": meta, "channels": schemas,
-            "statistics_messages": stats, "topics": out}
+            "statistics_messages": stats, "topics": out, "refused": refused}
 
 
 def with_rosbags(path):

@@ -185,7 +185,24 @@ impl Pub {
     }
 }
 
+/// `msgs` without the actions' feedback and status, which are an action server's to publish: a
+/// replay stands in for the graph's topics, not for a server that clients could take for the
+/// live one (said on stderr when there were some).
+fn without_actions(msgs: Vec<Message>) -> Vec<Message> {
+    let (actions, msgs): (Vec<Message>, Vec<Message>) = msgs
+        .into_iter()
+        .partition(|m| m.topic.contains("/_action/"));
+    if !actions.is_empty() {
+        eprintln!(
+            "capsule replay: not replaying the actions' feedback and status ({} messages)",
+            actions.len()
+        );
+    }
+    msgs
+}
+
 async fn publish(args: &Args, msgs: Vec<Message>) -> Result<()> {
+    let msgs = without_actions(msgs);
     let settings = RosOptions::resolve(&args.ros, &RosEnv::from_process(), "capsule_replay")?;
     let context = settings.context()?;
     let mut node = settings.node(&context)?;

@@ -144,7 +144,9 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
             (Some(rec), Some(r)) if composed => {
                 Some(InPlantRecording::start_apart(rec, r, &settings)?)
             }
-            (Some(rec), Some(r)) => Some(InPlantRecording::start(rec, r, &mut node, &settings)?),
+            (Some(rec), Some(r)) => Some(InPlantRecording::start(
+                rec, r, &context, &mut node, &settings,
+            )?),
             _ => None,
         };
         announce(&settings, &opts, core.rate_hz);

@@ -7,6 +7,7 @@ use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus};
 use capsule_record::types::SetModeEvent;
 use capsule_ros_base::error::{NodeError, Result};
 
+use crate::action_readers::ActionReaders;
 use crate::recorder::{drain_into, Channel, GraphRecording};
 
 /// Where and how the plant records the graph itself.
@@ -26,14 +27,15 @@ pub struct InPlantRecordOptions {
 
 /// The graph recorded inside the plant: what it publishes (state, /clock, its /diagnostics) as
 /// it publishes it,
-/// every command as DDS delivered it, and the controller's status and service events from
-/// their own (low-rate) readers. The same file as `capsule_recorder` writes, without a
+/// every command as DDS delivered it, and the controller's status, service events and actions
+/// from their own (low-rate) readers. The same file as `capsule_recorder` writes, without a
 /// second process receiving every sample over the network (which costs that process, on this
 /// machine, 5-10 us of kernel time per datagram).
 pub struct InPlantRecording {
     pub(super) rec: GraphRecording,
     pub(super) status_sub: ros2_client::Subscription<ControllerStatus>,
     pub(super) event_sub: ros2_client::Subscription<SetModeEvent>,
+    pub(super) actions: ActionReaders,
     pub(super) last_poll: Instant,
     /// Composed: the participant and node of the status and event readers (RustDDS does not
     /// deliver a writer's samples to a reader on its own participant, where the controller is).
@@ -80,6 +82,7 @@ impl InPlantRecording {
         self.last_poll = Instant::now();
         drain_into(&self.status_sub, &mut self.rec, Channel::Status)?;
         drain_into(&self.event_sub, &mut self.rec, Channel::ServiceEvent)?;
+        self.actions.drain(&mut self.rec)?;
         self.rec.flush_if_due()
     }
 }
@@ -111,15 +114,17 @@ impl InPlantRecording {
         apart.node_name = format!("{}_recording", settings.node_name);
         let context = apart.context()?;
         let (mut node, _graph) = apart.loop_node(&context)?;
-        let mut recording = Self::start(rec, r, &mut node, &apart)?;
+        let mut recording = Self::start(rec, r, &context, &mut node, &apart)?;
         recording._apart = Some((context, node));
         Ok(recording)
     }
 
-    /// Starts recording into `rec`: the readers of the controller's status and service events.
+    /// Starts recording into `rec`: the readers of the controller's status, service events and
+    /// actions.
     pub(super) fn start(
         rec: GraphRecording,
         r: &InPlantRecordOptions,
+        context: &ros2_client::Context,
         node: &mut ros2_client::Node,
         settings: &capsule_ros_base::ros_options::RosOptions,
     ) -> Result<InPlantRecording> {
@@ -137,6 +142,7 @@ impl InPlantRecording {
             rec,
             status_sub: subscribe(node, &status_topic, &deep)?,
             event_sub: subscribe(node, &event_topic, &qos::service_events())?,
+            actions: ActionReaders::subscribe(context, node, settings, &r.controller_node)?,
             last_poll: Instant::now(),
             _apart: None,
         })
@@ -152,7 +158,8 @@ impl InPlantRecording {
             return Err(rec.abandon(e));
         }
         let drained = drain_into(&self.status_sub, &mut rec, Channel::Status)
-            .and_then(|_| drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent));
+            .and_then(|_| drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent))
+            .and_then(|_| self.actions.drain(&mut rec));
         match drained {
             Ok(_) => {
                 let report = rec.finish()?;

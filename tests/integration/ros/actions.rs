@@ -19,19 +19,26 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
         200,
         r#"
         ap() { python3 "$ROOT/tests/peers/action_peer.py" "$@" || echo "PEER FAILED $*"; }
+        # the peer's request/reply mapping for every service: the actions', the lifecycle's,
+        # the emergency stop's
+        export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
         start_plant
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp start_controller
+        start_controller
         ap move 0.01
         ap move -0.005 --drift-s 1.5
         ap move 1.0 --cancel-after 0.5 --drift-after 1 --drift-s 1.5
         ap refuse -- nan inf -inf 20 0.01
+        $B/capsule_ros lifecycle-set /capsule_plant deactivate; sleep 0.5
+        ap refuse -- 0.01
+        $B/capsule_ros lifecycle-set /capsule_plant activate; sleep 0.5
+        ap refuse --estop -- 0.01
         ap move 0.02 --preempt -0.002 --preempt-after 0.5
         ap move 0.05 & A=$!
         sleep 1; peer set-mode 0 0; wait $A
         ap move 0.05 --goal-timeout 0.3
         ap unknown-result
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move 0.003; echo "cli rc=$?"
-        RMW_IMPLEMENTATION=rmw_cyclonedds_cpp $B/capsule_ros move nan; echo "cli nan rc=$?"
+        $B/capsule_ros move 0.003; echo "cli rc=$?"
+        $B/capsule_ros move nan; echo "cli nan rc=$?"
         stop $P $C"#,
     );
     run.assert_ok();
@@ -75,19 +82,7 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
     // 1.3 to 3 mm in 1.5 s, docs/ros.md; in lock-step under 0.4 mm in 20 periods)
     let drift = json_number(g, "drift_m").unwrap_or(f64::NAN);
     assert!(drift.abs() < 5e-3, "drift {drift} m after the cancel: {g}");
-    // NaN, infinities and beyond the 10 m limit refused; a plain goal taken
-    let refusals = run.lines_starting("{\"distance\"");
-    assert_eq!(refusals.len(), 5, "{}", run.all());
-    for r in &refusals[..4] {
-        assert_contains(r, &["\"accepted\": false"]);
-    }
-    assert_contains(refusals[4], &["\"accepted\": true"]);
-    run.assert_stderr(&[
-        "distance_m = NaN is not finite",
-        "distance_m = inf is not finite",
-        "distance_m = -inf is not finite",
-        "distance_m = 20 is beyond the configured limit of 10 m",
-    ]);
+    assert_refusals(&run);
     // the goal cancelled right after it was accepted, then preemption: the first ABORTED
     // saying why, the second reached
     let (first, second) = (goal_line(&goals, 3), goal_line(&goals, 4));
@@ -122,6 +117,26 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
     ]);
 }
 
+/// NaN, infinities and beyond the 10 m limit refused; a plain goal taken; then refused while the
+/// plant is configured but not active (it publishes its state, applying no force), and while
+/// its emergency stop is engaged.
+fn assert_refusals(run: &super::harness::Run) {
+    let refusals = run.lines_starting("{\"distance\"");
+    assert_eq!(refusals.len(), 7, "{}", run.all());
+    for (i, r) in refusals.iter().enumerate() {
+        let accepted = if i == 4 { "true" } else { "false" };
+        assert_contains(r, &[&format!("\"accepted\": {accepted}")]);
+    }
+    run.assert_stderr(&[
+        "distance_m = NaN is not finite",
+        "distance_m = inf is not finite",
+        "distance_m = -inf is not finite",
+        "distance_m = 20 is beyond the configured limit of 10 m",
+        "goal 0.01 m refused: the plant is not active",
+        "goal 0.01 m refused: the plant's emergency stop is engaged",
+    ]);
+}
+
 #[test]
 fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     // the goal is accepted while the plant is configured but inactive (lock-step: sim time
@@ -133,7 +148,9 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
         export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
         for i in 1 2; do
           start_controller --use-sim-time
-          start_plant --pacing lockstep --autostart false
+          # the first run recorded in the plant: the goal's feedback and statuses with the rest
+          rec=(); [ $i = 1 ] && rec=(--record-output "$TMP/r1.mcap")
+          start_plant --pacing lockstep --autostart false "${rec[@]}"
           $B/capsule_ros lifecycle-set /capsule_plant configure || exit 1
           python3 "$ROOT/tests/peers/action_peer.py" move 0.01 > $TMP/r$i.json 2> $TMP/e$i & R=$!
           for k in $(seq 300); do grep -q "goal accepted" $TMP/e$i && break; sleep 0.1; done
@@ -141,7 +158,9 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
           wait $R || exit 1
           echo "RUN$i $(cat $TMP/r$i.json)"
           stop $P $C
-        done"#,
+        done
+        echo "READERS $(python3 "$ROOT/tests/peers/mcap_decode.py" "$TMP/r1.mcap" --reader both)"
+        echo "FOXGLOVE $(node "$ROOT/tests/peers/foxglove/decode.mjs" "$TMP/r1.mcap")""#,
     );
     run.assert_ok();
     let result = |tag: &str| -> Vec<Option<f64>> {
@@ -155,6 +174,64 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     assert!(a.iter().all(Option::is_some), "{}", run.all());
     assert_eq!(a, b, "two lock-step runs differ:\n{}", run.all());
     assert_contains(run.line("RUN1"), &["\"status\": \"SUCCEEDED\""]);
+    recorded_goal(&run);
+}
+
+/// The first lock-step run's recording: the goal's feedback and statuses, as rosbag2 records an
+/// action's topics, read by rosbags, mcap-ros2-support and Foxglove's readers alike.
+fn recorded_goal(run: &super::harness::Run) {
+    let parse = |tag: &str| -> serde_json::Value {
+        serde_json::from_str(run.after(tag))
+            .unwrap_or_else(|e| panic!("{tag}: not JSON ({e}):\n{}", run.all()))
+    };
+    let (readers, fox) = (parse("READERS "), parse("FOXGLOVE "));
+    let feedback = "/capsule_controller/move/_action/feedback";
+    let status = "/capsule_controller/move/_action/status";
+    let rosbags = &readers["rosbags"]["topics"];
+    assert_eq!(
+        rosbags[feedback]["type"], "capsule_msgs/action/Move_FeedbackMessage",
+        "{readers}"
+    );
+    assert_eq!(rosbags[status]["type"], "action_msgs/msg/GoalStatusArray");
+    // feedback at 20 Hz over the goal's seconds, all of the one goal
+    let rows = rosbags[feedback]["rows"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    assert!(rows.len() >= 5, "{readers}");
+    let goal = rows[0][0].clone();
+    assert!(rows.iter().all(|r| r[0] == goal), "{readers}");
+    // its statuses: executing, then succeeded (the status topic lists every goal it knows)
+    let statuses: Vec<i64> = rosbags[status]["rows"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|r| r.as_array()?.iter().find(|g| g[0] == goal)?[1].as_i64())
+        .collect();
+    assert_eq!(statuses.first(), Some(&2), "{readers}");
+    assert_eq!(statuses.last(), Some(&4), "{readers}");
+    // mcap-ros2-support decodes the statuses alike; the feedback too, or it refuses rosidl's
+    // derived name (`Move_FeedbackMessage`: it takes no `_` in a message name) and says so
+    let mcap = &readers["mcap"];
+    assert_eq!(mcap["topics"][status]["rows"], rosbags[status]["rows"]);
+    assert!(
+        mcap["topics"][feedback]["rows"] == rosbags[feedback]["rows"]
+            || mcap["refused"][feedback].is_string(),
+        "{readers}"
+    );
+    // Foxglove's readers: every message decoded (both passes), the same counts and feedback
+    for topic in [feedback, status] {
+        assert_eq!(
+            fox["topics"][topic]["count"], rosbags[topic]["count"],
+            "{fox}"
+        );
+    }
+    let last = rows.last().cloned().unwrap_or_default();
+    assert_eq!(
+        fox["topics"][feedback]["last"]["feedback"]["travelled_m"], last[1],
+        "{fox}"
+    );
+    assert_eq!(fox["messages"], fox["indexed_messages"], "{fox}");
 }
 
 #[test]
@@ -168,13 +245,30 @@ fn the_switch_action_moves_period_3_to_period_1_at_the_fig_20_scene() {
            $B/capsule_controller --scene "$S" & C=$!
            $B/capsule_plant --scene "$S" --pacing lockstep --command-timeout-s 60 --until-s 100 \
                --wait-subscribers 1 & P=$!
-           python3 "$ROOT/tests/peers/action_peer.py" switch --gain 0.3 --pulse-periods 1 \
-               --target-period 1 --max-tries 3 --timeout 150; rc=$?
+           ap() { python3 "$ROOT/tests/peers/action_peer.py" switch --gain 0.3 --pulse-periods 1 \
+               --target-period 1 --max-tries 3 --timeout 150 "$@"; }
+           ap --cancel-after 0.05 || exit 1
+           ap; rc=$?
            kill -TERM $P $C; wait
            exit $rc"#,
     );
     run.assert_ok();
-    let g = run.json_with("final_period");
+    // cancelled while it still observes the orbit: CANCELED, back in the mode it came from, OFF
+    let goals = run.lines_starting("{\"status\"");
+    assert_eq!(goals.len(), 2, "{}", run.all());
+    assert_contains(
+        goals[0],
+        &[
+            "\"status\": \"CANCELED\"",
+            "\"statuses\": [\"EXECUTING\", \"CANCELING\", \"CANCELED\"]",
+            "\"cancel_code\": 0",
+            "\"canceling_ours\": true",
+            "\"tries\": 0",
+            "\"message\": \"canceled\"",
+            "\"mode_after\": \"OFF\"",
+        ],
+    );
+    let g = goals[1];
     assert_contains(
         g,
         &[
@@ -184,6 +278,7 @@ fn the_switch_action_moves_period_3_to_period_1_at_the_fig_20_scene() {
             "\"message\": \"reached the orbit wanted\"",
         ],
     );
+    assert_contains(g, &["\"mode_after\": \"OFF\""]);
     let tries = json_number(g, "tries").unwrap_or(-1.0);
     assert!((1.0..=3.0).contains(&tries), "{g}");
     assert!(json_number(g, "feedback").unwrap_or(0.0) > 0.0, "{g}");

@@ -1,7 +1,8 @@
 //! The default ROS 2 middleware as a real peer (#19): an eProsima Fast DDS 2.9 C++ program
 //! (tests/peers/fastdds/, Debian libfastrtps-dev) with the types as rosidl generates them for
 //! rmw_fastrtps_cpp and its request/reply correlation reads the state, commands the plant, calls
-//! set_mode and the parameter services; bad input from it is refused and the nodes keep serving.
+//! set_mode and the parameter services, sends a Move goal (send_goal, get_result, feedback);
+//! bad input from it is refused and the nodes keep serving.
 //! The nodes run with RMW_IMPLEMENTATION unset, i.e. in the Fast DDS ("enhanced") mapping, as
 //! next to an rclcpp node on a default installation.
 
@@ -23,13 +24,31 @@ fn fastdds_peer_calls_set_mode_and_the_parameter_services_in_the_fastrtps_mappin
         120,
         &format!(
             "start_controller --mode forward
+            start_plant
             {}
             fpeer params --node /capsule_controller --set gain=0.5 --set gain=5.0 || exit 1
-            stop $C",
+            # the Move action as an rclcpp ActionClient on rmw_fastrtps calls it
+            fpeer move 0.005 || exit 1
+            fpeer move nan || exit 1
+            stop $P $C",
             set_mode_calls("fpeer")
         ),
     );
     assert_set_mode_answers(&run);
+    // 5 mm: SUCCEEDED (4) within the default tolerance, feedback on the way; NaN refused
+    let goals = run.lines_starting("{\"distance\"");
+    assert_eq!(goals.len(), 2, "{}", run.all());
+    assert_contains(
+        goals[0],
+        &["\"accepted\": true", "\"status\": 4", "\"reached\": true"],
+    );
+    assert!(
+        json_number(goals[0], "error_m").is_some_and(|e| e.abs() <= 1e-3),
+        "{}",
+        goals[0]
+    );
+    assert_at_least(goals[0], "feedback", 5.0);
+    assert_contains(goals[1], &["\"accepted\": false"]);
     let p = run.json_with("names");
     for name in [
         "mode",

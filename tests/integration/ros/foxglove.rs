@@ -5,7 +5,8 @@
 //! (`capsule_container --foxglove-port`, the launcher's default) and from `capsule_foxglove` as a
 //! process of its own (`--separate`); a bind address other than loopback is refused before
 //! anything starts, and a port taken ends the container, naming the bridge, before the loop
-//! starts; the layout in docs/foxglove plots only fields the bridge serves.
+//! starts; the layout in docs/foxglove plots only fields the bridge serves. The separate graph
+//! runs a Move goal meanwhile, whose feedback the client reads too.
 
 use super::harness::{json_number, json_raw, netns, root, Run};
 
@@ -13,6 +14,7 @@ const STATE: &str = "/capsule/state";
 const STATUS: &str = "/capsule_controller/status";
 const FRAME: &str = "/capsule/frame";
 const FORCE: &str = "/capsule/actuator_force";
+const MOVE_FEEDBACK: &str = "/capsule_controller/move/_action/feedback";
 
 /// The part of the client's summary about `topic` (up to the next topic's key).
 fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
@@ -21,7 +23,7 @@ fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
         return "";
     };
     let rest = &summary[at + key.len()..];
-    let end = [STATE, STATUS, FRAME, FORCE]
+    let end = [STATE, STATUS, FRAME, FORCE, MOVE_FEEDBACK]
         .iter()
         .filter_map(|t| rest.find(&format!("\"{t}\":")))
         .min()
@@ -30,9 +32,19 @@ fn section<'a>(summary: &'a str, topic: &str) -> &'a str {
 }
 
 /// Through the launcher (`--foxglove-port 0` and `flags`), as a user starts it: a Foxglove client
-/// decodes every channel; the launcher's processes (`KIDS ...`: their names) are printed.
-fn client_decodes_the_live_graph(flags: &str) -> Run {
+/// decodes every channel; the launcher's processes (`KIDS ...`: their names) are printed. With
+/// `goal`, a Move goal of 4 mm (`capsule_ros move`) runs while the client reads, and the client
+/// reads its feedback too.
+fn client_decodes_the_live_graph(flags: &str, goal: bool) -> Run {
     let client = root().join("tests/peers/foxglove_ws_client.py");
+    let (feedback, move_goal) = if goal {
+        (
+            MOVE_FEEDBACK,
+            "sleep 0.5; $B/capsule_ros move 0.004 > $TMP/move.out || exit 1",
+        )
+    } else {
+        ("", "")
+    };
     let run = netns(
         150,
         &format!(
@@ -43,8 +55,11 @@ fn client_decodes_the_live_graph(flags: &str) -> Run {
             for i in $(seq 300); do grep -q serving $TMP/fox.out && break; sleep 0.2; done
             URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
             echo "url $URL"
-            python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} \
-                --seconds 3 --min 5 --timeout 90 || exit 1
+            python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} {feedback} \
+                --seconds 3 --min 5 --timeout 90 > $TMP/client.out & W=$!
+            {move_goal}
+            wait $W || exit 1
+            cat $TMP/client.out
             KIDS=$(pgrep -P $L)
             echo "KIDS $(for k in $KIDS; do cat /proc/$k/comm; done | sort | tr '\n' ' ')"
             stop $L || exit 1
@@ -54,14 +69,38 @@ fn client_decodes_the_live_graph(flags: &str) -> Run {
             client = client.display()
         ),
     );
-    assert_decoded(&run);
+    // with a goal, the mode is the goal's (FORWARD, or OFF between and after)
+    assert_decoded(
+        &run,
+        if goal {
+            &["FORWARD", "OFF"]
+        } else {
+            &["FORWARD"]
+        },
+    );
+    if goal {
+        // the goal's feedback as the live view serves it: one goal, travelling forward
+        let summary = run.line("{\"server\"");
+        let fb = section(summary, MOVE_FEEDBACK);
+        assert_eq!(
+            json_raw(fb, "schema"),
+            Some("\"capsule.MoveFeedback\""),
+            "{fb}"
+        );
+        assert!(json_number(fb, "count").unwrap_or(0.0) >= 5.0, "{fb}");
+        assert!(
+            json_number(fb, "travelled_m").is_some_and(|t| t > 0.0),
+            "{fb}"
+        );
+        assert!(fb.contains("\"goal_id\": \""), "{fb}");
+    }
     run
 }
 
 /// The composed bridge (the launcher's default): the container serves, no process of its own.
 #[test]
 fn a_foxglove_websocket_client_decodes_the_composed_live_graph() {
-    let run = client_decodes_the_live_graph("");
+    let run = client_decodes_the_live_graph("", false);
     let kids = run.line("KIDS ");
     // /proc/PID/comm keeps 15 characters
     assert!(kids.contains("capsule_contain"), "{kids}");
@@ -76,7 +115,7 @@ fn a_foxglove_websocket_client_decodes_the_composed_live_graph() {
 /// `--separate`: `capsule_foxglove` as a process of its own, the same channels.
 #[test]
 fn a_foxglove_websocket_client_decodes_the_separate_live_graph() {
-    let run = client_decodes_the_live_graph("--separate");
+    let run = client_decodes_the_live_graph("--separate", true);
     let kids = run.line("KIDS ");
     assert!(
         kids.contains("capsule_foxglov"),
@@ -89,7 +128,7 @@ fn a_foxglove_websocket_client_decodes_the_separate_live_graph() {
 /// What every live-graph run shows: each channel decoded, with its schema and the sample's
 /// fields, from a plant that moved.
 #[track_caller]
-fn assert_decoded(run: &Run) {
+fn assert_decoded(run: &Run, modes: &[&str]) {
     run.assert_ok();
     // bound on loopback, port printed
     run.assert_stdout(&["url ws://127.0.0.1:"]);
@@ -132,11 +171,8 @@ fn assert_decoded(run: &Run) {
         "{state}"
     );
     assert!(json_number(state, "force").is_some(), "{state}");
-    assert_eq!(
-        json_raw(status, "mode_name"),
-        Some("\"FORWARD\""),
-        "{status}"
-    );
+    let mode = json_raw(status, "mode_name").unwrap_or_default();
+    assert!(modes.iter().any(|m| mode == format!("\"{m}\"")), "{status}");
     assert!(frame.contains("\"child_frame_id\": \"capsule\""), "{frame}");
     assert_eq!(json_raw(force, "schema"), Some("\"capsule.ActuatorForce\""));
     assert!(

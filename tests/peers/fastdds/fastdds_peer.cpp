@@ -18,6 +18,8 @@
 //                                             `ros2 lifecycle set`), get_state after each; JSON
 //   fastdds_peer estop [--service S]          engage the emergency stop, time the answer [ms],
 //                                             release it; JSON
+//   fastdds_peer move DIST [--action A]      a Move goal: send_goal, get_result, the feedback
+//                                             read meanwhile; JSON
 //   fastdds_peer bad KIND [--service S]       bad input, then a good call (must be answered):
 //                                             KIND = identity (no reply reader GUID, unknown
 //                                             sequence), cyclone (the request in the
@@ -633,6 +635,43 @@ static int cmd_estop(int argc, char** argv) {
   return 0;
 }
 
+// --- move: a Move goal as an rclcpp ActionClient on rmw_fastrtps sends it (send_goal, then
+// get_result, the feedback read meanwhile); one JSON line
+static int cmd_move(int argc, char** argv) {
+  if (argc < 3) fail("move DISTANCE_M [--action A] [--timeout S]");
+  double distance = std::strtod(argv[2], nullptr);
+  auto f = flags(argc, argv, 3);
+  std::string action = f.count("action") ? f["action"] : "capsule_controller/move";
+  double timeout = flag(f, "timeout", 60);
+  using namespace capsule_msgs::action;
+  Peer p;
+  DataReader* fb = p.reader<Move_FeedbackMessage>("rt/" + action + "/_action/feedback", 1000);
+  Client<Move_SendGoal_Request, Move_SendGoal_Response> send(p, action + "/_action/send_goal",
+                                                             timeout);
+  Client<Move_GetResult_Request, Move_GetResult_Response> result(
+      p, action + "/_action/get_result", timeout);
+  Move_SendGoal_Request q;
+  auto seed = static_cast<uint64_t>(Clock::now().time_since_epoch().count());
+  for (int i = 0; i < 16; i++) q.goal_id.uuid[i] = static_cast<uint8_t>(seed >> (8 * (i % 8)) ^ i);
+  q.goal.distance_m = distance;
+  auto accepted = send.call(q);
+  if (!accepted.accepted) {
+    std::printf("{\"distance\": %s, \"accepted\": false}\n", num(distance).c_str());
+    return 0;
+  }
+  Move_GetResult_Request g;
+  g.goal_id = q.goal_id;
+  auto r = result.call(g);
+  int feedback = 0;
+  for (const auto& m : take_all<Move_FeedbackMessage>(fb)) feedback += m.goal_id.uuid == q.goal_id.uuid;
+  std::printf(
+      "{\"distance\": %s, \"accepted\": true, \"status\": %d, \"reached\": %s, "
+      "\"travelled_m\": %s, \"error_m\": %s, \"feedback\": %d}\n",
+      num(distance).c_str(), r.status, r.result.reached ? "true" : "false",
+      num(r.result.travelled_m).c_str(), num(r.result.error_m).c_str(), feedback);
+  return 0;
+}
+
 int main(int argc, char** argv) {
   if (argc < 2) fail("usage: fastdds_peer state|force|set-mode|params|bad|lifecycle|estop ...");
   std::string cmd = argv[1];
@@ -643,5 +682,6 @@ int main(int argc, char** argv) {
   if (cmd == "bad") return cmd_bad(argc, argv);
   if (cmd == "lifecycle") return cmd_lifecycle(argc, argv);
   if (cmd == "estop") return cmd_estop(argc, argv);
+  if (cmd == "move") return cmd_move(argc, argv);
   fail("unknown command " + cmd);
 }

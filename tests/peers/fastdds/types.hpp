@@ -5,6 +5,7 @@
 // follow the ROS 2 distribution's builtin_interfaces and rcl_interfaces.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -24,6 +25,7 @@ using eprosima::fastcdr::Cdr;
   inline void put(Cdr& c, const T& v) { c << v; } \
   inline void get(Cdr& c, T& v) { c >> v; }
 PRIMITIVE(bool)
+PRIMITIVE(int8_t)
 PRIMITIVE(uint8_t)
 PRIMITIVE(int32_t)
 PRIMITIVE(uint32_t)
@@ -32,6 +34,10 @@ PRIMITIVE(uint64_t)
 PRIMITIVE(double)
 PRIMITIVE(std::string)
 #undef PRIMITIVE
+
+// a fixed array (uint8[16]): its elements, no length
+inline void put(Cdr& c, const std::array<uint8_t, 16>& v) { for (auto b : v) c << b; }
+inline void get(Cdr& c, std::array<uint8_t, 16>& v) { for (auto& b : v) c >> b; }
 
 template <class T>
 auto put(Cdr& c, const T& v) -> decltype(v.ser(c)) { v.ser(c); }
@@ -244,6 +250,64 @@ struct SetBool_Response {
   ROS_STRUCT(SetBool_Response, "std_srvs::srv::dds_::SetBool_Response_", success, message)
 };
 }  // namespace std_srvs::srv
+
+namespace unique_identifier_msgs::msg {
+struct UUID {
+  std::array<uint8_t, 16> uuid{};
+  ROS_STRUCT(UUID, "unique_identifier_msgs::msg::dds_::UUID_", uuid)
+};
+}  // namespace unique_identifier_msgs::msg
+
+// capsule_msgs/action/Move and the types rosidl derives from it (action/Move.action)
+namespace capsule_msgs::action {
+struct Move_Goal {
+  double distance_m = 0, tolerance_m = 0, timeout_s = 0;
+  ROS_STRUCT(Move_Goal, "capsule_msgs::action::dds_::Move_Goal_", distance_m, tolerance_m,
+             timeout_s)
+};
+struct Move_Result {
+  bool reached = false;
+  double travelled_m = 0, error_m = 0, elapsed_s = 0;
+  std::string message;
+  ROS_STRUCT(Move_Result, "capsule_msgs::action::dds_::Move_Result_", reached, travelled_m,
+             error_m, elapsed_s, message)
+};
+struct Move_Feedback {
+  double travelled_m = 0, remaining_m = 0, speed_m_per_s = 0;
+  uint8_t mode = 0;
+  ROS_STRUCT(Move_Feedback, "capsule_msgs::action::dds_::Move_Feedback_", travelled_m,
+             remaining_m, speed_m_per_s, mode)
+};
+struct Move_SendGoal_Request {
+  unique_identifier_msgs::msg::UUID goal_id;
+  Move_Goal goal;
+  ROS_STRUCT(Move_SendGoal_Request, "capsule_msgs::action::dds_::Move_SendGoal_Request_", goal_id,
+             goal)
+};
+struct Move_SendGoal_Response {
+  bool accepted = false;
+  builtin_interfaces::msg::Time stamp;
+  ROS_STRUCT(Move_SendGoal_Response, "capsule_msgs::action::dds_::Move_SendGoal_Response_",
+             accepted, stamp)
+};
+struct Move_GetResult_Request {
+  unique_identifier_msgs::msg::UUID goal_id;
+  ROS_STRUCT(Move_GetResult_Request, "capsule_msgs::action::dds_::Move_GetResult_Request_",
+             goal_id)
+};
+struct Move_GetResult_Response {
+  int8_t status = 0;
+  Move_Result result;
+  ROS_STRUCT(Move_GetResult_Response, "capsule_msgs::action::dds_::Move_GetResult_Response_",
+             status, result)
+};
+struct Move_FeedbackMessage {
+  unique_identifier_msgs::msg::UUID goal_id;
+  Move_Feedback feedback;
+  ROS_STRUCT(Move_FeedbackMessage, "capsule_msgs::action::dds_::Move_FeedbackMessage_", goal_id,
+             feedback)
+};
+}  // namespace capsule_msgs::action
 
 /// Fast DDS type support for one of the structs above: XCDR1, little endian, as rmw_fastrtps.
 template <class T>

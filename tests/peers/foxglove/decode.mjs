@@ -9,8 +9,9 @@
 // Reads the file twice: linearly (McapStreamReader, every record in file order) and, when the
 // file has a summary, through its indexes (McapIndexedReader, as the app opens files). Prints
 // JSON: per topic the schema name and message count, the totals of both passes, and the first
-// and last decoded value of a few fields. Exits 1 (message on stderr) when a schema does not
-// parse, a message does not decode or leaves bytes over, or the two passes disagree.
+// and last decoded value of a few fields (an action's feedback, its statuses). Exits 1 (message
+// on stderr) when a schema does not parse, a message does not decode or leaves bytes over, or
+// the two passes disagree.
 import { readFileSync } from "node:fs";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { loadDecompressHandlers } from "@mcap/support";
@@ -48,6 +49,8 @@ function sample(topic, m) {
   if ("clock" in m) return { sec: m.clock.sec, nanosec: m.clock.nanosec };
   if ("info" in m) return { event_type: m.info.event_type, requests: m.request.length };
   if ("commands_sent" in m) return { mode: m.mode, commands_sent: String(m.commands_sent) };
+  if ("goal_id" in m && "feedback" in m) return { feedback: m.feedback };
+  if (Array.isArray(m.status_list)) return { statuses: m.status_list.map((s) => s.status) };
   if (Array.isArray(m.status) && m.status.length > 0) {
     const s = m.status[0];
     return { level: s.level, message: s.message, values: s.values.map((v) => `${v.key}=${v.value}`) };
