@@ -275,7 +275,7 @@ pub struct Report {
     pub window_samples: usize,
     /// Positions compared.
     pub residuals: usize,
-    /// Evaluations of the windows (a first of two stages evaluates every other window).
+    /// Evaluations of the windows (a first of two stages evaluates a part of them).
     pub evaluations: usize,
     /// Why the optimiser stopped.
     pub termination: String,
@@ -394,6 +394,12 @@ const TOLERANCE: f64 = 1e-6;
 /// bring the second near.
 const FIRST_TOLERANCE: f64 = 1e-4;
 
+/// The first stage fits every this many windows (fewer where the recording is short: at least
+/// twice the windows the numbers need): it needs only to bring the second near, and its
+/// standard errors at a quarter of the windows, twice the final ones, are well inside the
+/// second stage's reach.
+const FIRST_EVERY: usize = 4;
+
 /// Forward-difference step of the scaled parameters.
 const PARAM_STEP: f64 = 1e-6;
 
@@ -477,9 +483,14 @@ pub fn identify(
     let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
     // where the reading's age varies, its error grows with the capsule's speed: a second stage
     // weights the residuals by it, from the first stage's twin; the first only brings the
-    // second near, and every other window does for it
+    // second near, and a part of the windows does for it
     let two_stages = pick.spreads();
-    let step = if two_stages { 2 } else { 1 };
+    let needed = WINDOWS_PER_NUMBER * (free.len() + 1);
+    let step = if two_stages {
+        (starts.len() / (2 * needed)).clamp(1, FIRST_EVERY)
+    } else {
+        1
+    };
     let first_starts: Vec<usize> = starts.iter().step_by(step).copied().collect();
     let outer = Outer {
         base: scene,
@@ -512,7 +523,12 @@ pub fn identify(
             states: states
                 .iter()
                 .enumerate()
-                .map(|(i, s)| fitted_states.get(i / 2).filter(|_| i % 2 == 0).unwrap_or(s))
+                .map(|(i, s)| {
+                    fitted_states
+                        .get(i / step)
+                        .filter(|_| i % step == 0)
+                        .unwrap_or(s)
+                })
                 .copied()
                 .collect(),
             best: None,

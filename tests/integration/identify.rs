@@ -6,8 +6,9 @@
 //!
 //! The heavy checks call the library (the test profile is optimised); the recordings are the
 //! emulator's prototype closed through the controller's law in lock-step
-//! (`twin::emulated_run`, what the plant records in front of `capsule emulate-device`; the
-//! path through the ROS graph is `ros::device::a_twin_is_identified_from_the_plant_s_recording`).
+//! (`twin::emulated_run`, what the plant records in front of `capsule emulate-device` when
+//! nothing is late; the path through the ROS graph is not tested: on a loaded machine the
+//! emulator falls behind the lock-step plant, docs/hardware.md has the figures).
 
 use crate::common::{assert_refused, capsule, files_in, json_of, TempDir};
 use crate::root;
