@@ -60,7 +60,8 @@ pub const STRONG_CORRELATION: f64 = 0.95;
 /// this fraction of its value: the correlation widens the standard errors (they are the
 /// marginal ones), and a value known within 10 % is known. The capsule (1.25, 1.2, 0.8, 0.8)
 /// had beta and delta correlated at +0.975 and fitted within 0.02 % and 1 % of the truth,
-/// with standard errors of 0.2 % and 4 %: reported as not told apart before.
+/// with standard errors of 0.2 % and 4 %: reported as not told apart before. The measurement
+/// delay is told where its standard error is under this fraction of a sample.
 pub const TOLD: f64 = 0.1;
 
 /// Singular value (of the column-scaled Jacobian, relative to the largest) under which a
@@ -869,17 +870,15 @@ fn summarise(
             "the measurement delay".to_string()
         }
     };
-    // each estimate's standard error relative to its value
+    // each estimate's standard error relative to its value; the delay's in samples (its value
+    // is zero for an ideal sensor, which made it loose however well known, and withheld every
+    // key correlated with it)
     let relative: Vec<f64> = (0..np)
-        .map(|i| {
-            let (v, scale) = match free.get(i) {
-                Some(f) => (
-                    fitted.number(&f.key).unwrap_or(f64::NAN),
-                    f.slope(outer.p[i]),
-                ),
-                None => (delay_s, outer.rec.h_s),
-            };
-            sd[i] * scale / v.abs()
+        .map(|i| match free.get(i) {
+            Some(f) => {
+                sd[i] * f.slope(outer.p[i]) / fitted.number(&f.key).unwrap_or(f64::NAN).abs()
+            }
+            None => sd[i],
         })
         .collect();
     let (statements, unknown, singular_values) =

@@ -340,7 +340,7 @@ def test_identify_gives_the_commands_json(root, cli, tmp_path):
     same(want, got)
     assert set(want) == set(got)
     # the recording's own capsule, from a nominal scene 6 % off
-    gamma = got["report"]["parameters"][0]["raw_value"]
+    gamma = got["report"]["parameters"][0]["value"]
     assert abs(gamma / 0.235 - 1) < 0.01, got["report"]
     assert got["validated_on"] == "left out by --segment", got
     bad = cli("identify", "--recording", rec, "--scene", nominal, "--free", "capsule.mass",
