@@ -5,8 +5,9 @@
 //!
 //! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS [G B D X
 //! [KEY=VALUE...]]]` (G B D X: the factors on gamma, beta, delta and xi; KEY=VALUE: the
-//! device's `jitter_s`, `latency_s`, `noise_m`, `quantum_m`, `lag_s` or `seed`, for the
-//! experiments docs/perf/identify.md reports)
+//! device's `jitter_s`, `latency_s`, `noise_m`, `quantum_m`, `lag_s` or `seed`, or `window`,
+//! the identification's window in drive periods; for the experiments docs/perf/identify.md
+//! reports)
 
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::emulated_run;
@@ -24,6 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let mut nominal = Scene::from_toml_str(&text, "control_point")?;
     let mut device = DeviceModel::typical(&nominal.physical);
+    let mut settings = Settings::default();
     for a in std::env::args().skip(6) {
         let (k, v) = a.split_once('=').ok_or(format!("{a}: KEY=VALUE"))?;
         let v: f64 = v.parse()?;
@@ -34,6 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "quantum_m" => device.quantum_m = v,
             "lag_s" => device.lag_s = v,
             "seed" => device.seed = v as u32,
+            "window" => settings.window_periods = v,
             _ => return Err(format!("{k}: not a device setting of this bench").into()),
         }
     }
@@ -58,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let made = t0.elapsed().as_secs_f64();
     let keys: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
     let t1 = std::time::Instant::now();
-    let fit = identify(&nominal, &rec, &keys, &Settings::default())?;
+    let fit = identify(&nominal, &rec, &keys, &settings)?;
     let wall = t1.elapsed().as_secs_f64();
     println!(
         "{} samples ({seconds} s at 1 kHz) made in {made:.2} s; {} threads",

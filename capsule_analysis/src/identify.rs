@@ -60,7 +60,8 @@ pub const STRONG_CORRELATION: f64 = 0.95;
 /// this fraction of its value: the correlation widens the standard errors (they are the
 /// marginal ones), and a value known within 10 % is known. The capsule (1.25, 1.2, 0.8, 0.8)
 /// had beta and delta correlated at +0.975 and fitted within 0.02 % and 1 % of the truth,
-/// with standard errors of 0.2 % and 4 %: reported as not told apart before.
+/// with standard errors of 0.2 % and 4 %: reported as not told apart before. The measurement
+/// delay is told where its standard error is under this fraction of a sample.
 pub const TOLD: f64 = 0.1;
 
 /// Singular value (of the column-scaled Jacobian, relative to the largest) under which a
@@ -275,7 +276,7 @@ pub struct Report {
     pub window_samples: usize,
     /// Positions compared.
     pub residuals: usize,
-    /// Evaluations of the windows (a first of two stages evaluates every other window).
+    /// Evaluations of the windows (a first of two stages evaluates a part of them).
     pub evaluations: usize,
     /// Why the optimiser stopped.
     pub termination: String,
@@ -394,6 +395,12 @@ const TOLERANCE: f64 = 1e-6;
 /// bring the second near.
 const FIRST_TOLERANCE: f64 = 1e-4;
 
+/// The first stage fits every this many windows (fewer where the recording is short: at least
+/// twice the windows the numbers need): it needs only to bring the second near, and its
+/// standard errors at a quarter of the windows, twice the final ones, are well inside the
+/// second stage's reach.
+const FIRST_EVERY: usize = 4;
+
 /// Forward-difference step of the scaled parameters.
 const PARAM_STEP: f64 = 1e-6;
 
@@ -477,9 +484,14 @@ pub fn identify(
     let states: Vec<State> = starts.iter().map(|a| twin0.guess(rec, *a, half)).collect();
     // where the reading's age varies, its error grows with the capsule's speed: a second stage
     // weights the residuals by it, from the first stage's twin; the first only brings the
-    // second near, and every other window does for it
+    // second near, and a part of the windows does for it
     let two_stages = pick.spreads();
-    let step = if two_stages { 2 } else { 1 };
+    let needed = WINDOWS_PER_NUMBER * (free.len() + 1);
+    let step = if two_stages {
+        (starts.len() / (2 * needed)).clamp(1, FIRST_EVERY)
+    } else {
+        1
+    };
     let first_starts: Vec<usize> = starts.iter().step_by(step).copied().collect();
     let outer = Outer {
         base: scene,
@@ -512,7 +524,12 @@ pub fn identify(
             states: states
                 .iter()
                 .enumerate()
-                .map(|(i, s)| fitted_states.get(i / 2).filter(|_| i % 2 == 0).unwrap_or(s))
+                .map(|(i, s)| {
+                    fitted_states
+                        .get(i / step)
+                        .filter(|_| i % step == 0)
+                        .unwrap_or(s)
+                })
                 .copied()
                 .collect(),
             best: None,
@@ -853,17 +870,15 @@ fn summarise(
             "the measurement delay".to_string()
         }
     };
-    // each estimate's standard error relative to its value
+    // each estimate's standard error relative to its value; the delay's in samples (its value
+    // is zero for an ideal sensor, which made it loose however well known, and withheld every
+    // key correlated with it)
     let relative: Vec<f64> = (0..np)
-        .map(|i| {
-            let (v, scale) = match free.get(i) {
-                Some(f) => (
-                    fitted.number(&f.key).unwrap_or(f64::NAN),
-                    f.slope(outer.p[i]),
-                ),
-                None => (delay_s, outer.rec.h_s),
-            };
-            sd[i] * scale / v.abs()
+        .map(|i| match free.get(i) {
+            Some(f) => {
+                sd[i] * f.slope(outer.p[i]) / fitted.number(&f.key).unwrap_or(f64::NAN).abs()
+            }
+            None => sd[i],
         })
         .collect();
     let (statements, unknown, singular_values) =

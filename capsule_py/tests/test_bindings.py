@@ -320,3 +320,33 @@ def test_ctrl_c_stops_basins_and_continuation_with_what_finished(call, check):
     code, out, err, took = interrupt(script, 3.0)
     assert code == 3 and "interrupted" in out, out + err
     assert took < 30
+
+
+def test_identify_gives_the_commands_json(root, cli, tmp_path):
+    """capsule.identify returns what `capsule identify --json` prints (issue 37): the fitted
+    value, the report and the validation on what --segment left out; a bad key is refused
+    with the command's message."""
+    rec = tmp_path / "run.mcap"
+    cli("simulate", "--scene", CONTROL, "--kp", "0.2", "--periods", "40", "--record", rec)
+    text = (root / CONTROL).read_text()
+    assert "gamma = 0.235" in text
+    nominal = tmp_path / "nominal.toml"
+    nominal.write_text(text.replace("gamma = 0.235", "gamma = 0.25"))
+    want = json.loads(cli("identify", "--recording", rec, "--scene", nominal, "--free",
+                          "capsule.gamma", "--segment", "0:2.7", "--json").stdout)
+    got = capsule.identify(str(rec), ["capsule.gamma"], str(nominal), segment=(0, 2.7))
+    want.pop("wall_time_s")
+    got.pop("wall_time_s")
+    same(want, got)
+    assert set(want) == set(got)
+    # the recording's own capsule, from a nominal scene 6 % off
+    gamma = got["report"]["parameters"][0]["value"]
+    assert abs(gamma / 0.235 - 1) < 0.01, got["report"]
+    assert got["validated_on"] == "left out by --segment", got
+    bad = cli("identify", "--recording", rec, "--scene", nominal, "--free", "capsule.mass",
+              check=False)
+    assert bad.returncode == 2, bad.stderr
+    with pytest.raises(ValueError) as e:
+        capsule.identify(str(rec), ["capsule.mass"], str(nominal))
+    assert "`capsule.mass` is not a scene key" in str(e.value)
+    assert str(e.value) in bad.stderr, (str(e.value), bad.stderr)
