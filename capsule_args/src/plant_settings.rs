@@ -125,12 +125,11 @@ pub const RECORD_DIR: Setting = Setting::new(
 /// In-process recording into a file.
 pub const RECORD_OUTPUT: Setting = Setting::new(
     "record_output",
-    "Record in-process to exactly this file (must not exist)",
+    "Record in-process to exactly this file (must not exist; not with --record-dir)",
     Kind::Text,
 )
 .flag_only()
-.value_name("FILE")
-.conflicts_with(RECORD_DIR.name);
+.value_name("FILE");
 /// The controller the in-process recording follows (`capsule_msgs::names::nodes::CONTROLLER`).
 pub const CONTROLLER_NODE: Setting = Setting::new(
     "controller_node",

@@ -77,8 +77,6 @@ pub struct Setting {
     pub required: bool,
     /// The flag's value as `--help` names it (`DIR`; else the name in capitals).
     pub value_name: Option<&'static str>,
-    /// The setting whose flag this one's excludes.
-    pub conflicts: Option<&'static str>,
     /// Its value when no source gives one (text).
     pub default_text: Option<&'static str>,
     /// Its key in the scene file (`node.rate_hz`), if the scene gives it.
@@ -102,7 +100,6 @@ impl Setting {
             inverted: false,
             required: false,
             value_name: None,
-            conflicts: None,
             scene: None,
             writable: false,
             default: None,
@@ -130,12 +127,12 @@ impl Setting {
         self
     }
 
-    /// A switch on by default, turned off by `--no-` and the name's last part (`views.tf`:
-    /// `--no-tf`); its help says what it does when on, as a verb (`publish /tf`).
-    pub const fn inverted(mut self) -> Setting {
-        self.inverted = true;
-        self.default = Some(1.0);
-        self
+    /// The flag's value named `name` in `--help`.
+    pub const fn value_name(self, name: &'static str) -> Setting {
+        Setting {
+            value_name: Some(name),
+            ..self
+        }
     }
 
     /// The flag must be given.
@@ -144,21 +141,19 @@ impl Setting {
         self
     }
 
-    /// The flag's value named `name` in `--help`.
-    pub const fn value_name(mut self, name: &'static str) -> Setting {
-        self.value_name = Some(name);
-        self
-    }
-
-    /// Its flag and that of the setting `name` exclude each other.
-    pub const fn conflicts_with(mut self, name: &'static str) -> Setting {
-        self.conflicts = Some(name);
-        self
-    }
-
     /// With a default text.
-    pub const fn default_text(mut self, text: &'static str) -> Setting {
-        self.default_text = Some(text);
+    pub const fn default_text(self, text: &'static str) -> Setting {
+        Setting {
+            default_text: Some(text),
+            ..self
+        }
+    }
+
+    /// A switch on by default, turned off by `--no-` and the name's last part (`views.tf`:
+    /// `--no-tf`); its help says what it does when on, as a verb (`publish /tf`).
+    pub const fn inverted(mut self) -> Setting {
+        self.inverted = true;
+        self.default = Some(1.0);
         self
     }
 

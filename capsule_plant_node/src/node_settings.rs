@@ -184,10 +184,6 @@ fn arg(s: &'static Setting) -> clap::Arg {
         .help(s.help_line())
         .value_name(value_name)
         .required(s.required);
-    let arg = match s.conflicts {
-        Some(other) => arg.conflicts_with(other),
-        None => arg,
-    };
     match s.kind {
         Kind::Number { .. } | Kind::Positive { .. } | Kind::Rule(_) | Kind::Finite => arg
             .value_parser(s.number_parser())

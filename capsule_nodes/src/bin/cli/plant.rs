@@ -106,10 +106,13 @@ impl Cli {
 const MAX_FIXED_STEPS_PER_SAMPLE: f64 = 1e6;
 
 fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOptions>> {
-    let (dir, file) = (cli.path(&RECORD_DIR), cli.path(&RECORD_OUTPUT));
-    if dir.is_none() && file.is_none() {
-        return Ok(None);
-    }
+    let (dir, file) = match (cli.path(&RECORD_DIR), cli.path(&RECORD_OUTPUT)) {
+        (None, None) => return Ok(None),
+        (Some(_), Some(_)) => {
+            bail!("--record-dir and --record-output: give one (a folder or a file)")
+        }
+        both => both,
+    };
     let scene = scene.record();
     let output = recorder::output_path(
         dir.as_deref().unwrap_or(std::path::Path::new("runs")),
