@@ -54,8 +54,9 @@ pub struct PlantParams {
 }
 
 impl Fixed {
-    /// What `flags` and the scene `file` fix.
-    pub fn of(flags: &PlantFlags, file: &SceneFile) -> Fixed {
+    /// What `flags` (the plant's, or a table holding its `scene` and `pacing` rows) and the
+    /// scene `file` fix.
+    pub fn of<T: SettingsTable>(flags: &SettingFlags<T>, file: &SceneFile) -> Fixed {
         let physical = &file.scene.physical;
         Fixed {
             scene: flags.text(&SCENE).unwrap_or_default(),
@@ -66,8 +67,13 @@ impl Fixed {
 }
 
 /// The table of a plant started with `flags` on the scene `file`: each parameter by the
-/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default).
-pub fn start_table(flags: &PlantFlags, file: &SceneFile) -> Result<ParamTable, String> {
+/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default). A
+/// plant with a table of its own (a subset of the plant's rows, as `custom_plant` has) gets
+/// the parameters of its rows.
+pub fn start_table<T: SettingsTable>(
+    flags: &SettingFlags<T>,
+    file: &SceneFile,
+) -> Result<ParamTable, String> {
     let scene = |key: &str| file.node.value(key).or_else(|| file.scene.number(key).ok());
     let name = flags.text(&SCENE).unwrap_or_default();
     flags.start_table(&name, scene, |_| None)
