@@ -343,9 +343,11 @@ fn scene_text(key: &str, text: &str) -> String {
     format!("[{table}]\n{name} = {text}\n")
 }
 
-/// One truth per range (issue 39): every numeric setting of both nodes, given a value just
-/// outside its range as a flag, as a ROS parameter at start (`-p`, which goes through the check
-/// `ros2 param set` uses: ros::params sets one on the running node) and, when the scene gives it,
+/// One truth per range (issue 39): every numeric setting of both nodes (the flags that are not
+/// parameters and the plant's views included: every flag of both is a row), given a value just
+/// outside its range as a flag, as a ROS parameter at start when it is one (`-p`, which goes
+/// through the check `ros2 param set` uses: ros::params sets one on the running node) and, when
+/// the scene gives it,
 /// as the scene file's key, is refused with the same reason everywhere; a scene key is refused
 /// alike by both nodes and by the offline tool, which reads the same scene.
 #[test]
