@@ -143,6 +143,22 @@ fn errors_by_phase(
     (by_phase.iter().map(|v| rms(v)).collect(), contact, free)
 }
 
+/// The twin of `scene` on the recorded `forcing`, every residual weighed alike.
+fn unweighted<'a>(
+    scene: &'a Scene,
+    forcing: &'a Forcing,
+    pick: &'a SensorPick,
+    delay_s: f64,
+) -> Twin<'a> {
+    Twin {
+        scene,
+        forcing,
+        pick,
+        weights: None,
+        delay_s,
+    }
+}
+
 /// Validates `scene` (with measurement delay `delay_s`) on `rec`. `None` when the recording is
 /// shorter than two drive periods.
 pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validation> {
@@ -153,13 +169,7 @@ pub fn validate(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<Validatio
     }
     let forcing = Forcing::new(rec, scene.device.as_ref());
     let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
-    let twin = Twin {
-        scene,
-        forcing: &forcing,
-        pick: &pick,
-        weights: None,
-        delay_s,
-    };
+    let twin = unweighted(scene, &forcing, &pick, delay_s);
     let half = (n / 16).max(3);
     let longest = *HORIZONS.iter().max().unwrap_or(&1);
     // each prediction starts at the end of a measured period, from the state fitted to it
@@ -294,13 +304,7 @@ pub fn first_state(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<(usize
     let a = *windows(rec, n).first()?;
     let forcing = Forcing::new(rec, scene.device.as_ref());
     let pick = SensorPick::new(scene.device.as_ref(), rec.h_s);
-    let twin = Twin {
-        scene,
-        forcing: &forcing,
-        pick: &pick,
-        weights: None,
-        delay_s,
-    };
+    let twin = unweighted(scene, &forcing, &pick, delay_s);
     let fit = fit_window(&twin, rec, a, n, twin.guess(rec, a, (n / 16).max(3)));
     Some((a, fit.state))
 }

@@ -10,6 +10,35 @@ use crate::settings::{Kind, Setting};
 /// Any finite number a gain or a physical constant given as a flag may reach in magnitude.
 const MAX: f64 = crate::ranges::MAX_MAGNITUDE;
 
+/// The scene to take the physical scale, drive and gain from.
+pub const SCENE: Setting = Setting::new(
+    "scene",
+    "Scene TOML to take the physical scale, drive and gain from ([physical], [drive], \
+     [control]); the whole scene is validated, as capsule_plant and `capsule simulate` do",
+    Kind::Text,
+)
+.flag_only();
+/// The status and watchdog period.
+pub const STATUS_PERIOD_MS: Setting = Setting::new(
+    "status_period_ms",
+    "Status and watchdog period [ms]",
+    Kind::Count {
+        min: 1,
+        max: crate::ranges::MAX_MILLIS,
+    },
+)
+.flag_only()
+.default(100.0);
+/// /diagnostics.
+pub const DIAGNOSTICS: Setting = Setting::new(
+    "diagnostics",
+    "publish /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz: mode, gain, commands sent, \
+     states ignored, plant seen, OK / WARN / ERROR)",
+    Kind::Switch,
+)
+.flag_only()
+.inverted();
+
 /// Mode (set as a set_mode request taking effect now).
 pub const MODE: Setting = Setting::new(
     "mode",
@@ -119,7 +148,9 @@ pub const USE_SIM_TIME: Setting = Setting::new(
 );
 
 /// The controller's settings, in the order `--help` shows their flags.
-pub const CONTROLLER: [Setting; 13] = [
+pub const CONTROLLER: [Setting; 17] = [
+    SCENE,
+    crate::settings::CHECK,
     MODE,
     GAIN,
     DIRECTION_GAIN,
@@ -133,6 +164,8 @@ pub const CONTROLLER: [Setting; 13] = [
     K1_N_PER_M,
     PF_N,
     USE_SIM_TIME,
+    STATUS_PERIOD_MS,
+    DIAGNOSTICS,
 ];
 
 /// The gain settings alone: what `capsule replay --check-controller` takes to re-drive the

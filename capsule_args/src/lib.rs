@@ -4,7 +4,7 @@
 //! - [`ranges`]: the documented range of every numeric flag, checked at parse time
 //! - [`settings`]: a node's settings declared once (flag, ROS parameter, scene key, range, help,
 //!   precedence); [`plant_settings`], [`controller_settings`]: the nodes' tables, with the
-//!   rows both hold in [`scale_settings`]
+//!   rows both hold in [`scale_settings`], the plant's views' in [`view_settings`]
 //! - [`node_table`]: the scene file's `[node]` table, how the plant node runs the scene
 //! - [`scene_file`]: reading a scene file once, the same way in every binary
 //! - [`storage`]: how a recording is stored (compression, splitting), as rosbag2 users set it
@@ -19,3 +19,4 @@ pub mod scale_settings;
 pub mod scene_file;
 pub mod settings;
 pub mod storage;
+pub mod view_settings;

@@ -42,8 +42,16 @@ pub enum Kind {
         /// Largest value.
         max: u64,
     },
-    /// On or off (a flag without value).
+    /// A finite number in `(0, max]` (a duration, a limit: zero means nothing).
+    Positive {
+        /// Largest value.
+        max: f64,
+    },
+    /// On or off: a flag without value; one on by default takes an optional `BOOL`
+    /// (`--autostart false`), or is turned off by `--no-NAME` ([`Setting::inverted`]).
     Switch,
+    /// One of these words; the first is the default.
+    Choice(&'static [&'static str]),
     /// Text (a name, a path).
     Text,
 }
@@ -59,9 +67,18 @@ pub struct Setting {
     pub kind: Kind,
     /// What else a value must satisfy, in words (between settings: "at most the gain limit").
     pub rule: &'static str,
-    /// It has a command-line flag made from this entry (else the binary declares it, or it has
-    /// none).
+    /// It has a command-line flag made from this entry (else it has none).
     pub flag: bool,
+    /// It is a ROS parameter of the node (else only a flag: [`Setting::flag_only`]).
+    pub parameter: bool,
+    /// A switch on by default whose flag, `--no-` and the name's last part, turns it off.
+    pub inverted: bool,
+    /// The flag must be given.
+    pub required: bool,
+    /// The flag's value as `--help` names it (`DIR`; else the name in capitals).
+    pub value_name: Option<&'static str>,
+    /// Its value when no source gives one (text).
+    pub default_text: Option<&'static str>,
     /// Its key in the scene file (`node.rate_hz`), if the scene gives it.
     pub scene: Option<&'static str>,
     /// `ros2 param set` may change it on the running node (else read-only once running).
@@ -79,9 +96,14 @@ impl Setting {
             kind,
             rule: "",
             flag: false,
+            parameter: true,
+            inverted: false,
+            required: false,
+            value_name: None,
             scene: None,
             writable: false,
             default: None,
+            default_text: None,
         }
     }
 
@@ -94,6 +116,44 @@ impl Setting {
     /// With a command-line flag.
     pub const fn flag(mut self) -> Setting {
         self.flag = true;
+        self
+    }
+
+    /// A command-line flag and not a ROS parameter (how the node runs, not what it simulates or
+    /// controls: `--until-s`, `--record-dir`).
+    pub const fn flag_only(mut self) -> Setting {
+        self.flag = true;
+        self.parameter = false;
+        self
+    }
+
+    /// The flag's value named `name` in `--help`.
+    pub const fn value_name(self, name: &'static str) -> Setting {
+        Setting {
+            value_name: Some(name),
+            ..self
+        }
+    }
+
+    /// The flag must be given.
+    pub const fn required(mut self) -> Setting {
+        self.required = true;
+        self
+    }
+
+    /// With a default text.
+    pub const fn default_text(self, text: &'static str) -> Setting {
+        Setting {
+            default_text: Some(text),
+            ..self
+        }
+    }
+
+    /// A switch on by default, turned off by `--no-` and the name's last part (`views.tf`:
+    /// `--no-tf`); its help says what it does when on, as a verb (`publish /tf`).
+    pub const fn inverted(mut self) -> Setting {
+        self.inverted = true;
+        self.default = Some(1.0);
         self
     }
 
@@ -121,19 +181,37 @@ impl Setting {
         self
     }
 
-    /// The flag's name without the dashes (`rate-hz`).
+    /// The flag's name without the dashes (`rate-hz`, `views-rate-hz`; `no-tf` for the
+    /// inverted `views.tf`).
     pub fn flag_name(&self) -> String {
-        self.name.replace('_', "-")
+        if self.inverted {
+            let last = self.name.rsplit('.').next().unwrap_or(self.name);
+            return format!("no-{}", last.replace('_', "-"));
+        }
+        self.name.replace(['_', '.'], "-")
+    }
+
+    /// The default as text (`1e3`, `realtime`), if it has one.
+    pub fn default_label(&self) -> Option<String> {
+        match self.kind {
+            Kind::Choice(words) => words.first().map(|w| w.to_string()),
+            Kind::Switch => None,
+            _ => self
+                .default
+                .map(short)
+                .or_else(|| self.default_text.map(str::to_string)),
+        }
     }
 
     /// The range as messages and help write it: `[1e-3, 1e6]`, `1 to 1000000`; `None` for
-    /// any finite number, a switch or text.
+    /// any finite number, a switch, a choice (clap lists its words) or text.
     pub fn range_text(&self) -> Option<String> {
         match self.kind {
             Kind::Number { min, max } => Some(format!("[{}, {}]", short(min), short(max))),
             Kind::Count { min, max } => Some(format!("{min} to {max}")),
+            Kind::Positive { max } => Some(format!("(0, {}]", short(max))),
             Kind::Rule(rule) => rule.range_text(),
-            Kind::Finite | Kind::Switch | Kind::Text => None,
+            Kind::Finite | Kind::Switch | Kind::Choice(_) | Kind::Text => None,
         }
     }
 
@@ -142,8 +220,9 @@ impl Setting {
         match self.kind {
             Kind::Number { min, max } => Rule::Within((min, max)),
             Kind::Count { min, max } => Rule::Within((min as f64, max as f64)),
+            Kind::Positive { max } => Rule::Within((f64::MIN_POSITIVE, max)),
             Kind::Rule(rule) => rule,
-            Kind::Finite | Kind::Switch | Kind::Text => Rule::Finite,
+            Kind::Finite | Kind::Switch | Kind::Choice(_) | Kind::Text => Rule::Finite,
         }
     }
 
@@ -159,10 +238,16 @@ impl Setting {
         let inside = match self.kind {
             Kind::Number { min, max } => (min..=max).contains(&v),
             Kind::Count { min, max } => v.fract() == 0.0 && (min as f64..=max as f64).contains(&v),
-            Kind::Finite | Kind::Switch | Kind::Text | Kind::Rule(_) => true,
+            Kind::Positive { max } => v > 0.0 && v <= max,
+            Kind::Finite | Kind::Switch | Kind::Choice(_) | Kind::Text | Kind::Rule(_) => true,
         };
         match (inside, self.kind) {
             (true, _) => Ok(()),
+            (false, Kind::Positive { max }) => Err(format!(
+                "must be > 0 and <= {} (got {})",
+                short(max),
+                short(v)
+            )),
             (false, Kind::Count { min, max }) => Err(format!(
                 "must be a whole number from {min} to {max} (got {})",
                 short(v)
@@ -175,7 +260,8 @@ impl Setting {
         }
     }
 
-    /// The flag's parser of a number (a [`Kind::Number`], [`Kind::Rule`] or [`Kind::Finite`]):
+    /// The flag's parser of a number (a [`Kind::Number`], [`Kind::Positive`], [`Kind::Rule`] or
+    /// [`Kind::Finite`]):
     /// refuses what [`Setting::check`] refuses, in its words.
     pub fn number_parser(&self) -> impl FlagParser<f64> {
         let setting = *self;
@@ -196,9 +282,13 @@ impl Setting {
 
     /// The help line: what it is, its range and rule, then its default, scene key and
     /// parameter (`Sample rate [Hz], [1e-3, 1e6] [default: 1000; scene: node.rate_hz;
-    /// parameter rate_hz, read-only]`).
+    /// parameter rate_hz, read-only]`); an inverted switch's says what its flag turns off.
     pub fn help_line(&self) -> String {
-        let mut text = self.help.to_string();
+        let mut text = if self.inverted {
+            format!("Do not {}", self.help)
+        } else {
+            self.help.to_string()
+        };
         if let Some(range) = self.range_text() {
             text += &format!(", {range}");
         }
@@ -206,8 +296,8 @@ impl Setting {
             text += &format!(" and {}", self.rule);
         }
         let mut tags = Vec::new();
-        if let Some(d) = self.default {
-            tags.push(format!("default: {}", short(d)));
+        if let Some(d) = self.default_label() {
+            tags.push(format!("default: {d}"));
         }
         if let Some(key) = self.scene {
             tags.push(format!("scene: {key}"));
@@ -217,10 +307,23 @@ impl Setting {
         } else {
             "read-only"
         };
-        tags.push(format!("parameter {}, {access}", self.name));
+        if self.parameter {
+            tags.push(format!("parameter {}, {access}", self.name));
+        }
+        if tags.is_empty() {
+            return text;
+        }
         format!("{text} [{}]", tags.join("; "))
     }
 }
+
+/// `--check`, a row of every node's table.
+pub const CHECK: Setting = Setting::new(
+    "check",
+    "Check the scene and flags, print what would run, and exit (no DDS)",
+    Kind::Switch,
+)
+.flag_only();
 
 /// The setting named `name` in `table`.
 pub fn find<'a>(table: &'a [Setting], name: &str) -> Option<&'a Setting> {

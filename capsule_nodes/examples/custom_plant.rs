@@ -8,8 +8,8 @@
 //!   cargo build -p capsule_nodes --bins --examples
 //!   target/debug/capsule_controller --scene scenes/control_point.toml --mode forward \
 //!       --discovery-range localhost &
-//!   target/debug/examples/custom_plant --pacing lockstep --until-s 2 --wait-subscribers 1 \
-//!       --discovery-range localhost
+//!   target/debug/examples/custom_plant --scene scenes/control_point.toml --pacing lockstep \
+//!       --until-s 2 --wait-subscribers 1 --discovery-range localhost
 //!
 //! It prints the plant's one-line JSON summary and how often the node read and wrote the toy.
 
@@ -18,11 +18,16 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use capsule_args::scene_file::SceneFile;
+use capsule_args::plant_settings::{
+    COMMAND_TIMEOUT_S, LOCKSTEP_GIVE_UP_S, PACING, RATE_HZ, SCENE, UNTIL_S, USE_SIM_TIME,
+    WAIT_SUBSCRIBERS,
+};
+use capsule_args::{scale_settings, scene_file::SceneFile, settings::Setting};
 use capsule_hardware::{CapsuleHardware, HardwareError, Reading, Sample};
 use capsule_plant::scene::PhysicalScale;
+use capsule_plant_node::node_settings::{SettingFlags, SettingsTable};
 use capsule_plant_node::plant::{self, Pacing, PlantCore, PlantOptions};
-use capsule_plant_node::plant_params::{self, PlantFlags};
+use capsule_plant_node::plant_params;
 use capsule_ros_base::{
     node_main,
     ros_options::{RosArgs, RosEnv, RosOptions},
@@ -131,24 +136,36 @@ impl CapsuleHardware for ToyCapsule {
     }
 }
 
+/// The plant's settings this node takes (rows of the plant's own table, so the flags, their
+/// ranges and the parameters are the plant node's): no source, recording or views here.
+const TOY: [Setting; 11] = [
+    SCENE,
+    PACING,
+    UNTIL_S,
+    WAIT_SUBSCRIBERS,
+    RATE_HZ,
+    COMMAND_TIMEOUT_S,
+    LOCKSTEP_GIVE_UP_S,
+    USE_SIM_TIME,
+    scale_settings::M1_KG,
+    scale_settings::K1_N_PER_M,
+    scale_settings::PF_N,
+];
+
+/// The toy plant's table.
+#[derive(Debug, Clone)]
+struct Toy;
+impl SettingsTable for Toy {
+    const SETTINGS: &'static [Setting] = &TOY;
+}
+
 /// The plant node with a toy capsule inside.
 #[derive(Debug, Parser)]
 struct Cli {
-    /// Scene: its physical scale (m1, k1, P_f) and the node's rate and command timeout
-    #[arg(long, default_value = "scenes/control_point.toml")]
-    scene: std::path::PathBuf,
-    /// realtime or lockstep
-    #[arg(long, value_enum, default_value = "realtime")]
-    pacing: Pacing,
-    /// Stop at this time [s]
-    #[arg(long, default_value_t = 2.0)]
-    until_s: f64,
-    /// Publish the first sample once this many subscribers matched the state topic
-    #[arg(long, default_value_t = 0)]
-    wait_subscribers: usize,
-    /// The plant's settings table (--rate-hz, --command-timeout-s, ...), as the plant node's
+    /// The plant's settings this toy takes (--scene, --pacing, --until-s [2 s unless given],
+    /// --wait-subscribers, --rate-hz, ...), as the plant node's
     #[command(flatten)]
-    settings: PlantFlags,
+    settings: SettingFlags<Toy>,
     #[command(flatten)]
     ros: RosArgs,
 }
@@ -175,32 +192,29 @@ fn main() -> std::process::ExitCode {
     node_main::init_logging();
     let cli = Cli::parse();
     let result = (|| -> Result<()> {
-        if !(cli.until_s > 0.0 && cli.until_s <= 1e6) {
-            anyhow::bail!("--until-s {}: must be in (0, 1e6]", cli.until_s);
-        }
-        let file = SceneFile::read(&cli.scene)?;
+        let flags = &cli.settings;
+        let file = SceneFile::read(std::path::Path::new(
+            &flags.text(&SCENE).unwrap_or_default(),
+        ))?;
         let scale = file.scene.physical;
         // the ROS parameters the node serves (read-only here), by the plant's own precedence
-        let fixed = plant_params::Fixed {
-            scene: cli.scene.display().to_string(),
-            pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
-            scale: (scale.m1_kg, scale.k1_n_per_m, scale.pf_n),
-        };
-        let params =
-            plant_params::start_table(&cli.settings, &file, &fixed).map_err(anyhow::Error::msg)?;
+        let fixed = plant_params::Fixed::of(flags, &file);
+        let params = plant_params::start_table(flags, &file).map_err(anyhow::Error::msg)?;
         let run = plant_params::overridable(&params, &fixed).map_err(anyhow::Error::msg)?;
         let (rate, timeout) = (run.rate_hz, run.command_timeout_s);
         let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_plant")?;
         let counts: Arc<[AtomicU64; 2]> = Arc::default();
         let core = PlantCore::new(toy(&scale, rate, counts.clone()), scale, rate, timeout);
         let opts = PlantOptions {
-            pacing: cli.pacing,
-            until_s: Some(cli.until_s),
+            pacing: flags
+                .choice::<Pacing>(&PACING)
+                .map_err(anyhow::Error::msg)?,
+            until_s: Some(flags.number(&UNTIL_S).unwrap_or(2.0)),
             retransmit: Duration::from_millis(20),
             startup_timeout: Duration::from_secs(30),
             on_silence: plant::OnSilence::Wait,
             lockstep_give_up_s: run.lockstep_give_up_s,
-            wait_subscribers: cli.wait_subscribers,
+            wait_subscribers: usize::try_from(flags.count(&WAIT_SUBSCRIBERS)).unwrap_or(usize::MAX),
             clock_every: 1,
             record: None,
             params,

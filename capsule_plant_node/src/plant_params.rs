@@ -3,8 +3,6 @@
 //! simulation does not change its scene, rate or pacing); `ros2 param get` / `describe` show
 //! them, and `-p` / `--params-file` set the numeric ones at start.
 
-use ros2_client::ParameterValue as V;
-
 use capsule_args::plant_settings::PLANT;
 use capsule_args::scene_file::SceneFile;
 use capsule_args::settings::Setting;
@@ -55,20 +53,30 @@ pub struct PlantParams {
     pub joint_commands: bool,
 }
 
-/// The table of a plant started with `flags` on the scene `file`: each setting by the
-/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default).
-pub fn start_table(
-    flags: &PlantFlags,
+impl Fixed {
+    /// What `flags` (the plant's, or a table holding its `scene` and `pacing` rows) and the
+    /// scene `file` fix.
+    pub fn of<T: SettingsTable>(flags: &SettingFlags<T>, file: &SceneFile) -> Fixed {
+        let physical = &file.scene.physical;
+        Fixed {
+            scene: flags.text(&SCENE).unwrap_or_default(),
+            pacing: flags.text(&PACING).unwrap_or_default(),
+            scale: (physical.m1_kg, physical.k1_n_per_m, physical.pf_n),
+        }
+    }
+}
+
+/// The table of a plant started with `flags` on the scene `file`: each parameter by the
+/// precedence (flag, the scene's key: its `[node]` table or its physical scale, default). A
+/// plant with a table of its own (a subset of the plant's rows, as `custom_plant` has) gets
+/// the parameters of its rows.
+pub fn start_table<T: SettingsTable>(
+    flags: &SettingFlags<T>,
     file: &SceneFile,
-    fixed: &Fixed,
 ) -> Result<ParamTable, String> {
-    let other = |name: &str| match name {
-        n if n == SCENE.name => Some(V::String(fixed.scene.clone())),
-        n if n == PACING.name => Some(V::String(fixed.pacing.clone())),
-        _ => None,
-    };
     let scene = |key: &str| file.node.value(key).or_else(|| file.scene.number(key).ok());
-    flags.start_table(&fixed.scene, scene, other)
+    let name = flags.text(&SCENE).unwrap_or_default();
+    flags.start_table(&name, scene, |_| None)
 }
 
 /// What the plant runs with from the table after start-up overrides; the scene, pacing and
@@ -123,6 +131,7 @@ mod tests {
     use super::*;
     use capsule_ros_base::params::no_rules;
     use clap::Parser;
+    use ros2_client::ParameterValue as V;
 
     #[derive(Debug, Parser)]
     struct Cli {
@@ -140,9 +149,9 @@ mod tests {
         let file =
             SceneFile::from_bytes(b"[node]\ncommand_timeout_s = 0.25\n", "f.toml", "f".into())
                 .unwrap_or_else(|e| panic!("{e}"));
-        let cli =
-            Cli::try_parse_from(["x", "--clock-every", "4"]).unwrap_or_else(|e| panic!("{e}"));
-        let mut t = start_table(&cli.flags, &file, &fixed).unwrap_or_else(|e| panic!("{e}"));
+        let cli = Cli::try_parse_from(["x", "--scene", &fixed.scene, "--clock-every", "4"])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut t = start_table(&cli.flags, &file).unwrap_or_else(|e| panic!("{e}"));
         for name in t.names().map(str::to_string).collect::<Vec<_>>() {
             assert!(t.spec(&name).is_some_and(|d| d.read_only), "{name}");
         }
@@ -172,5 +181,38 @@ mod tests {
         .unwrap();
         let e = overridable(&t, &fixed).unwrap_err();
         assert!(e.contains("'scene' is set by --scene"), "{e}");
+    }
+
+    /// The rows that name what the node parses (an enum, a node's name) say what it takes.
+    #[test]
+    fn the_rows_choices_are_the_nodes_own() {
+        use crate::plant::{OnSilence, Pacing};
+        use capsule_args::plant_settings::{CONTROLLER_NODE, LOCKSTEP_ON_SILENCE};
+        use capsule_args::settings::Kind;
+        use clap::ValueEnum;
+        fn words<E: ValueEnum>() -> Vec<String> {
+            E::value_variants()
+                .iter()
+                .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+                .collect()
+        }
+        let row = |s: &Setting| match s.kind {
+            Kind::Choice(w) => w.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+            _ => vec![],
+        };
+        assert_eq!(row(&PACING), words::<Pacing>());
+        assert_eq!(row(&LOCKSTEP_ON_SILENCE), words::<OnSilence>());
+        assert_eq!(
+            CONTROLLER_NODE.default_text,
+            Some(capsule_msgs::names::nodes::CONTROLLER)
+        );
+        let cli = Cli::try_parse_from(["x", "--scene", "s.toml", "--pacing", "lockstep"])
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(cli.flags.choice::<Pacing>(&PACING), Ok(Pacing::Lockstep));
+        assert_eq!(
+            cli.flags.choice::<OnSilence>(&LOCKSTEP_ON_SILENCE),
+            Ok(OnSilence::Wait)
+        );
+        assert!(Cli::try_parse_from(["x", "--scene", "s", "--pacing", "fast"]).is_err());
     }
 }

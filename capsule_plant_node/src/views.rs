@@ -12,7 +12,8 @@
 //!   commands, watchdog, pacing, with OK / WARN / ERROR levels.
 //!
 //! Each is a thin mapping of the one state sample (pure functions here, unit-tested), each can
-//! be switched off (`--no-joint-states` ..., or `-p views.joint_states:=false`). joint_states
+//! be switched off (`--no-joint-states` ..., or `-p views.joint_states:=false`: rows of the
+//! plant's settings table, [`capsule_args::view_settings`]). joint_states
 //! and /tf go out with every n-th sample (`--views-rate-hz`, 100 Hz by default), and only while
 //! they have a subscriber (rclcpp's
 //! `get_subscription_count()` idiom, as /clock): a DDS write without readers still wakes DDS's
@@ -20,6 +21,7 @@
 
 use std::time::Duration;
 
+use capsule_args::view_settings as views;
 use capsule_msgs::{
     names::topics::views as view_topics,
     std_types::{
@@ -29,18 +31,11 @@ use capsule_msgs::{
     CapsuleState, Header, Time,
 };
 use capsule_ros_base::error::{Context as _, Result};
-use ros2_client::ParameterValue as V;
 use ros2_client::{qos::History, MessageTypeName, Node, Publisher, QosProfile};
 
 use crate::plant::LoopStats;
 use capsule_hardware::latency::LatencyHistogram;
-use capsule_ros_base::{
-    graph::Graph,
-    params::{ParamSpec, ParamTable},
-    qos,
-    ros_options::RosOptions,
-    types,
-};
+use capsule_ros_base::{graph::Graph, params::ParamTable, qos, ros_options::RosOptions, types};
 
 /// Joint names, in `JointState` order.
 pub const JOINTS: [&str; 2] = ["capsule_joint", "inner_mass_joint"];
@@ -48,52 +43,6 @@ pub const JOINTS: [&str; 2] = ["capsule_joint", "inner_mass_joint"];
 pub const BODY_FRAME: &str = "capsule";
 /// The inner mass's frame (from the URDF).
 pub const MASS_FRAME: &str = "inner_mass";
-
-/// Parameter names of the switches.
-pub mod params {
-    /// `views.NAME`: the views' parameters share the prefix.
-    macro_rules! view {
-        ($name:literal) => {
-            concat!("views.", $name)
-        };
-    }
-    /// `views.joint_states`.
-    pub const JOINT_STATES: &str = view!("joint_states");
-    /// `views.tf`.
-    pub const TF: &str = view!("tf");
-    /// `views.robot_description`.
-    pub const ROBOT_DESCRIPTION: &str = view!("robot_description");
-    /// `views.diagnostics`.
-    pub const DIAGNOSTICS: &str = view!("diagnostics");
-    /// `views.rate_hz`.
-    pub const RATE_HZ: &str = view!("rate_hz");
-}
-
-/// The range of `--views-rate-hz` and of its parameter \[Hz\]: a rate's, as the loop's.
-const RATE_RANGE: (f64, f64) = capsule_args::ranges::RATE_HZ;
-
-/// The switches on the command line.
-#[derive(Debug, Clone, Copy, clap::Args)]
-pub struct ViewArgs {
-    /// Do not publish joint_states (sensor_msgs/JointState)
-    #[arg(long)]
-    pub no_joint_states: bool,
-    /// Do not publish /tf (the capsule frame in odom)
-    #[arg(long)]
-    pub no_tf: bool,
-    /// Do not publish robot_description (URDF)
-    #[arg(long)]
-    pub no_robot_description: bool,
-    /// Do not publish /diagnostics
-    #[arg(long)]
-    pub no_diagnostics: bool,
-    /// joint_states and /tf at most this often \[Hz\] (every n-th sample, n = rate / this,
-    /// rounded, at least 1): a viewer needs far less than the loop's 1-10 kHz, and each write
-    /// costs DDS a wake-up
-    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true,
-          value_parser = capsule_args::ranges::within(RATE_RANGE.0, RATE_RANGE.1))]
-    pub views_rate_hz: f64,
-}
 
 /// Which views run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,55 +59,15 @@ pub struct ViewSwitches {
     pub rate_hz: f64,
 }
 
-impl ViewArgs {
-    /// Declares the switches (read-only once running) in `table`, valued by the flags.
-    pub fn declare(&self, table: ParamTable) -> ParamTable {
-        // (parameter, what it publishes, switched off by its flag)
-        let switches = [
-            (
-                params::JOINT_STATES,
-                "joint_states (sensor_msgs/JointState)",
-                self.no_joint_states,
-            ),
-            (params::TF, "/tf (capsule in odom)", self.no_tf),
-            (
-                params::ROBOT_DESCRIPTION,
-                "robot_description (URDF, transient local)",
-                self.no_robot_description,
-            ),
-            (
-                params::DIAGNOSTICS,
-                "/diagnostics at 1 Hz",
-                self.no_diagnostics,
-            ),
-        ];
-        switches
-            .into_iter()
-            .fold(table, |table, (name, what, off)| {
-                let spec = ParamSpec::read_only(&format!("publish {what} (set at start)"));
-                table.declare(name, spec, V::Boolean(!off))
-            })
-            .declare(
-                params::RATE_HZ,
-                ParamSpec::read_only("joint_states and /tf at most this often [Hz] (set at start)")
-                    .range(capsule_ros_base::params::Range::Float {
-                        from: RATE_RANGE.0,
-                        to: RATE_RANGE.1,
-                    }),
-                V::Double(self.views_rate_hz),
-            )
-    }
-}
-
 impl ViewSwitches {
     /// The switches a table holds (after `-p` overrides).
     pub fn from_table(t: &ParamTable) -> Self {
         ViewSwitches {
-            joint_states: t.boolean(params::JOINT_STATES),
-            tf: t.boolean(params::TF),
-            robot_description: t.boolean(params::ROBOT_DESCRIPTION),
-            diagnostics: t.boolean(params::DIAGNOSTICS),
-            rate_hz: t.double(params::RATE_HZ),
+            joint_states: t.boolean(views::JOINT_STATES.name),
+            tf: t.boolean(views::TF.name),
+            robot_description: t.boolean(views::ROBOT_DESCRIPTION.name),
+            diagnostics: t.boolean(views::DIAGNOSTICS.name),
+            rate_hz: t.double(views::RATE_HZ.name),
         }
     }
 }

@@ -17,8 +17,7 @@ use futures::StreamExt;
 use ros2_client::{
     parameters::raw,
     qos::{Durability, History, WhenFull},
-    rcl_interfaces as rcl, Context, Message, Node, ParameterValue, Publisher, QosProfile,
-    ServiceTypeName,
+    rcl_interfaces as rcl, Context, Node, ParameterValue, Publisher, QosProfile, ServiceTypeName,
 };
 use tokio::sync::mpsc;
 use tracing::{info, warn};
@@ -119,56 +118,33 @@ struct Servers {
 }
 
 impl Servers {
+    /// The node's services `~/NAME` of type `rcl_interfaces/srv/TYPE`, in its service mapping.
     fn create(node: &mut Node, graph: &Graph, settings: &RosOptions) -> Result<Servers> {
+        let ty = |name: &str| ServiceTypeName::new("rcl_interfaces", name);
         Ok(Servers {
-            list: server(node, graph, settings, "list_parameters", "ListParameters")?,
-            describe: server(
+            list: settings.server(node, graph, "~/list_parameters", &ty("ListParameters"))?,
+            describe: settings.server(
                 node,
                 graph,
-                settings,
-                "describe_parameters",
-                "DescribeParameters",
+                "~/describe_parameters",
+                &ty("DescribeParameters"),
             )?,
-            get: server(node, graph, settings, "get_parameters", "GetParameters")?,
-            types: server(
+            get: settings.server(node, graph, "~/get_parameters", &ty("GetParameters"))?,
+            types: settings.server(
                 node,
                 graph,
-                settings,
-                "get_parameter_types",
-                "GetParameterTypes",
+                "~/get_parameter_types",
+                &ty("GetParameterTypes"),
             )?,
-            set: server(node, graph, settings, "set_parameters", "SetParameters")?,
-            set_atomic: server(
+            set: settings.server(node, graph, "~/set_parameters", &ty("SetParameters"))?,
+            set_atomic: settings.server(
                 node,
                 graph,
-                settings,
-                "set_parameters_atomically",
-                "SetParametersAtomically",
+                "~/set_parameters_atomically",
+                &ty("SetParametersAtomically"),
             )?,
         })
     }
-}
-
-/// The node's service `~/NAME` of type `rcl_interfaces/srv/TYPE`, in its service mapping.
-fn server<Q, R>(
-    node: &mut Node,
-    graph: &Graph,
-    settings: &RosOptions,
-    name: &str,
-    ty: &str,
-) -> Result<Service<Q, R>>
-where
-    Q: Message + Clone + Send + Sync + 'static,
-    R: Message + Send + Sync + 'static,
-{
-    settings
-        .server(
-            node,
-            graph,
-            &format!("~/{name}"),
-            &ServiceTypeName::new("rcl_interfaces", ty),
-        )
-        .with_context(|| format!("{name} service"))
 }
 
 /// What the serving task holds besides the servers.

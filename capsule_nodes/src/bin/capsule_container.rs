@@ -166,7 +166,7 @@ fn build(cli: &Cli) -> Result<Composed> {
         |c| &mut c.ros,
     )?;
     let controller = controller_cli::build(&ccli, &overrides).context("capsule_controller")?;
-    if pcli.check || ccli.check {
+    if pcli.check() || ccli.check() {
         bail!("--check is the container's own flag, not a node's");
     }
     let (p, c) = (&plant.0, &controller.0);
@@ -296,7 +296,7 @@ async fn run_loop(composed: Composed, link: Link) -> Result<()> {
             plant.await.context("capsule_plant")?
         }
     };
-    if let Some(path) = &plant_cli.summary_json {
+    if let Some(path) = &plant_cli.summary_json() {
         let json = plant::summary_json(&stats, &last, started.elapsed().as_secs_f64());
         std::fs::write(path, json + "\n").with_context(|| format!("cannot write {path}"))?;
     }

@@ -19,7 +19,7 @@ fn main() -> std::process::ExitCode {
         |opts: &ControllerOptions| format!(", {} k_p = {}", opts.core.mode(), opts.core.law().kp);
     node_main::async_node_main(
         "capsule_controller",
-        cli.check,
+        cli.check(),
         build(&cli, &overrides),
         would,
         controller::run,

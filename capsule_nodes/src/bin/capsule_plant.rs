@@ -31,7 +31,7 @@ fn main() -> std::process::ExitCode {
     };
     node_main::node_main(
         "capsule_plant",
-        cli.check,
+        cli.check(),
         built,
         would,
         |settings, (core, opts)| {
@@ -40,7 +40,7 @@ fn main() -> std::process::ExitCode {
                 settings.cpu_affinity.clone().as_ref(),
                 plant::run(settings, core, opts),
             )?;
-            if let Some(path) = &cli.summary_json {
+            if let Some(path) = &cli.summary_json() {
                 let json = plant::summary_json(&stats, &last, started.elapsed().as_secs_f64());
                 std::fs::write(path, json + "\n")
                     .with_context(|| format!("cannot write {path}"))?;

@@ -5,7 +5,8 @@ use capsule_msgs::names::nodes;
 use std::time::Duration;
 
 use anyhow::Result;
-use capsule_args::{ranges, scene_file::SceneFile};
+use capsule_args::controller_settings::{DIAGNOSTICS, SCENE, STATUS_PERIOD_MS};
+use capsule_args::{scene_file::SceneFile, settings::CHECK};
 use capsule_controller_node::{
     controller::ControllerOptions, controller_params, controller_settings::ControllerFlags,
 };
@@ -22,25 +23,19 @@ use clap::Parser;
 #[derive(Debug, Parser)]
 #[command(name = "capsule_controller", version, allow_negative_numbers = true)]
 pub struct Cli {
-    /// Scene TOML to take the physical scale, drive and gain from ([physical], [drive], [control]);
-    /// the whole scene is validated, as capsule_plant and `capsule simulate` do
-    #[arg(long)]
-    scene: Option<String>,
-    /// The controller's settings (capsule_controller_node::controller_settings)
+    // every flag of the node but the ROS ones is a row of its settings table
+    // (capsule_args::controller_settings)
     #[command(flatten)]
     settings: ControllerFlags,
-    /// Check the scene and flags, print what would run, and exit (no DDS)
-    #[arg(long)]
-    pub check: bool,
-    /// Status and watchdog period [ms], 1 to 60000
-    #[arg(long, default_value_t = 100, value_parser = ranges::millis())]
-    status_period_ms: u64,
-    /// Do not publish /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz: mode, gain,
-    /// commands sent, states ignored, plant seen, OK / WARN / ERROR)
-    #[arg(long)]
-    no_diagnostics: bool,
     #[command(flatten)]
     pub ros: RosArgs,
+}
+
+impl Cli {
+    /// `--check`: check, say what would run, and exit.
+    pub fn check(&self) -> bool {
+        self.settings.switch(&CHECK)
+    }
 }
 
 pub fn build(
@@ -48,16 +43,18 @@ pub fn build(
     overrides: &[ros_args::Override],
 ) -> Result<(RosOptions, ControllerOptions)> {
     // what the controller takes from a scene: the physical scale, the drive and the gain
-    let file = match cli.scene.as_deref() {
+    let flags = &cli.settings;
+    let scene = flags.text(&SCENE);
+    let file = match scene.as_deref() {
         Some(path) => Some(SceneFile::read(std::path::Path::new(path))?),
         None => None,
     };
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::CONTROLLER)?;
     // the settings table's precedence: default, scene, flag; then -p / --params-file
     let (params, core) = controller_params::start(
-        &cli.settings,
+        flags,
         file.as_ref(),
-        cli.scene.as_deref().unwrap_or_default(),
+        scene.as_deref().unwrap_or_default(),
         settings.use_sim_time,
         overrides,
     )?;
@@ -65,9 +62,9 @@ pub fn build(
         settings,
         ControllerOptions {
             core,
-            status_period: Duration::from_millis(cli.status_period_ms),
+            status_period: Duration::from_millis(flags.count(&STATUS_PERIOD_MS)),
             params,
-            diagnostics: !cli.no_diagnostics,
+            diagnostics: flags.switch(&DIAGNOSTICS),
         },
     ))
 }

@@ -2,10 +2,16 @@
 //! the source, its options): `capsule_plant`'s, and the plant's in `capsule_container`.
 
 use capsule_msgs::names::nodes;
+use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use capsule_args::{ranges, scene_file::SceneFile, storage::StorageArgs};
+use capsule_args::plant_settings::{
+    AUTOSTART, CHECK, CONTROLLER_NODE, DRY_RUN, FLUSH_MS, LOCKSTEP_ON_SILENCE, MAX_FORCE_N,
+    MAX_TRAVEL_M, PACING, RECORD_DIR, RECORD_OUTPUT, RETRANSMIT_MS, SCENE, SOURCE,
+    STARTUP_TIMEOUT_S, SUMMARY_JSON, UNTIL_S, WAIT_SUBSCRIBERS,
+};
+use capsule_args::{scene_file::SceneFile, settings::Setting, storage::StorageArgs};
 use capsule_hardware::{
     serial_driver::{DeviceDriver, DriverOptions, Source},
     sim::SimulatedPlant,
@@ -13,9 +19,9 @@ use capsule_hardware::{
 };
 use capsule_plant::{Method, Simulator};
 use capsule_plant_node::{
-    plant::{InPlantRecordOptions, OnSilence, Pacing, PlantCore, PlantOptions},
+    plant::{InPlantRecordOptions, Pacing, PlantCore, PlantOptions},
     plant_params::{self, PlantFlags},
-    recorder, views,
+    recorder,
 };
 use capsule_ros_base::{
     ros_args,
@@ -30,82 +36,13 @@ use clap::Parser;
 #[derive(Debug, Parser)]
 #[command(name = "capsule_plant", version, allow_negative_numbers = true)]
 pub struct Cli {
-    /// Scene TOML (model, friction, initial state, physical scale, node rate and timeout)
-    #[arg(long)]
-    scene: String,
-    /// Where the capsule is: sim (the scene's capsule simulated exactly) or serial:PATH[,BAUD]
-    /// (a device speaking the capsule device protocol, docs/hardware.md; default 921600 baud;
-    /// `capsule emulate-device` is one on a pseudo-terminal)
-    #[arg(long, default_value = "sim", value_name = "sim|serial:PATH[,BAUD]")]
-    source: Source,
-    /// Serial source: zero the force while |x1 - x2| exceeds this [m], (0, 1e6] (the device's
-    /// own travel limit, if smaller, stands) [default: no limit of the node's]
-    #[arg(long, value_parser = ranges::positive(ranges::MAX_SECONDS))]
-    max_travel_m: Option<f64>,
-    /// Serial source: log the force commands instead of sending them (zero force goes out)
-    #[arg(long)]
-    dry_run: bool,
-    /// realtime: one sample per 1/rate of wall time; lockstep: each step waits for the
-    /// controller's answer (reproducible, as fast as the loop allows)
-    #[arg(long, value_enum, default_value = "realtime")]
-    pub pacing: Pacing,
-    /// Actuator force limit [N], (0, 1e12]: larger commands are applied saturated at it,
-    /// counted and logged [default: 100 P_f of the scene's [physical] scale]
-    #[arg(long, value_parser = ranges::positive(1e12))]
-    max_force_n: Option<f64>,
-    /// Stop at this sim time [s], (0, 1e9] (default: run until Ctrl-C / SIGTERM)
-    #[arg(long, value_parser = ranges::positive(1e9))]
-    pub until_s: Option<f64>,
-    /// Lock-step: re-send an unanswered sample every this many ms, 1 to 60000
-    #[arg(long, default_value_t = 20, value_parser = ranges::millis())]
-    retransmit_ms: u64,
-    /// Lock-step: seconds to wait for the first command and for --wait-subscribers, (0, 1e6]
-    #[arg(long, default_value_t = 30.0, value_parser = ranges::positive(ranges::MAX_SECONDS))]
-    startup_timeout_s: f64,
-    /// Lock-step: what an unanswered sample leads to. wait: re-send it while sim time stands
-    /// still, and end the run with an error once the controller is gone (it left the graph, or
-    /// no answer for --lockstep-give-up-s); zero-force: after --command-timeout-s step at zero
-    /// force (the run then depends on the wall clock: a loaded host or a lossy network changes it)
-    #[arg(long, value_enum, default_value = "wait")]
-    lockstep_on_silence: OnSilence,
-    /// Publish the first sample once this many subscribers matched the state topic, 0 to 1000
-    #[arg(long, default_value_t = 0, value_parser = ranges::count_usize(0, ranges::MAX_SUBSCRIBERS as usize))]
-    wait_subscribers: usize,
-    /// Record the graph in this process to DIR/capsule_<scene>_<UTC time>.mcap (what the plant
-    /// publishes and receives, the controller's status and mode changes): the same file as
-    /// capsule_recorder writes, at a fraction of its CPU at high rates
-    #[arg(long, value_name = "DIR")]
-    record_dir: Option<std::path::PathBuf>,
-    /// Record in-process to exactly this file (must not exist)
-    #[arg(long, value_name = "FILE", conflicts_with = "record_dir")]
-    record_output: Option<std::path::PathBuf>,
-    /// Controller node whose status and service events the in-process recording takes
-    #[arg(long, default_value = nodes::CONTROLLER)]
-    controller_node: String,
-    /// In-process recording: close the open chunk at least this often [ms], 1 to 60000
-    #[arg(long, default_value_t = 250, value_parser = ranges::millis())]
-    flush_ms: u64,
+    // every flag of the node but the storage and ROS ones is a row of its settings table
+    // (capsule_args::plant_settings): its help, range, default and parameter from the row
+    #[command(flatten)]
+    settings: PlantFlags,
     /// In-process recording: compression and splitting
     #[command(flatten)]
     storage: StorageArgs,
-    /// Write a JSON summary (loop statistics, last sample) to this file at the end
-    #[arg(long)]
-    pub summary_json: Option<String>,
-    /// Check the scene and flags, print what would run, and exit (no DDS)
-    #[arg(long)]
-    pub check: bool,
-    // the plant's settings table (capsule_args::plant_settings): --rate-hz, --command-timeout-s,
-    // --lockstep-give-up-s, --clock-every, --joint-commands
-    #[command(flatten)]
-    settings: PlantFlags,
-    /// Configure and activate at once (true, the default: the node runs as it starts), or
-    /// start unconfigured and wait for the lifecycle (`ros2 lifecycle set /capsule_plant
-    /// configure`, then `activate`), as rclcpp_lifecycle's managed nodes do
-    #[arg(long, default_value_t = true, num_args = 0..=1, default_missing_value = "true",
-          value_name = "BOOL", action = clap::ArgAction::Set)]
-    autostart: bool,
-    #[command(flatten)]
-    views: views::ViewArgs,
     #[command(flatten)]
     pub ros: RosArgs,
 }
@@ -116,14 +53,51 @@ pub type Plant = PlantCore<Box<dyn CapsuleHardware>>;
 impl Cli {
     /// The source as `--check` prints it.
     pub fn source_label(&self) -> String {
-        match &self.source {
-            Source::Sim => "simulated".to_string(),
-            Source::Serial { path, baud } => format!(
+        match self.source() {
+            Ok(Source::Sim) => "simulated".to_string(),
+            Ok(Source::Serial { path, baud }) => format!(
                 "serial {} at {baud} baud{}",
                 path.display(),
-                if self.dry_run { " (dry run)" } else { "" }
+                if self.settings.switch(&DRY_RUN) {
+                    " (dry run)"
+                } else {
+                    ""
+                }
             ),
+            Err(e) => e.to_string(),
         }
+    }
+
+    /// `--check`: check, say what would run, and exit.
+    pub fn check(&self) -> bool {
+        self.settings.switch(&CHECK)
+    }
+
+    /// `--summary-json`.
+    pub fn summary_json(&self) -> Option<String> {
+        self.settings.text(&SUMMARY_JSON)
+    }
+
+    /// `--scene`.
+    fn scene(&self) -> String {
+        self.settings.text(&SCENE).unwrap_or_default()
+    }
+
+    /// `--source`, parsed.
+    fn source(&self) -> Result<Source> {
+        let text = self.settings.text(&SOURCE).unwrap_or_default();
+        text.parse()
+            .map_err(|e| anyhow::anyhow!("--source {text:?}: {e}"))
+    }
+
+    /// A path flag's value.
+    fn path(&self, s: &Setting) -> Option<PathBuf> {
+        self.settings.text(s).map(PathBuf::from)
+    }
+
+    /// A duration flag's value in milliseconds.
+    fn millis(&self, s: &Setting) -> Duration {
+        Duration::from_millis(self.settings.count(s))
     }
 }
 
@@ -132,22 +106,24 @@ impl Cli {
 const MAX_FIXED_STEPS_PER_SAMPLE: f64 = 1e6;
 
 fn record_options(cli: &Cli, scene: &SceneFile) -> Result<Option<InPlantRecordOptions>> {
-    if cli.record_dir.is_none() && cli.record_output.is_none() {
-        return Ok(None);
-    }
+    let (dir, file) = match (cli.path(&RECORD_DIR), cli.path(&RECORD_OUTPUT)) {
+        (None, None) => return Ok(None),
+        (Some(_), Some(_)) => {
+            bail!("--record-dir and --record-output: give one (a folder or a file)")
+        }
+        both => both,
+    };
     let scene = scene.record();
     let output = recorder::output_path(
-        cli.record_dir
-            .as_deref()
-            .unwrap_or(std::path::Path::new("runs")),
-        cli.record_output.as_deref(),
+        dir.as_deref().unwrap_or(std::path::Path::new("runs")),
+        file.as_deref(),
         Some(&scene),
     )?;
     Ok(Some(InPlantRecordOptions {
         output,
         scene: Some(scene),
-        controller_node: cli.controller_node.clone(),
-        flush_period: Duration::from_millis(cli.flush_ms),
+        controller_node: cli.settings.text(&CONTROLLER_NODE).unwrap_or_default(),
+        flush_period: cli.millis(&FLUSH_MS),
         bag: cli.storage.options(),
     }))
 }
@@ -156,51 +132,49 @@ pub fn build(
     cli: &Cli,
     overrides: &[ros_args::Override],
 ) -> Result<(RosOptions, Plant, PlantOptions)> {
-    let file = SceneFile::read(std::path::Path::new(&cli.scene))?;
+    let flags = &cli.settings;
+    let file = SceneFile::read(std::path::Path::new(&cli.scene()))?;
     let scene = &file.scene;
-    if cli.source == Source::Sim && (cli.dry_run || cli.max_travel_m.is_some()) {
+    let source = cli.source()?;
+    if source == Source::Sim && (flags.switch(&DRY_RUN) || flags.given(MAX_TRAVEL_M.name).is_some())
+    {
         bail!("--dry-run and --max-travel-m are for --source serial:PATH (a simulated capsule has no device to spare)");
     }
     let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), nodes::PLANT)?;
     // the settings table's precedence: default, the scene's [node], flag; then -p /
     // --params-file over the parameters
-    let fixed = plant_params::Fixed {
-        scene: cli.scene.clone(),
-        pacing: format!("{:?}", cli.pacing).to_ascii_lowercase(),
-        scale: (
-            scene.physical.m1_kg,
-            scene.physical.k1_n_per_m,
-            scene.physical.pf_n,
-        ),
-    };
-    let params =
-        plant_params::start_table(&cli.settings, &file, &fixed).map_err(anyhow::Error::msg)?;
-    let mut params = cli.views.declare(params);
+    let fixed = plant_params::Fixed::of(flags, &file);
+    let mut params = plant_params::start_table(flags, &file).map_err(anyhow::Error::msg)?;
     ros_args::apply_overrides(&mut params, overrides, capsule_ros_base::params::no_rules)?;
     let run = plant_params::overridable(&params, &fixed).map_err(anyhow::Error::msg)?;
-    if run.joint_commands && cli.pacing == Pacing::Lockstep {
+    let pacing: Pacing = flags.choice(&PACING).map_err(anyhow::Error::msg)?;
+    if run.joint_commands && pacing == Pacing::Lockstep {
         bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
     }
     check_fixed_steps(cli, scene, run.rate_hz)?;
-    let max_force_n = cli.max_force_n.unwrap_or(
+    let max_force_n = flags.number(&MAX_FORCE_N).unwrap_or(
         capsule_plant_node::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n(),
     );
-    let source = source(cli, scene, run.rate_hz, max_force_n)?;
-    let core = PlantCore::new(source, scene.physical, run.rate_hz, run.command_timeout_s)
+    let hardware = hardware(cli, &source, scene, run.rate_hz, max_force_n)?;
+    let core = PlantCore::new(hardware, scene.physical, run.rate_hz, run.command_timeout_s)
         .with_max_force_n(max_force_n);
     let opts = PlantOptions {
-        pacing: cli.pacing,
-        until_s: cli.until_s,
-        retransmit: Duration::from_millis(cli.retransmit_ms),
-        startup_timeout: Duration::from_secs_f64(cli.startup_timeout_s),
-        on_silence: cli.lockstep_on_silence,
+        pacing,
+        until_s: flags.number(&UNTIL_S),
+        retransmit: cli.millis(&RETRANSMIT_MS),
+        startup_timeout: Duration::from_secs_f64(
+            flags.number(&STARTUP_TIMEOUT_S).unwrap_or_default(),
+        ),
+        on_silence: flags
+            .choice(&LOCKSTEP_ON_SILENCE)
+            .map_err(anyhow::Error::msg)?,
         lockstep_give_up_s: run.lockstep_give_up_s,
-        wait_subscribers: cli.wait_subscribers,
+        wait_subscribers: usize::try_from(flags.count(&WAIT_SUBSCRIBERS)).unwrap_or(usize::MAX),
         clock_every: run.clock_every,
         record: record_options(cli, &file)?,
         params,
         joint_commands: run.joint_commands,
-        autostart: cli.autostart,
+        autostart: flags.switch(&AUTOSTART),
     };
     Ok((settings, core, opts))
 }
@@ -215,7 +189,7 @@ fn check_fixed_steps(cli: &Cli, scene: &capsule_plant::scene::Scene, rate: f64) 
         bail!(
             "{}: solver.step = {:e}: {per_sample:.3e} fixed steps per sample at {rate} Hz, more \
              than the plant's limit of {MAX_FIXED_STEPS_PER_SAMPLE:e}: raise the step or the rate",
-            cli.scene,
+            cli.scene(),
             scene.solver.step
         );
     }
@@ -224,16 +198,17 @@ fn check_fixed_steps(cli: &Cli, scene: &capsule_plant::scene::Scene, rate: f64) 
 
 /// The hardware `--source` names: the scene's simulator (checked here, built again at each
 /// configure) or the device on the line.
-fn source(
+fn hardware(
     cli: &Cli,
+    source: &Source,
     scene: &capsule_plant::scene::Scene,
     rate_hz: f64,
     max_force_n: f64,
 ) -> Result<Box<dyn CapsuleHardware>> {
-    Ok(match &cli.source {
+    Ok(match source {
         Source::Sim => {
             let (model, s0, solver) = (scene.model(), scene.initial_state(), scene.solver());
-            let name = cli.scene.clone();
+            let name = cli.scene();
             let build = move || {
                 Simulator::new(model, s0, 0.0, solver)
                     .map_err(|e| format!("{name}: cannot set up the simulation: {e}"))
@@ -250,9 +225,9 @@ fn source(
             baud: *baud,
             rate_hz,
             max_force_n,
-            max_travel_m: cli.max_travel_m.unwrap_or(f64::INFINITY),
+            max_travel_m: cli.settings.number(&MAX_TRAVEL_M).unwrap_or(f64::INFINITY),
             gap_m: scene.model.capsule.delta * scene.physical.length_m(),
-            dry_run: cli.dry_run,
+            dry_run: cli.settings.switch(&DRY_RUN),
         })),
     })
 }
