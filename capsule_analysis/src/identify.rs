@@ -459,6 +459,37 @@ impl Outer<'_> {
     }
 }
 
+/// The first stage's fit over every window (it fitted every `step`-th): the windows' states, the
+/// fitted ones where it had them, the guesses elsewhere, at the first stage's parameters.
+fn all_windows<'a>(
+    mut first: Outer<'a>,
+    starts: &'a [usize],
+    guesses: &[State],
+    step: usize,
+) -> Outer<'a> {
+    let fitted_states = std::mem::take(&mut first.states);
+    let mut all = Outer {
+        starts,
+        states: guesses
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                fitted_states
+                    .get(i / step)
+                    .filter(|_| i % step == 0)
+                    .unwrap_or(s)
+            })
+            .copied()
+            .collect(),
+        best: None,
+        jac: OnceLock::new(),
+        ..first
+    };
+    let p = all.p.clone();
+    all.set_params(&p);
+    all
+}
+
 /// Fits `keys` of `scene` to `rec` (the scene's `[device]` as the actuator, ideal without one).
 pub fn identify(
     scene: &Scene,
@@ -517,27 +548,7 @@ pub fn identify(
     let (mut outer, mut report) = minimise(outer, &free, settings, first)?;
     let weights;
     if two_stages {
-        // every window's state at the first stage's parameters, then the weights
-        let fitted_states = std::mem::take(&mut outer.states);
-        let mut all = Outer {
-            starts: &starts,
-            states: states
-                .iter()
-                .enumerate()
-                .map(|(i, s)| {
-                    fitted_states
-                        .get(i / step)
-                        .filter(|_| i % step == 0)
-                        .unwrap_or(s)
-                })
-                .copied()
-                .collect(),
-            best: None,
-            jac: OnceLock::new(),
-            ..outer
-        };
-        let p = all.p.clone();
-        all.set_params(&p);
+        let all = all_windows(outer, &starts, &states, step);
         let noise_m = scene.device.map_or(0.0, |d| {
             (d.noise_m * d.noise_m + d.quantum_m * d.quantum_m / 12.0).sqrt()
         });

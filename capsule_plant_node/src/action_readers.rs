@@ -17,8 +17,6 @@ use ros2_client::qos::History;
 use ros2_client::{MessageInfo, Subscription};
 use tracing::warn;
 
-use crate::recorder::{Channel, GraphRecording};
-
 /// One sample of an action's topics.
 #[derive(Debug, Clone)]
 pub enum ActionSample {
@@ -30,30 +28,6 @@ pub enum ActionSample {
     SwitchFeedback(FeedbackMessage<SwitchAttractorFeedback>),
     /// SwitchAttractor's statuses.
     SwitchStatus(GoalStatusArray),
-}
-
-impl ActionSample {
-    /// The recording channel of its topic.
-    pub fn channel(&self) -> Channel {
-        match self {
-            ActionSample::MoveFeedback(_) => Channel::MoveFeedback,
-            ActionSample::MoveStatus(_) => Channel::MoveStatus,
-            ActionSample::SwitchFeedback(_) => Channel::SwitchFeedback,
-            ActionSample::SwitchStatus(_) => Channel::SwitchStatus,
-        }
-    }
-
-    /// Writes it to `rec` as received (`info`).
-    pub fn record(&self, rec: &mut GraphRecording, info: &MessageInfo) -> Result<()> {
-        let channel = self.channel();
-        match self {
-            ActionSample::MoveFeedback(m) => rec.write_received(channel, m, info),
-            ActionSample::SwitchFeedback(m) => rec.write_received(channel, m, info),
-            ActionSample::MoveStatus(m) | ActionSample::SwitchStatus(m) => {
-                rec.write_received(channel, m, info)
-            }
-        }
-    }
 }
 
 /// The actions' names under `controller_node` (relative, as a recorder names it): move, then
@@ -128,10 +102,5 @@ impl ActionReaders {
                 + take_all(&self.switch_feedback, ActionSample::SwitchFeedback, &mut f)?
                 + take_all(&self.switch_status, ActionSample::SwitchStatus, &mut f)?,
         )
-    }
-
-    /// Takes what the readers hold into `rec`; how many samples.
-    pub fn drain(&self, rec: &mut GraphRecording) -> Result<usize> {
-        self.take(|sample, info| sample.record(rec, info))
     }
 }

@@ -39,7 +39,7 @@ use tracing::{info, warn};
 use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 
-use crate::action_readers::ActionReaders;
+use crate::action_readers::{ActionReaders, ActionSample};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -191,6 +191,32 @@ pub enum Channel {
     SwitchFeedback = 8,
     /// `<controller>/switch_attractor/_action/status`
     SwitchStatus = 9,
+}
+
+impl Channel {
+    /// The channel of an action sample's topic.
+    pub fn of_action(sample: &ActionSample) -> Channel {
+        match sample {
+            ActionSample::MoveFeedback(_) => Channel::MoveFeedback,
+            ActionSample::MoveStatus(_) => Channel::MoveStatus,
+            ActionSample::SwitchFeedback(_) => Channel::SwitchFeedback,
+            ActionSample::SwitchStatus(_) => Channel::SwitchStatus,
+        }
+    }
+}
+
+/// Takes what the action readers hold into `rec`, each sample as received; how many.
+pub fn drain_actions(readers: &ActionReaders, rec: &mut GraphRecording) -> Result<usize> {
+    readers.take(|sample, info| {
+        let channel = Channel::of_action(&sample);
+        match &sample {
+            ActionSample::MoveFeedback(m) => rec.write_received(channel, m, info),
+            ActionSample::SwitchFeedback(m) => rec.write_received(channel, m, info),
+            ActionSample::MoveStatus(m) | ActionSample::SwitchStatus(m) => {
+                rec.write_received(channel, m, info)
+            }
+        }
+    })
 }
 
 /// The actions' topics as a recording holds them, in [`Channel`] order after the graph's:
@@ -535,7 +561,7 @@ impl Readers {
             + drain_into(&self.status, sink, Channel::Status)?
             + drain_into(&self.clock, sink, Channel::Clock)?
             + drain_into(&self.event, sink, Channel::ServiceEvent)?
-            + self.actions.drain(sink)?)
+            + drain_actions(&self.actions, sink)?)
     }
 
     /// Samples still in flight when the graph stops (the plant's last one): keeps draining

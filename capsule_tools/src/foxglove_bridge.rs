@@ -448,7 +448,7 @@ impl Outputs {
     }
 
     fn action(&mut self, s: &ActionSample, info: &ros2_client::MessageInfo) {
-        let ch = &self.actions[s.channel() as usize - Channel::MoveFeedback as usize];
+        let ch = &self.actions[Channel::of_action(s) as usize - Channel::MoveFeedback as usize];
         if ch.has_sinks() {
             let t = info
                 .source_timestamp()

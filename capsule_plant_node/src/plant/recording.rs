@@ -8,7 +8,7 @@ use capsule_record::types::SetModeEvent;
 use capsule_ros_base::error::{NodeError, Result};
 
 use crate::action_readers::ActionReaders;
-use crate::recorder::{drain_into, Channel, GraphRecording};
+use crate::recorder::{drain_actions, drain_into, Channel, GraphRecording};
 
 /// Where and how the plant records the graph itself.
 #[derive(Debug, Clone)]
@@ -82,7 +82,7 @@ impl InPlantRecording {
         self.last_poll = Instant::now();
         drain_into(&self.status_sub, &mut self.rec, Channel::Status)?;
         drain_into(&self.event_sub, &mut self.rec, Channel::ServiceEvent)?;
-        self.actions.drain(&mut self.rec)?;
+        drain_actions(&self.actions, &mut self.rec)?;
         self.rec.flush_if_due()
     }
 }
@@ -159,7 +159,7 @@ impl InPlantRecording {
         }
         let drained = drain_into(&self.status_sub, &mut rec, Channel::Status)
             .and_then(|_| drain_into(&self.event_sub, &mut rec, Channel::ServiceEvent))
-            .and_then(|_| self.actions.drain(&mut rec));
+            .and_then(|_| drain_actions(&self.actions, &mut rec));
         match drained {
             Ok(_) => {
                 let report = rec.finish()?;
