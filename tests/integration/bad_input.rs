@@ -597,11 +597,16 @@ fn sweeps_with_failed_values_exit_non_zero_and_name_them() {
 /// Runs `capsule` with these arguments, sends it SIGINT after 1.5 s, and waits (at most 60 s)
 /// for it to stop.
 fn interrupted(args: &[&str]) -> std::process::Output {
+    interrupted_after(args, Duration::from_millis(1500))
+}
+
+/// [`interrupted`], with SIGINT sent after `delay`.
+fn interrupted_after(args: &[&str], delay: Duration) -> std::process::Output {
     let mut child = command("capsule")
         .args(args)
         .spawn()
         .unwrap_or_else(|e| panic!("{e}"));
-    std::thread::sleep(Duration::from_millis(1500));
+    std::thread::sleep(delay);
     let killed = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
@@ -652,16 +657,21 @@ fn an_interrupted_sweep_or_basin_map_writes_what_finished_and_exits_non_zero() {
 fn an_interrupted_continuation_writes_the_branch_so_far_and_exits_non_zero() {
     let tmp = TempDir::new("bad_input_interrupted_continuation");
     let out = tmp.file("branch");
-    // the period-3 isola of Fig 18 in steps 40 times below the default: thousands of points
+    // the period-3 isola of Fig 18 in steps 40 times below the default: thousands of points, 1.3
+    // s of CPU since the numerical crates are optimised in dev builds, so the signal comes at
+    // 0.4 s (at 1.5 s it could find the run writing its files, with Ctrl-C's default action back)
     let scene = root().join("scenes/switch_alpha15.toml");
-    let o = interrupted(&line(
-        "continue --param alpha --to 1.75 --arc-step 0.0005 --max-arc-step 0.0005 --scene",
-        &[
-            &scene.display().to_string(),
-            "--out",
-            &out.display().to_string(),
-        ],
-    ));
+    let o = interrupted_after(
+        &line(
+            "continue --param alpha --to 1.75 --arc-step 0.0005 --max-arc-step 0.0005 --scene",
+            &[
+                &scene.display().to_string(),
+                "--out",
+                &out.display().to_string(),
+            ],
+        ),
+        Duration::from_millis(400),
+    );
     let words = ": interrupted; the branch so far is written";
     assert_interrupted(&o, words, &out.with_extension("csv"), 2);
     let json = std::fs::read_to_string(out.with_extension("json")).unwrap_or_default();
