@@ -12,18 +12,12 @@
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::emulated_run;
 use capsule_plant::device::DeviceModel;
-use capsule_plant::scene::Scene;
+
+mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let seconds: f64 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(30.0);
-    let text = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/control_point.toml"),
-    )?;
-    let mut nominal = Scene::from_toml_str(&text, "control_point")?;
+    let seconds = common::first_arg_or(30.0)?;
+    let mut nominal = common::control_point()?;
     let mut device = DeviceModel::typical(&nominal.physical);
     let mut settings = Settings::default();
     for a in std::env::args().skip(6) {

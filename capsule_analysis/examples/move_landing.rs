@@ -8,18 +8,12 @@
 
 use capsule_analysis::move_landing::{land, LandingCase};
 use capsule_controller::move_goal::{MoveConfig, MoveEnd, MoveRequest};
-use capsule_plant::scene::Scene;
+
+mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let tolerance_m: f64 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(0.0);
-    let text = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/control_point.toml"),
-    )?;
-    let scene = Scene::from_toml_str(&text, "control_point.toml")?;
+    let tolerance_m = common::first_arg_or(0.0)?;
+    let scene = common::control_point()?;
     let config = MoveConfig::DEFAULT;
     let period_s = std::f64::consts::TAU / scene.drive.omega * scene.physical.time_s();
     let mut worst: f64 = 0.0;

@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::Time;
+use crate::{constants, Time};
 
 /// `unique_identifier_msgs/msg/UUID`: a goal's id, chosen by the client.
 pub type Uuid = [u8; 16];
@@ -155,22 +155,24 @@ pub struct GoalStatus {
     pub status: i8,
 }
 
-impl GoalStatus {
+constants!(GoalStatus: i8 {
     /// Not known (also a refused goal's, and `get_result`'s for an unknown goal).
-    pub const STATUS_UNKNOWN: i8 = 0;
+    STATUS_UNKNOWN: 0,
     /// Accepted, not yet executing.
-    pub const STATUS_ACCEPTED: i8 = 1;
+    STATUS_ACCEPTED: 1,
     /// Executing.
-    pub const STATUS_EXECUTING: i8 = 2;
+    STATUS_EXECUTING: 2,
     /// A cancel was accepted; the goal is ending.
-    pub const STATUS_CANCELING: i8 = 3;
+    STATUS_CANCELING: 3,
     /// Ended, reached.
-    pub const STATUS_SUCCEEDED: i8 = 4;
+    STATUS_SUCCEEDED: 4,
     /// Ended by a cancel.
-    pub const STATUS_CANCELED: i8 = 5;
+    STATUS_CANCELED: 5,
     /// Ended by the server, not reached.
-    pub const STATUS_ABORTED: i8 = 6;
+    STATUS_ABORTED: 6,
+});
 
+impl GoalStatus {
     /// True for the three terminal statuses.
     pub fn is_terminal(status: i8) -> bool {
         matches!(
@@ -179,17 +181,9 @@ impl GoalStatus {
         )
     }
 
-    /// The constant's name without `STATUS_`, for humans.
+    /// The constant's name without `STATUS_`, for humans (`UNKNOWN` for an unknown value).
     pub fn name(status: i8) -> &'static str {
-        match status {
-            Self::STATUS_ACCEPTED => "ACCEPTED",
-            Self::STATUS_EXECUTING => "EXECUTING",
-            Self::STATUS_CANCELING => "CANCELING",
-            Self::STATUS_SUCCEEDED => "SUCCEEDED",
-            Self::STATUS_CANCELED => "CANCELED",
-            Self::STATUS_ABORTED => "ABORTED",
-            _ => "UNKNOWN",
-        }
+        Self::constant_name(status).map_or("UNKNOWN", |n| n.trim_start_matches("STATUS_"))
     }
 }
 
@@ -218,13 +212,13 @@ pub struct CancelGoalResponse {
     pub goals_canceling: Vec<GoalInfo>,
 }
 
-impl CancelGoalResponse {
+constants!(CancelGoalResponse: i8 {
     /// One goal or more are now canceling.
-    pub const ERROR_NONE: i8 = 0;
+    ERROR_NONE: 0,
     /// Refused: none is canceling.
-    pub const ERROR_REJECTED: i8 = 1;
+    ERROR_REJECTED: 1,
     /// The goal id is not known.
-    pub const ERROR_UNKNOWN_GOAL_ID: i8 = 2;
+    ERROR_UNKNOWN_GOAL_ID: 2,
     /// The goal has already ended.
-    pub const ERROR_GOAL_TERMINATED: i8 = 3;
-}
+    ERROR_GOAL_TERMINATED: 3,
+});

@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 pub mod actions;
+mod constants;
 pub mod hashes;
 pub mod interface;
 pub mod names;
@@ -166,32 +167,22 @@ pub struct ControllerStatus {
     pub orbit_period: i32,
 }
 
-impl ControllerStatus {
+constants!(ControllerStatus: u8 {
     /// No switch requested yet.
-    pub const SWITCH_NONE: u8 = 0;
+    SWITCH_NONE: 0,
     /// Watching the section until the orbit's period is known.
-    pub const SWITCH_OBSERVING: u8 = 1;
+    SWITCH_OBSERVING: 1,
     /// A pulse is on.
-    pub const SWITCH_PULSING: u8 = 2;
+    SWITCH_PULSING: 2,
     /// Released, waiting to judge the orbit.
-    pub const SWITCH_SETTLING: u8 = 3;
+    SWITCH_SETTLING: 3,
     /// On the wanted orbit, gain released.
-    pub const SWITCH_SUCCEEDED: u8 = 4;
+    SWITCH_SUCCEEDED: 4,
     /// Tries used up, gain released.
-    pub const SWITCH_FAILED: u8 = 5;
+    SWITCH_FAILED: 5,
     /// Another mode was requested first.
-    pub const SWITCH_CANCELLED: u8 = 6;
-    /// Every constant of the `.msg` file, by name.
-    pub const CONSTANTS: [(&'static str, u8); 7] = [
-        ("SWITCH_NONE", Self::SWITCH_NONE),
-        ("SWITCH_OBSERVING", Self::SWITCH_OBSERVING),
-        ("SWITCH_PULSING", Self::SWITCH_PULSING),
-        ("SWITCH_SETTLING", Self::SWITCH_SETTLING),
-        ("SWITCH_SUCCEEDED", Self::SWITCH_SUCCEEDED),
-        ("SWITCH_FAILED", Self::SWITCH_FAILED),
-        ("SWITCH_CANCELLED", Self::SWITCH_CANCELLED),
-    ];
-}
+    SWITCH_CANCELLED: 6,
+});
 
 /// `capsule_msgs/srv/SetMode` request.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -210,29 +201,20 @@ pub struct SetModeRequest {
     pub max_tries: i32,
 }
 
-impl SetModeRequest {
+constants!(SetModeRequest: u8 {
     /// Drive only, `k_p = 0`.
-    pub const OFF: u8 = 0;
+    OFF: 0,
     /// `k_p > 0`: forward motion.
-    pub const FORWARD: u8 = 1;
+    FORWARD: 1,
     /// `k_p < 0`: backward motion.
-    pub const BACKWARD: u8 = 2;
+    BACKWARD: 2,
     /// The paper's stabilising gain.
-    pub const CHAOS_CONTROL: u8 = 3;
+    CHAOS_CONTROL: 3,
     /// Any finite gain within limits.
-    pub const CUSTOM: u8 = 4;
+    CUSTOM: 4,
     /// The attractor-switching action.
-    pub const SWITCH_ATTRACTOR: u8 = 5;
-    /// Every constant of the `.srv` file, by name.
-    pub const CONSTANTS: [(&'static str, u8); 6] = [
-        ("OFF", Self::OFF),
-        ("FORWARD", Self::FORWARD),
-        ("BACKWARD", Self::BACKWARD),
-        ("CHAOS_CONTROL", Self::CHAOS_CONTROL),
-        ("CUSTOM", Self::CUSTOM),
-        ("SWITCH_ATTRACTOR", Self::SWITCH_ATTRACTOR),
-    ];
-}
+    SWITCH_ATTRACTOR: 5,
+});
 
 /// `capsule_msgs/srv/SetMode` response.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -249,10 +231,7 @@ pub struct SetModeResponse {
 
 /// Name of a mode constant, or `None` for an unknown value.
 pub fn mode_name(mode: u8) -> Option<&'static str> {
-    SetModeRequest::CONSTANTS
-        .iter()
-        .find(|(_, v)| *v == mode)
-        .map(|(n, _)| *n)
+    SetModeRequest::constant_name(mode)
 }
 
 #[cfg(test)]

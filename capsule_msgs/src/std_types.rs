@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Header, Time};
+use crate::{constants, Header, Time};
 
 /// `rosgraph_msgs/msg/Clock`: the simulation time on `/clock`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -144,16 +144,16 @@ pub struct DiagnosticStatus {
     pub values: Vec<KeyValue>,
 }
 
-impl DiagnosticStatus {
+constants!(DiagnosticStatus: u8 {
     /// Level OK.
-    pub const OK: u8 = 0;
+    OK: 0,
     /// Level WARN.
-    pub const WARN: u8 = 1;
+    WARN: 1,
     /// Level ERROR.
-    pub const ERROR: u8 = 2;
+    ERROR: 2,
     /// Level STALE.
-    pub const STALE: u8 = 3;
-}
+    STALE: 3,
+});
 
 /// `diagnostic_msgs/DiagnosticArray`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

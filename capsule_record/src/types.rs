@@ -2,6 +2,7 @@
 //! (ROS 2 service introspection), and the QoS text rosbag2 writes on every channel.
 
 use capsule_msgs::{
+    constants,
     interface::{
         nested_definition, ros2msg_text, split_action, GOAL_STATUS_ARRAY_MSG, GOAL_STATUS_MSG,
         MOVE_ACTION, SWITCH_ATTRACTOR_ACTION,
@@ -26,16 +27,16 @@ pub struct ServiceEventInfo {
     pub sequence_number: i64,
 }
 
-impl ServiceEventInfo {
+constants!(ServiceEventInfo: u8 {
     /// A client sent the request.
-    pub const REQUEST_SENT: u8 = 0;
+    REQUEST_SENT: 0,
     /// The server received the request.
-    pub const REQUEST_RECEIVED: u8 = 1;
+    REQUEST_RECEIVED: 1,
     /// The server sent the response.
-    pub const RESPONSE_SENT: u8 = 2;
+    RESPONSE_SENT: 2,
     /// The client received the response.
-    pub const RESPONSE_RECEIVED: u8 = 3;
-}
+    RESPONSE_RECEIVED: 3,
+});
 
 /// One service event of `set_mode`: the layout rosidl generates for service introspection
 /// (`SetMode_Event`: info, then request and response as bounded sequences of at most one),

@@ -66,12 +66,9 @@ fn rosidl_report() -> Value {
     serde_json::from_str(&text).expect("the report is JSON")
 }
 
-/// One interface as rosidl read it matches our definition of it.
-fn check<T: RosInterface>(report: &Value) {
-    let key = format!("{}/{}", T::PACKAGE, T::NAME);
-    let ours = parse_definition(T::definition());
-    let idl = &report["idl"][&key];
-    let members: Vec<(String, String)> = idl["members"]
+/// The members (name, type) rosidl_parser reports for the interface `key`, in order.
+fn idl_members(report: &Value, key: &str) -> Vec<(String, String)> {
+    report["idl"][key]["members"]
         .as_array()
         .unwrap_or_else(|| panic!("rosidl_parser did not report {key}"))
         .iter()
@@ -81,7 +78,15 @@ fn check<T: RosInterface>(report: &Value) {
                 m[1].as_str().unwrap_or("").into(),
             )
         })
-        .collect();
+        .collect()
+}
+
+/// One interface as rosidl read it matches our definition of it.
+fn check<T: RosInterface>(report: &Value) {
+    let key = format!("{}/{}", T::PACKAGE, T::NAME);
+    let ours = parse_definition(T::definition());
+    let idl = &report["idl"][&key];
+    let members = idl_members(report, &key);
     let expected: Vec<(String, String)> = ours
         .fields
         .iter()
@@ -168,17 +173,7 @@ fn check_derived(report: &Value, action: &str) {
     ];
     for (part, members) in expected {
         let key = format!("capsule_msgs/{action}_{part}");
-        let idl: Vec<(String, String)> = report["idl"][&key]["members"]
-            .as_array()
-            .unwrap_or_else(|| panic!("rosidl_parser did not derive {key}"))
-            .iter()
-            .map(|m| {
-                (
-                    m[0].as_str().unwrap_or("").into(),
-                    m[1].as_str().unwrap_or("").into(),
-                )
-            })
-            .collect();
+        let idl = idl_members(report, &key);
         let expected: Vec<(String, String)> = members
             .iter()
             .map(|(n, t)| (n.to_string(), t.clone()))

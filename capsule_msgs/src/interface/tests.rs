@@ -247,36 +247,52 @@ fn the_checker_catches_drift() {
     }
 }
 
+/// The constants of an interface text, as (name, value as written).
+fn constants_of(text: &str) -> Vec<(String, String)> {
+    parse_definition(text)
+        .constants
+        .into_iter()
+        .map(|c| (c.name, c.value))
+        .collect()
+}
+
+/// A `CONSTANTS` table, as (name, value).
+fn table<T: fmt::Display>(constants: &[(&str, T)]) -> Vec<(String, String)> {
+    constants
+        .iter()
+        .map(|(n, v)| (n.to_string(), v.to_string()))
+        .collect()
+}
+
 #[test]
 fn service_constants_match_the_rust_constants() {
-    let def = parse_definition(SetModeRequest::definition());
-    let mut from_file: Vec<(String, u8)> = Vec::new();
-    for c in &def.constants {
-        assert_eq!(c.type_name, "uint8", "{}", c.name);
-        let v: u8 = c
-            .value
-            .parse()
-            .unwrap_or_else(|e| panic!("{}={}: {e}", c.name, c.value));
-        from_file.push((c.name.clone(), v));
+    assert!(parse_definition(SetModeRequest::definition())
+        .constants
+        .iter()
+        .all(|c| c.type_name == "uint8"));
+    for (text, rust) in [
+        (
+            SetModeRequest::definition(),
+            table(SetModeRequest::CONSTANTS),
+        ),
+        (
+            ControllerStatus::definition(),
+            table(ControllerStatus::CONSTANTS),
+        ),
+        (
+            GOAL_STATUS_MSG,
+            table(crate::actions::GoalStatus::CONSTANTS),
+        ),
+    ] {
+        assert_eq!(constants_of(text), rust);
     }
-    let from_rust: Vec<(String, u8)> = SetModeRequest::CONSTANTS
-        .iter()
-        .map(|(n, v)| (n.to_string(), *v))
-        .collect();
-    assert_eq!(from_file, from_rust);
-    let from_file: Vec<(String, u8)> = parse_definition(ControllerStatus::definition())
-        .constants
-        .iter()
-        .map(|c| (c.name.clone(), c.value.parse().unwrap_or(u8::MAX)))
-        .collect();
-    let from_rust: Vec<(String, u8)> = ControllerStatus::CONSTANTS
-        .iter()
-        .map(|(n, v)| (n.to_string(), *v))
-        .collect();
-    assert_eq!(from_file, from_rust);
-    assert!(parse_definition(SetModeResponse::definition())
-        .constants
-        .is_empty());
+    assert!(constants_of(SetModeResponse::definition()).is_empty());
+    assert_eq!(crate::mode_name(SetModeRequest::CUSTOM), Some("CUSTOM"));
+    assert_eq!(crate::mode_name(9), None);
+    use crate::actions::GoalStatus;
+    assert_eq!(GoalStatus::name(GoalStatus::STATUS_CANCELING), "CANCELING");
+    assert_eq!(GoalStatus::name(GoalStatus::STATUS_UNKNOWN), "UNKNOWN");
+    assert_eq!(GoalStatus::name(42), "UNKNOWN");
 }
 
 #[test]

@@ -668,10 +668,7 @@ async fn switch_attractor(
 
 /// The name of a `ControllerStatus.SWITCH_*` value.
 fn switch_name(state: u8) -> &'static str {
-    ControllerStatus::CONSTANTS
-        .iter()
-        .find(|(_, v)| *v == state)
-        .map_or("?", |(n, _)| n.trim_start_matches("SWITCH_"))
+    ControllerStatus::constant_name(state).map_or("?", |n| n.trim_start_matches("SWITCH_"))
 }
 
 /// `capsule_ros move`: the goal, its feedback and its result.

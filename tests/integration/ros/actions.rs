@@ -3,14 +3,11 @@
 //! cancel_goal in rmw_cyclonedds' mapping, the feedback and transient-local status topics), at
 //! the section-5 control point; and `capsule_ros move`.
 
-use super::harness::{assert_contains, json_number, netns_with_peer};
+use super::harness::{assert_contains, json_number, netns_with_peer, nth};
 
-/// The peer's JSON line for a goal whose message starts with `prefix` (`"message": "reached`).
+/// The peer's JSON line for goal `i`.
 fn goal_line<'a>(lines: &[&'a str], i: usize) -> &'a str {
-    lines
-        .get(i)
-        .copied()
-        .unwrap_or_else(|| panic!("no goal line {i}: {lines:?}"))
+    nth(lines, i, "goal line")
 }
 
 #[test]
@@ -121,8 +118,7 @@ fn move_goals_from_the_cyclone_action_client_in_real_time() {
 /// plant is configured but not active (it publishes its state, applying no force), and while
 /// its emergency stop is engaged.
 fn assert_refusals(run: &super::harness::Run) {
-    let refusals = run.lines_starting("{\"distance\"");
-    assert_eq!(refusals.len(), 7, "{}", run.all());
+    let refusals = run.lines_exactly("{\"distance\"", 7);
     for (i, r) in refusals.iter().enumerate() {
         let accepted = if i == 4 { "true" } else { "false" };
         assert_contains(r, &[&format!("\"accepted\": {accepted}")]);
@@ -254,8 +250,7 @@ fn the_switch_action_moves_period_3_to_period_1_at_the_fig_20_scene() {
     );
     run.assert_ok();
     // cancelled while it still observes the orbit: CANCELED, back in the mode it came from, OFF
-    let goals = run.lines_starting("{\"status\"");
-    assert_eq!(goals.len(), 2, "{}", run.all());
+    let goals = run.lines_exactly("{\"status\"", 2);
     assert_contains(
         goals[0],
         &[

@@ -157,8 +157,7 @@ fn an_unplugged_then_silent_device_zeroes_the_force_is_reported_and_reconnects()
             .any(|r| r[1].as_str().is_some_and(|m| !m.contains("device:"))),
         "{diag:?}"
     );
-    let diags = run.lines_starting("{\"capsule_plant\"");
-    assert_eq!(diags.len(), 3, "{}", run.all());
+    let diags = run.lines_exactly("{\"capsule_plant\"", 3);
     // unplugged: ERROR, named
     assert_eq!(json_number(diags[0], "level"), Some(2.0), "{}", diags[0]);
     assert_contains(

@@ -36,8 +36,7 @@ fn fastdds_peer_calls_set_mode_and_the_parameter_services_in_the_fastrtps_mappin
     );
     assert_set_mode_answers(&run);
     // 5 mm: SUCCEEDED (4) within the default tolerance, feedback on the way; NaN refused
-    let goals = run.lines_starting("{\"distance\"");
-    assert_eq!(goals.len(), 2, "{}", run.all());
+    let goals = run.lines_exactly("{\"distance\"", 2);
     assert_contains(
         goals[0],
         &["\"accepted\": true", "\"status\": 4", "\"reached\": true"],

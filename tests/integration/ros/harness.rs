@@ -73,6 +73,15 @@ impl Run {
             .collect()
     }
 
+    /// The stdout lines that start with `prefix`; panics with both streams unless there are
+    /// exactly `n`.
+    #[track_caller]
+    pub fn lines_exactly(&self, prefix: &str, n: usize) -> Vec<&str> {
+        let lines = self.lines_starting(prefix);
+        assert_eq!(lines.len(), n, "{}", self.all());
+        lines
+    }
+
     /// The first stdout line that starts with `prefix`; panics with both streams if none does.
     #[track_caller]
     pub fn line(&self, prefix: &str) -> &str {
@@ -141,6 +150,14 @@ pub fn assert_moved_to_seq_1500(last: &str) {
     );
 }
 
+/// The `i`-th of `items` (a peer's lines or records, named `what` in the failure).
+pub fn nth<'a>(items: &[&'a str], i: usize, what: &str) -> &'a str {
+    items
+        .get(i)
+        .copied()
+        .unwrap_or_else(|| panic!("no {what} {i}: {items:?}"))
+}
+
 /// Panics unless `text` contains every one of `needles`.
 #[track_caller]
 pub fn assert_contains(text: &str, needles: &[&str]) {
@@ -186,8 +203,7 @@ pub fn set_mode_calls(peer: &str) -> String {
 #[track_caller]
 pub fn assert_set_mode_answers(run: &Run) {
     run.assert_ok();
-    let answers = run.lines_starting("{\"accepted\"");
-    assert_eq!(answers.len(), 3, "{}", run.all());
+    let answers = run.lines_exactly("{\"accepted\"", 3);
     assert_contains(answers[0], &["\"accepted\": true", "\"mode\": 2"]);
     assert_eq!(
         json_number(answers[0], "gain"),

@@ -3,15 +3,14 @@
 //! (for a hello, on a silent device, inside a lock-step step): the answer as a client sees it,
 //! the zero-force frame as the device sees it.
 
-use super::harness::{assert_contains, json_number, netns_with_fastdds_peer, netns_with_peer};
+use super::harness::{
+    assert_contains, json_number, netns_with_fastdds_peer, netns_with_peer, nth,
+};
 
 /// The peer's record of one transition.
 fn step(out: &str, i: usize) -> &str {
     let steps = out.split("{\"transition\"").skip(1).collect::<Vec<_>>();
-    steps
-        .get(i)
-        .copied()
-        .unwrap_or_else(|| panic!("no step {i}: {out}"))
+    nth(&steps, i, "step")
 }
 
 #[test]
@@ -230,8 +229,7 @@ fn fastdds_peer_drives_the_lifecycle_and_stops_a_plant_whose_device_is_silent() 
         cat "$TMP/plant.log" >&2"#,
     );
     run.assert_ok();
-    let steps = run.lines_starting("{\"lifecycle\"");
-    assert_eq!(steps.len(), 2, "{}", run.all());
+    let steps = run.lines_exactly("{\"lifecycle\"", 2);
     assert_contains(
         steps[0],
         &[
@@ -246,8 +244,7 @@ fn fastdds_peer_drives_the_lifecycle_and_stops_a_plant_whose_device_is_silent() 
             "\"state\": \"finalized\"",
         ],
     );
-    let stops = run.lines_starting("{\"engaged\"");
-    assert_eq!(stops.len(), 2, "{}", run.all());
+    let stops = run.lines_exactly("{\"engaged\"", 2);
     for s in stops {
         assert_contains(s, &["\"engaged\": true", "\"released\": true"]);
         assert!(

@@ -9,9 +9,7 @@ use super::harness::{assert_at_least, assert_contains, json_number, netns_with_p
 #[track_caller]
 fn peer_lines<'a>(run: &'a Run, prefix: &str, n: usize) -> Vec<&'a str> {
     run.assert_ok();
-    let lines = run.lines_starting(prefix);
-    assert_eq!(lines.len(), n, "{}", run.all());
-    lines
+    run.lines_exactly(prefix, n)
 }
 
 #[test]
