@@ -8,6 +8,7 @@ use crate::actions::{
 use crate::{
     ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
 };
+use serde::Serialize;
 
 /// `builtin_interfaces/msg/Time` as rosidl defines it.
 pub const TIME_MSG: &str = include_str!("../std_interfaces/builtin_interfaces/msg/Time.msg");
@@ -30,8 +31,8 @@ pub const MOVE_ACTION: &str = include_str!("../action/Move.action");
 /// The text of `action/SwitchAttractor.action`.
 pub const SWITCH_ATTRACTOR_ACTION: &str = include_str!("../action/SwitchAttractor.action");
 
-/// A type with a ROS 2 interface definition.
-pub trait RosInterface {
+/// A type with a ROS 2 interface definition, serialised field for field as its CDR layout.
+pub trait RosInterface: Serialize + Default {
     /// Package name.
     const PACKAGE: &'static str;
     /// `msg`, `srv` or `action`.
@@ -238,44 +239,58 @@ pub fn split_action(text: &str) -> (&str, &str, &str) {
     (goal, result, feedback)
 }
 
-/// `impl RosInterface for Type: "package" / "kind" / "Name" = definition`.
-macro_rules! interface {
-    ($ty:ty: $package:literal / $kind:literal / $name:literal = $definition:expr) => {
-        impl RosInterface for $ty {
+/// What is done for each interface type of this crate (see [`for_each_interface`]).
+pub trait InterfaceVisitor {
+    /// Called once with the interface type `T`.
+    fn visit<T: RosInterface>(&mut self);
+}
+
+/// `impl RosInterface for Type` for every row `Type: "package" / "kind" / "Name" = definition;`,
+/// and [`for_each_interface`] over them all.
+macro_rules! interfaces {
+    ($($ty:ty: $package:literal / $kind:literal / $name:literal = $definition:expr;)*) => {
+        $(impl RosInterface for $ty {
             const PACKAGE: &'static str = $package;
             const KIND: &'static str = $kind;
             const NAME: &'static str = $name;
             fn definition() -> &'static str {
                 $definition
             }
+        })*
+
+        /// Hands every interface type of this crate to `visitor`, in the order of the files.
+        pub fn for_each_interface(visitor: &mut impl InterfaceVisitor) {
+            $(visitor.visit::<$ty>();)*
         }
     };
 }
 
-interface!(CapsuleState: "capsule_msgs" / "msg" / "CapsuleState" =
-    include_str!("../msg/CapsuleState.msg"));
-interface!(ActuatorForce: "capsule_msgs" / "msg" / "ActuatorForce" =
-    include_str!("../msg/ActuatorForce.msg"));
-interface!(ControllerStatus: "capsule_msgs" / "msg" / "ControllerStatus" =
-    include_str!("../msg/ControllerStatus.msg"));
-interface!(SetModeRequest: "capsule_msgs" / "srv" / "SetMode_Request" =
-    split_service(SET_MODE_SRV).0);
-interface!(SetModeResponse: "capsule_msgs" / "srv" / "SetMode_Response" =
-    split_service(SET_MODE_SRV).1);
-interface!(MoveGoal: "capsule_msgs" / "action" / "Move_Goal" =
-    split_action(MOVE_ACTION).0);
-interface!(MoveResult: "capsule_msgs" / "action" / "Move_Result" =
-    split_action(MOVE_ACTION).1);
-interface!(MoveFeedback: "capsule_msgs" / "action" / "Move_Feedback" =
-    split_action(MOVE_ACTION).2);
-interface!(SwitchAttractorGoal: "capsule_msgs" / "action" / "SwitchAttractor_Goal" =
-    split_action(SWITCH_ATTRACTOR_ACTION).0);
-interface!(SwitchAttractorResult: "capsule_msgs" / "action" / "SwitchAttractor_Result" =
-    split_action(SWITCH_ATTRACTOR_ACTION).1);
-interface!(SwitchAttractorFeedback: "capsule_msgs" / "action" / "SwitchAttractor_Feedback" =
-    split_action(SWITCH_ATTRACTOR_ACTION).2);
-interface!(Header: "std_msgs" / "msg" / "Header" = HEADER_MSG);
-interface!(Time: "builtin_interfaces" / "msg" / "Time" = TIME_MSG);
+interfaces! {
+    CapsuleState: "capsule_msgs" / "msg" / "CapsuleState" =
+        include_str!("../msg/CapsuleState.msg");
+    ActuatorForce: "capsule_msgs" / "msg" / "ActuatorForce" =
+        include_str!("../msg/ActuatorForce.msg");
+    ControllerStatus: "capsule_msgs" / "msg" / "ControllerStatus" =
+        include_str!("../msg/ControllerStatus.msg");
+    SetModeRequest: "capsule_msgs" / "srv" / "SetMode_Request" =
+        split_service(SET_MODE_SRV).0;
+    SetModeResponse: "capsule_msgs" / "srv" / "SetMode_Response" =
+        split_service(SET_MODE_SRV).1;
+    MoveGoal: "capsule_msgs" / "action" / "Move_Goal" =
+        split_action(MOVE_ACTION).0;
+    MoveResult: "capsule_msgs" / "action" / "Move_Result" =
+        split_action(MOVE_ACTION).1;
+    MoveFeedback: "capsule_msgs" / "action" / "Move_Feedback" =
+        split_action(MOVE_ACTION).2;
+    SwitchAttractorGoal: "capsule_msgs" / "action" / "SwitchAttractor_Goal" =
+        split_action(SWITCH_ATTRACTOR_ACTION).0;
+    SwitchAttractorResult: "capsule_msgs" / "action" / "SwitchAttractor_Result" =
+        split_action(SWITCH_ATTRACTOR_ACTION).1;
+    SwitchAttractorFeedback: "capsule_msgs" / "action" / "SwitchAttractor_Feedback" =
+        split_action(SWITCH_ATTRACTOR_ACTION).2;
+    Header: "std_msgs" / "msg" / "Header" = HEADER_MSG;
+    Time: "builtin_interfaces" / "msg" / "Time" = TIME_MSG;
+}
 
 #[cfg(test)]
 mod tests;

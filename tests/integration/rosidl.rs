@@ -7,13 +7,8 @@
 //! `capsule_msgs::interface`.
 
 use crate::common::succeeded;
-use capsule_msgs::actions::{
-    MoveFeedback, MoveGoal, MoveResult, SwitchAttractorFeedback, SwitchAttractorGoal,
-    SwitchAttractorResult,
-};
-use capsule_msgs::interface::{parse_definition, RosInterface, HEADER_MSG, TIME_MSG};
-use capsule_msgs::{
-    ActuatorForce, CapsuleState, ControllerStatus, Header, SetModeRequest, SetModeResponse, Time,
+use capsule_msgs::interface::{
+    for_each_interface, parse_definition, InterfaceVisitor, RosInterface, HEADER_MSG, TIME_MSG,
 };
 use serde_json::Value;
 use std::path::PathBuf;
@@ -193,19 +188,14 @@ fn rosidl_reads_every_interface_of_capsule_msgs() {
     let report = rosidl_report();
     // 3 packages' worth of generated C: every message and service compiled and ran
     assert!(report["generated_c_files"].as_u64().unwrap_or(0) >= 12);
-    check::<CapsuleState>(&report);
-    check::<ActuatorForce>(&report);
-    check::<ControllerStatus>(&report);
-    check::<SetModeRequest>(&report);
-    check::<SetModeResponse>(&report);
-    check::<MoveGoal>(&report);
-    check::<MoveResult>(&report);
-    check::<MoveFeedback>(&report);
-    check::<SwitchAttractorGoal>(&report);
-    check::<SwitchAttractorResult>(&report);
-    check::<SwitchAttractorFeedback>(&report);
-    check::<Header>(&report);
-    check::<Time>(&report);
+    /// Checks each interface against the report.
+    struct Check<'a>(&'a Value);
+    impl InterfaceVisitor for Check<'_> {
+        fn visit<T: RosInterface>(&mut self) {
+            check::<T>(self.0);
+        }
+    }
+    for_each_interface(&mut Check(&report));
     for action in ["Move", "SwitchAttractor"] {
         check_derived(&report, action);
     }

@@ -199,26 +199,17 @@ fn check(shape: &Shape, text: &str, path: &str) -> Result<(), String> {
 
 #[test]
 fn every_rust_type_matches_its_interface_file_field_for_field() {
-    /// A type's name, its serde shape and its interface text.
-    fn case<T: RosInterface + Serialize + Default>() -> (&'static str, Shape, &'static str) {
-        (T::NAME, shape_of::<T>(), T::definition())
+    /// Every type's name, serde shape and interface text.
+    struct Cases(Vec<(&'static str, Shape, &'static str)>);
+    impl InterfaceVisitor for Cases {
+        fn visit<T: RosInterface>(&mut self) {
+            self.0.push((T::NAME, shape_of::<T>(), T::definition()));
+        }
     }
-    let cases = [
-        case::<CapsuleState>(),
-        case::<ActuatorForce>(),
-        case::<ControllerStatus>(),
-        case::<SetModeRequest>(),
-        case::<SetModeResponse>(),
-        case::<MoveGoal>(),
-        case::<MoveResult>(),
-        case::<MoveFeedback>(),
-        case::<SwitchAttractorGoal>(),
-        case::<SwitchAttractorResult>(),
-        case::<SwitchAttractorFeedback>(),
-        case::<Header>(),
-        case::<Time>(),
-    ];
-    for (name, shape, text) in cases {
+    let mut cases = Cases(Vec::new());
+    for_each_interface(&mut cases);
+    assert_eq!(cases.0.len(), 13);
+    for (name, shape, text) in cases.0 {
         assert!(
             !parse_definition(text).fields.is_empty(),
             "{name}: no fields parsed"

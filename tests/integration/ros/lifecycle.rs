@@ -3,9 +3,7 @@
 //! (for a hello, on a silent device, inside a lock-step step): the answer as a client sees it,
 //! the zero-force frame as the device sees it.
 
-use super::harness::{
-    assert_contains, json_number, netns_with_fastdds_peer, netns_with_peer, nth,
-};
+use super::harness::{assert_contains, json_number, netns_with_fastdds_peer, netns_with_peer, nth};
 
 /// The peer's record of one transition.
 fn step(out: &str, i: usize) -> &str {
