@@ -364,6 +364,14 @@ fn basin_fig(
     })
 }
 
+/// `base` at each of `values` of `param`, each labelled with its value (a figure's panels).
+fn over(base: &Scene, param: Param, values: &[f64]) -> Vec<(Option<f64>, Scene)> {
+    values
+        .iter()
+        .map(|&v| (Some(v), param.apply(base, v)))
+        .collect()
+}
+
 fn fig_11(ctx: &Ctx) -> Result<Vec<Fig>> {
     let mut s = section3(Friction::COULOMB, 0.8);
     s.drive.omega = 0.85;
@@ -379,10 +387,7 @@ fn fig_11(ctx: &Ctx) -> Result<Vec<Fig>> {
 
 fn fig_18(ctx: &Ctx) -> Result<Vec<Fig>> {
     let base = section3(Friction::COULOMB, 0.8);
-    let scenes = [0.682, 0.9, 1.1, 1.3, 1.5, 1.64]
-        .into_iter()
-        .map(|a| (Some(a), Param::Alpha.apply(&base, a)))
-        .collect();
+    let scenes = over(&base, Param::Alpha, &[0.682, 0.9, 1.1, 1.3, 1.5, 1.64]);
     Ok(vec![basin_fig(
         18,
         "Fig 18: basins over alpha (Coulomb, k_p 0)",
@@ -395,10 +400,7 @@ fn fig_18(ctx: &Ctx) -> Result<Vec<Fig>> {
 
 fn fig_19(ctx: &Ctx) -> Result<Vec<Fig>> {
     let base = section3(Friction::COULOMB, 1.5);
-    let scenes = [0.0, 0.05, 0.1]
-        .into_iter()
-        .map(|k| (Some(k), Param::Kp.apply(&base, k)))
-        .collect();
+    let scenes = over(&base, Param::Kp, &[0.0, 0.05, 0.1]);
     Ok(vec![basin_fig(
         19,
         "Fig 19: basins at alpha 1.5 for k_p 0, 0.05, 0.1 (Coulomb)",
@@ -468,45 +470,27 @@ fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
     on.control.kp = 1.0;
     let (r0, h0) = history(&off, 10)?;
     let (r1, h1) = history(&on, 10)?;
-    let grey = "#999999".to_string();
-    let red = "#d62728".to_string();
-    let pp = |h: &[Snapshot]| {
+    let pp = |h: &[Snapshot]| -> Vec<(f64, f64)> {
         h.iter()
             .map(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2))
             .collect()
     };
-    let xt = |h: &[Snapshot]| h.iter().map(|s| (s.tau, s.state.x2)).collect();
-    let ft = |h: &[Snapshot]| h.iter().map(|s| (s.tau, s.actuator_force)).collect();
-    let curve =
-        |name: &str, colour: &String, points| Curve::new(name, colour.clone(), Style::Line, points);
-    let a = Panel::new(
-        "(a) phase plane",
-        "x1 - x2",
-        "y1 - y2",
+    let xt =
+        |h: &[Snapshot]| -> Vec<(f64, f64)> { h.iter().map(|s| (s.tau, s.state.x2)).collect() };
+    let ft = |h: &[Snapshot]| -> Vec<(f64, f64)> {
+        h.iter().map(|s| (s.tau, s.actuator_force)).collect()
+    };
+    // every panel: the same projection of both runs, k_p 0 grey and k_p 1 red
+    let both = |of: &dyn Fn(&[Snapshot]) -> Vec<(f64, f64)>| {
         vec![
-            curve("k_p 0", &grey, pp(&h0)),
-            curve("k_p 1", &red, pp(&h1)),
-        ],
-    )
-    .with_vline(off.model.capsule.delta, "#2ca02c");
-    let b = Panel::new(
-        "(b) capsule displacement",
-        "tau",
-        "x2",
-        vec![
-            curve("k_p 0", &grey, xt(&h0)),
-            curve("k_p 1", &red, xt(&h1)),
-        ],
-    );
-    let f = Panel::new(
-        "Fig 17(a) actuator force",
-        "tau",
-        "f_a",
-        vec![
-            curve("k_p 0", &grey, ft(&h0)),
-            curve("k_p 1", &red, ft(&h1)),
-        ],
-    );
+            Curve::new("k_p 0", "#999999", Style::Line, of(&h0)),
+            Curve::new("k_p 1", "#d62728", Style::Line, of(&h1)),
+        ]
+    };
+    let a = Panel::new("(a) phase plane", "x1 - x2", "y1 - y2", both(&pp))
+        .with_vline(off.model.capsule.delta, "#2ca02c");
+    let b = Panel::new("(b) capsule displacement", "tau", "x2", both(&xt));
+    let f = Panel::new("Fig 17(a) actuator force", "tau", "f_a", both(&ft));
     let cap = vec![format!(
         "Coulomb Stribeck (v_s {}), the last 10 of 300 periods from rest; {}",
         V_S.paper,

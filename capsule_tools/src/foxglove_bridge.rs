@@ -33,6 +33,7 @@ use capsule_msgs::{ActuatorForce, CapsuleState, ControllerStatus, Time};
 use capsule_ros_base::error::{bail, Context as _, Result};
 use foxglove::{ChannelBuilder, RawChannel, Schema};
 use futures::StreamExt;
+use serde::Serialize;
 use serde_json::json;
 use tracing::{info, warn};
 
@@ -233,7 +234,6 @@ pub fn status_json(s: &ControllerStatus) -> serde_json::Value {
 
 /// An action sample as its channel's JSON, stamped `t` \[s\].
 pub fn action_json(sample: &ActionSample, t: f64) -> serde_json::Value {
-    let hex = |id: &[u8; 16]| id.iter().map(|b| format!("{b:02x}")).collect::<String>();
     let statuses = |a: &GoalStatusArray| {
         let goals: Vec<serde_json::Value> = a
             .status_list
@@ -250,24 +250,31 @@ pub fn action_json(sample: &ActionSample, t: f64) -> serde_json::Value {
         json!({"t": t, "goals": goals})
     };
     match sample {
-        ActionSample::MoveFeedback(m) => json!({
-            "t": t,
-            "goal_id": hex(&m.goal_id),
-            "travelled_m": m.feedback.travelled_m,
-            "remaining_m": m.feedback.remaining_m,
-            "speed_m_per_s": m.feedback.speed_m_per_s,
-            "mode": m.feedback.mode,
-            "mode_name": capsule_msgs::mode_name(m.feedback.mode).unwrap_or("?"),
-        }),
-        ActionSample::SwitchFeedback(m) => json!({
-            "t": t,
-            "goal_id": hex(&m.goal_id),
-            "switch_state": m.feedback.switch_state,
-            "tries": m.feedback.tries,
-            "orbit_period": m.feedback.orbit_period,
-        }),
+        ActionSample::MoveFeedback(m) => {
+            let mut v = feedback_json(t, &m.goal_id, &m.feedback);
+            v["mode_name"] = json!(capsule_msgs::mode_name(m.feedback.mode).unwrap_or("?"));
+            v
+        }
+        ActionSample::SwitchFeedback(m) => feedback_json(t, &m.goal_id, &m.feedback),
         ActionSample::MoveStatus(a) | ActionSample::SwitchStatus(a) => statuses(a),
     }
+}
+
+/// A goal id in hex.
+fn hex(id: &[u8; 16]) -> String {
+    id.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A goal's feedback as its channel's JSON: `t`, the goal's id, then the feedback's fields.
+fn feedback_json(t: f64, goal_id: &[u8; 16], feedback: &impl Serialize) -> serde_json::Value {
+    let mut v = json!({"t": t, "goal_id": hex(goal_id)});
+    // a struct of numbers is always an object
+    if let (Some(out), Ok(serde_json::Value::Object(fields))) =
+        (v.as_object_mut(), serde_json::to_value(feedback))
+    {
+        out.extend(fields);
+    }
+    v
 }
 
 fn stamp_json(t: Time) -> serde_json::Value {
@@ -770,6 +777,58 @@ mod tests {
             let e = check_host(bad).map(|_| ()).unwrap_err().to_string();
             assert!(e.contains("--host") && e.contains("127.0.0.1"), "{e}");
         }
+    }
+
+    #[test]
+    fn feedback_json_has_the_fields_its_schema_names() {
+        use capsule_msgs::actions::{FeedbackMessage, MoveFeedback, SwitchAttractorFeedback};
+        let keys = |v: &serde_json::Value| {
+            let mut k: Vec<String> = v
+                .as_object()
+                .map_or(vec![], |o| o.keys().cloned().collect());
+            k.sort();
+            k
+        };
+        let goal_id = [0xab; 16];
+        let feedback = MoveFeedback {
+            travelled_m: 0.004,
+            remaining_m: -0.001,
+            speed_m_per_s: 0.002,
+            mode: 1,
+        };
+        let moved = action_json(
+            &ActionSample::MoveFeedback(FeedbackMessage { goal_id, feedback }),
+            1.5,
+        );
+        let feedback = SwitchAttractorFeedback {
+            switch_state: 2,
+            tries: 1,
+            orbit_period: 3,
+        };
+        let switched = action_json(
+            &ActionSample::SwitchFeedback(FeedbackMessage { goal_id, feedback }),
+            2.0,
+        );
+        for (json, schema) in [
+            (&moved, MOVE_FEEDBACK_SCHEMA),
+            (&switched, SWITCH_FEEDBACK_SCHEMA),
+        ] {
+            let schema: serde_json::Value = serde_json::from_str(schema).unwrap_or_default();
+            assert_eq!(keys(json), keys(&schema["properties"]), "{json}");
+            assert_eq!(json["goal_id"], "ab".repeat(16));
+        }
+        assert_eq!(
+            (moved["t"].as_f64(), moved["remaining_m"].as_f64()),
+            (Some(1.5), Some(-0.001))
+        );
+        assert_eq!(moved["mode_name"], "FORWARD");
+        assert_eq!(
+            (
+                switched["tries"].as_i64(),
+                switched["orbit_period"].as_i64()
+            ),
+            (Some(1), Some(3))
+        );
     }
 
     #[test]

@@ -117,12 +117,7 @@ fn dependency_tree(krate: &str) -> BTreeSet<String> {
         .current_dir(root())
         .output()
         .unwrap_or_else(|e| panic!("cannot run cargo tree: {e}"));
-    assert!(
-        out.status.success(),
-        "cargo tree -p {krate}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout)
+    crate::common::succeeded(&out, &format!("cargo tree -p {krate}"))
         .lines()
         .filter_map(|l| l.split_whitespace().next().map(str::to_string))
         .collect()
