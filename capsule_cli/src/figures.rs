@@ -470,27 +470,42 @@ fn figs_16_17(_: &Ctx) -> Result<Vec<Fig>> {
     on.control.kp = 1.0;
     let (r0, h0) = history(&off, 10)?;
     let (r1, h1) = history(&on, 10)?;
-    let pp = |h: &[Snapshot]| -> Vec<(f64, f64)> {
-        h.iter()
-            .map(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2))
-            .collect()
-    };
-    let xt =
-        |h: &[Snapshot]| -> Vec<(f64, f64)> { h.iter().map(|s| (s.tau, s.state.x2)).collect() };
-    let ft = |h: &[Snapshot]| -> Vec<(f64, f64)> {
-        h.iter().map(|s| (s.tau, s.actuator_force)).collect()
-    };
-    // every panel: the same projection of both runs, k_p 0 grey and k_p 1 red
-    let both = |of: &dyn Fn(&[Snapshot]) -> Vec<(f64, f64)>| {
+    // every panel: one point of each snapshot of both runs, k_p 0 grey and k_p 1 red
+    let both = |point: fn(&Snapshot) -> (f64, f64)| {
         vec![
-            Curve::new("k_p 0", "#999999", Style::Line, of(&h0)),
-            Curve::new("k_p 1", "#d62728", Style::Line, of(&h1)),
+            Curve::new(
+                "k_p 0",
+                "#999999",
+                Style::Line,
+                h0.iter().map(point).collect(),
+            ),
+            Curve::new(
+                "k_p 1",
+                "#d62728",
+                Style::Line,
+                h1.iter().map(point).collect(),
+            ),
         ]
     };
-    let a = Panel::new("(a) phase plane", "x1 - x2", "y1 - y2", both(&pp))
-        .with_vline(off.model.capsule.delta, "#2ca02c");
-    let b = Panel::new("(b) capsule displacement", "tau", "x2", both(&xt));
-    let f = Panel::new("Fig 17(a) actuator force", "tau", "f_a", both(&ft));
+    let a = Panel::new(
+        "(a) phase plane",
+        "x1 - x2",
+        "y1 - y2",
+        both(|s| (s.state.x1 - s.state.x2, s.state.y1 - s.state.y2)),
+    )
+    .with_vline(off.model.capsule.delta, "#2ca02c");
+    let b = Panel::new(
+        "(b) capsule displacement",
+        "tau",
+        "x2",
+        both(|s| (s.tau, s.state.x2)),
+    );
+    let f = Panel::new(
+        "Fig 17(a) actuator force",
+        "tau",
+        "f_a",
+        both(|s| (s.tau, s.actuator_force)),
+    );
     let cap = vec![format!(
         "Coulomb Stribeck (v_s {}), the last 10 of 300 periods from rest; {}",
         V_S.paper,
