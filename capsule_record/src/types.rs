@@ -174,6 +174,16 @@ pub const ACTION_EVENT_TYPES: [&str; 5] = [
     type_names::CANCEL_GOAL_EVENT,
 ];
 
+/// The REP-2016 hash of a type as recorded: capsule_msgs' hash of it, or of the rosidl type a
+/// recording names otherwise (`cancel_goal`'s events, see
+/// [`type_names::CANCEL_GOAL_EVENT`]).
+pub fn type_hash(recorded: &str) -> Option<&'static str> {
+    match recorded {
+        type_names::CANCEL_GOAL_EVENT => capsule_msgs::hashes::of("action_msgs/srv/CancelGoal_Event"),
+        other => capsule_msgs::hashes::of(other),
+    }
+}
+
 /// The texts of the types an action's service events nest, by the spelling their fields use
 /// (`capsule_msgs/Move_SendGoal_Request`; with the package, as Foxglove resolves a field only
 /// against a `MSG:` line of its exact spelling): each action's goal, result, and its two
@@ -372,8 +382,9 @@ mod tests {
         );
         // rosbag2's metadata names each with its REP-2016 hash
         for t in ACTION_EVENT_TYPES {
-            assert!(capsule_msgs::hashes::of(t).is_some(), "{t}");
+            assert!(type_hash(t).is_some_and(|h| h.starts_with("RIHS01_")), "{t}");
         }
+        assert_eq!(type_hash(type_names::STATE), capsule_msgs::hashes::of(type_names::STATE));
     }
 
     #[test]

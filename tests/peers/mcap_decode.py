@@ -39,7 +39,8 @@ def plain(v):
         return [plain(x) for x in v]
     names = getattr(v, "__dataclass_fields__", None) or getattr(v, "__slots__", None)
     if names:
-        return {k: plain(getattr(v, k)) for k in names if not k.startswith("_")}
+        # fields only: not the constants (upper case) nor rosbags' private names
+        return {k: plain(getattr(v, k)) for k in names if not k.startswith("_") and not k.isupper()}
     return v
 
 
