@@ -198,7 +198,7 @@ impl std::str::FromStr for Introspection {
 }
 
 /// The three services' introspection publishers.
-struct Events<G, R> {
+struct Events<G: Serialize, R: Serialize> {
     send_goal: Publisher<SendGoalEvent<G>>,
     get_result: Publisher<GetResultEvent<R>>,
     cancel_goal: Publisher<CancelGoalEvent>,
@@ -235,8 +235,8 @@ impl<G: Serialize, R: Serialize> Events<G, R> {
             request: kept(request, self.contents),
             response: kept(response, self.contents),
         };
-        if let Err(e) = on.publish(event) {
-            warn!("{}: service event not sent: {e:?}", self.name);
+        if on.publish(event).is_err() {
+            warn!("{}: service event not sent", self.name);
         }
     }
 }
