@@ -179,7 +179,9 @@ pub const ACTION_EVENT_TYPES: [&str; 5] = [
 /// [`type_names::CANCEL_GOAL_EVENT`]).
 pub fn type_hash(recorded: &str) -> Option<&'static str> {
     match recorded {
-        type_names::CANCEL_GOAL_EVENT => capsule_msgs::hashes::of("action_msgs/srv/CancelGoal_Event"),
+        type_names::CANCEL_GOAL_EVENT => {
+            capsule_msgs::hashes::of("action_msgs/srv/CancelGoal_Event")
+        }
         other => capsule_msgs::hashes::of(other),
     }
 }
@@ -382,9 +384,15 @@ mod tests {
         );
         // rosbag2's metadata names each with its REP-2016 hash
         for t in ACTION_EVENT_TYPES {
-            assert!(type_hash(t).is_some_and(|h| h.starts_with("RIHS01_")), "{t}");
+            assert!(
+                type_hash(t).is_some_and(|h| h.starts_with("RIHS01_")),
+                "{t}"
+            );
         }
-        assert_eq!(type_hash(type_names::STATE), capsule_msgs::hashes::of(type_names::STATE));
+        assert_eq!(
+            type_hash(type_names::STATE),
+            capsule_msgs::hashes::of(type_names::STATE)
+        );
     }
 
     #[test]
