@@ -38,6 +38,16 @@ pub const DIAGNOSTICS: Setting = Setting::new(
 )
 .flag_only()
 .inverted();
+/// The actions' service introspection (parsed by the node:
+/// `capsule_ros_base::action::Introspection`).
+pub const ACTION_INTROSPECTION: Setting = Setting::new(
+    "action_introspection",
+    "What the actions' services publish on their _service_event topics, as rcl's service \
+     introspection: contents (goals and results: what a recording of the actions holds), \
+     metadata (who asked when, no payload) or off",
+    Kind::Choice(&["contents", "metadata", "off"]),
+)
+.flag_only();
 
 /// Mode (set as a set_mode request taking effect now).
 pub const MODE: Setting = Setting::new(
@@ -148,7 +158,7 @@ pub const USE_SIM_TIME: Setting = Setting::new(
 );
 
 /// The controller's settings, in the order `--help` shows their flags.
-pub const CONTROLLER: [Setting; 17] = [
+pub const CONTROLLER: [Setting; 18] = [
     SCENE,
     crate::settings::CHECK,
     MODE,
@@ -166,6 +176,7 @@ pub const CONTROLLER: [Setting; 17] = [
     USE_SIM_TIME,
     STATUS_PERIOD_MS,
     DIAGNOSTICS,
+    ACTION_INTROSPECTION,
 ];
 
 /// The gain settings alone: what `capsule replay --check-controller` takes to re-drive the

@@ -35,6 +35,7 @@ use crate::controller_core::ControllerCore;
 use crate::controller_endpoints::{Inputs, Outputs};
 use crate::controller_handlers::{lock, Handlers};
 use crate::controller_params;
+use capsule_ros_base::action::Introspection;
 use capsule_ros_base::endpoints::Wire;
 
 /// How the controller node is set up (besides the ROS settings).
@@ -48,6 +49,8 @@ pub struct ControllerOptions {
     pub params: ParamTable,
     /// Publish `/diagnostics` at 1 Hz (see [`crate::controller_diagnostics`]).
     pub diagnostics: bool,
+    /// What the actions' services publish on their `_service_event` topics.
+    pub action_introspection: Introspection,
 }
 
 /// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM.
@@ -149,7 +152,13 @@ impl<E: Future<Output = Result<()>>> NodeLife for ControllerNode<E> {
         )?;
         let in_process = matches!(transport, Transport::InProcess(_));
         let mut inputs = Inputs::build(&settings, &mut node, &graph, applied, in_process)?;
-        let actions = ControllerActions::build(&settings, &mut node, &graph)?;
+        let actions = ControllerActions::build(
+            (&settings, &context),
+            &mut node,
+            &graph,
+            &clock,
+            opts.action_introspection,
+        )?;
         let handlers = Arc::new(Mutex::new(Handlers::new(
             opts.core, handle, clock, &settings,
         )));

@@ -26,7 +26,8 @@ use capsule_msgs::actions::{
 use capsule_msgs::names::{topics, type_names};
 use capsule_msgs::std_types::Bool;
 use capsule_msgs::{ControllerStatus, SetModeRequest, Time};
-use capsule_ros_base::action::{Action, Request};
+use capsule_ros_base::action::{Action, Introspection, Request};
+use capsule_ros_base::clock::RosClock;
 use capsule_ros_base::error::Result;
 use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{
@@ -36,7 +37,7 @@ use capsule_ros_base::{
     types,
 };
 use ros2_client::action::GoalId;
-use ros2_client::{Node, Subscription};
+use ros2_client::{Context, Node, Subscription};
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;
@@ -71,18 +72,39 @@ pub struct ControllerActions {
 }
 
 impl ControllerActions {
-    /// The actions' endpoints on `node`, and a reader of the plant's emergency stop.
-    pub fn build(settings: &RosOptions, node: &mut Node, graph: &Graph) -> Result<Self> {
+    /// The actions' endpoints on `node` (their services' events as `introspection` says,
+    /// stamped with `clock`), and a reader of the plant's emergency stop.
+    pub fn build(
+        (settings, context): (&RosOptions, &Context),
+        node: &mut Node,
+        graph: &Graph,
+        clock: &RosClock,
+        introspection: Introspection,
+    ) -> Result<Self> {
         let estop_topic =
             settings.topic(node, topics::EMERGENCY_STOP, types::bool(), &qos::latched())?;
+        let events = (clock, introspection);
         Ok(ControllerActions {
-            moves: Action::new(settings, node, graph, topics::MOVE, type_names::MOVE)?,
+            moves: Action::new(settings, node, graph, topics::MOVE, type_names::MOVE)?.introspect(
+                context,
+                settings,
+                node,
+                type_names::MOVE,
+                events,
+            )?,
             switches: Action::new(
                 settings,
                 node,
                 graph,
                 topics::SWITCH_ATTRACTOR,
                 type_names::SWITCH_ATTRACTOR,
+            )?
+            .introspect(
+                context,
+                settings,
+                node,
+                type_names::SWITCH_ATTRACTOR,
+                events,
             )?,
             estop: subscribe(node, &estop_topic, &qos::latched())?,
             estopped: false,

@@ -23,6 +23,8 @@ pub const GOAL_STATUS_MSG: &str = include_str!("../std_interfaces/action_msgs/ms
 /// `action_msgs/msg/GoalStatusArray` as rosidl defines it (every action's status topic).
 pub const GOAL_STATUS_ARRAY_MSG: &str =
     include_str!("../std_interfaces/action_msgs/msg/GoalStatusArray.msg");
+/// `action_msgs/srv/CancelGoal` as rosidl defines it (every action's cancel service).
+pub const CANCEL_GOAL_SRV: &str = include_str!("../std_interfaces/action_msgs/srv/CancelGoal.srv");
 /// The text of `srv/SetMode.srv`.
 pub const SET_MODE_SRV: &str = include_str!("../srv/SetMode.srv");
 

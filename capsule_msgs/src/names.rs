@@ -149,6 +149,22 @@ pub mod type_names {
         "capsule_msgs/action/SwitchAttractor_FeedbackMessage";
     /// Every action's status topic.
     pub const GOAL_STATUS_ARRAY: &str = "action_msgs/msg/GoalStatusArray";
+    /// The Move action's `send_goal` service events (rosidl's derived message).
+    pub const MOVE_SEND_GOAL_EVENT: &str = "capsule_msgs/action/Move_SendGoal_Event";
+    /// The Move action's `get_result` service events (rosidl's derived message).
+    pub const MOVE_GET_RESULT_EVENT: &str = "capsule_msgs/action/Move_GetResult_Event";
+    /// The SwitchAttractor action's `send_goal` service events.
+    pub const SWITCH_ATTRACTOR_SEND_GOAL_EVENT: &str =
+        "capsule_msgs/action/SwitchAttractor_SendGoal_Event";
+    /// The SwitchAttractor action's `get_result` service events.
+    pub const SWITCH_ATTRACTOR_GET_RESULT_EVENT: &str =
+        "capsule_msgs/action/SwitchAttractor_GetResult_Event";
+    /// Every action's `cancel_goal` service events as a recording names them. rosidl's name is
+    /// `action_msgs/srv/CancelGoal_Event` (on DDS `action_msgs::srv::dds_::CancelGoal_Event_`,
+    /// as published), but rosbags 0.11 reads no `srv` type in an MCAP schema (it files it under
+    /// `action_msgs/srv/msg/`, then fails to open the file: KeyError), so the recording files it
+    /// under `msg`, with the same fields and bytes.
+    pub const CANCEL_GOAL_EVENT: &str = "action_msgs/msg/CancelGoal_Event";
     /// Every action's cancel service.
     pub const CANCEL_GOAL: &str = "action_msgs/srv/CancelGoal";
     /// Joint states and JointState commands.

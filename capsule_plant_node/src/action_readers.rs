@@ -2,15 +2,18 @@
 //! an action: its feedback and status topics (`<action>/_action/feedback`,
 //! `<action>/_action/status`, rosidl's types), read as an action client reads them but without
 //! the client's three services, so a recorder sends no goal and needs no permission to. The
-//! goals and results themselves travel in the action's services (rosbag2 gets them from service
-//! introspection, which the controller does not publish for its actions); the status topic shows
-//! each goal's acceptance and end.
+//! goals and results themselves travel in the action's services: a recorder reads them as
+//! rosbag2's `--all-actions` does, from the services' introspection events
+//! (`<action>/_action/{send_goal,get_result,cancel_goal}/_service_event`, which the controller
+//! publishes as rcl_action does, [`capsule_ros_base::action`]).
 
 use capsule_msgs::actions::{
-    FeedbackMessage, GoalStatusArray, MoveFeedback, SwitchAttractorFeedback,
+    FeedbackMessage, GoalStatusArray, MoveFeedback, MoveGoal, MoveResult, SwitchAttractorFeedback,
+    SwitchAttractorGoal, SwitchAttractorResult,
 };
 use capsule_msgs::names::{topics, type_names};
-use capsule_ros_base::action::{feedback_and_status_topics, status_qos};
+use capsule_record::types::{CancelGoalEvent, GetResultEvent, SendGoalEvent};
+use capsule_ros_base::action::{feedback_and_status_topics, service_event_topics, status_qos};
 use capsule_ros_base::error::Result;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions};
 use ros2_client::qos::History;
@@ -30,6 +33,23 @@ pub enum ActionSample {
     SwitchStatus(GoalStatusArray),
 }
 
+/// One service event of an action (its goals, results and cancels).
+#[derive(Debug, Clone)]
+pub enum ActionEvent {
+    /// Move's `send_goal`.
+    MoveSendGoal(SendGoalEvent<MoveGoal>),
+    /// Move's `get_result`.
+    MoveGetResult(GetResultEvent<MoveResult>),
+    /// Move's `cancel_goal`.
+    MoveCancelGoal(CancelGoalEvent),
+    /// SwitchAttractor's `send_goal`.
+    SwitchSendGoal(SendGoalEvent<SwitchAttractorGoal>),
+    /// SwitchAttractor's `get_result`.
+    SwitchGetResult(GetResultEvent<SwitchAttractorResult>),
+    /// SwitchAttractor's `cancel_goal`.
+    SwitchCancelGoal(CancelGoalEvent),
+}
+
 /// The actions' names under `controller_node` (relative, as a recorder names it): move, then
 /// switch_attractor.
 pub fn action_names(controller_node: &str) -> [String; 2] {
@@ -43,13 +63,24 @@ pub struct ActionReaders {
     move_status: Subscription<GoalStatusArray>,
     switch_feedback: Subscription<FeedbackMessage<SwitchAttractorFeedback>>,
     switch_status: Subscription<GoalStatusArray>,
+    events: Option<EventReaders>,
+}
+
+/// Readers of both actions' service events.
+struct EventReaders {
+    move_goal: Subscription<SendGoalEvent<MoveGoal>>,
+    move_result: Subscription<GetResultEvent<MoveResult>>,
+    move_cancel: Subscription<CancelGoalEvent>,
+    switch_goal: Subscription<SendGoalEvent<SwitchAttractorGoal>>,
+    switch_result: Subscription<GetResultEvent<SwitchAttractorResult>>,
+    switch_cancel: Subscription<CancelGoalEvent>,
 }
 
 /// Takes every sample `sub` holds into `f`, wrapped by `wrap`; how many.
-fn take_all<M: serde::de::DeserializeOwned + 'static>(
+fn take_all<M: serde::de::DeserializeOwned + 'static, S>(
     sub: &Subscription<M>,
-    wrap: fn(M) -> ActionSample,
-    f: &mut impl FnMut(ActionSample, &MessageInfo) -> Result<()>,
+    wrap: fn(M) -> S,
+    f: &mut impl FnMut(S, &MessageInfo) -> Result<()>,
 ) -> Result<usize> {
     let mut n = 0;
     loop {
@@ -68,12 +99,14 @@ fn take_all<M: serde::de::DeserializeOwned + 'static>(
 }
 
 impl ActionReaders {
-    /// Subscribes to the actions of `controller_node` (relative, as the recorder names it).
+    /// Subscribes to the actions of `controller_node` (relative, as the recorder names it): to
+    /// their service events too if `with_events`.
     pub fn subscribe(
         context: &ros2_client::Context,
         node: &mut ros2_client::Node,
         settings: &RosOptions,
         controller_node: &str,
+        with_events: bool,
     ) -> Result<Self> {
         let [m, s] = action_names(controller_node);
         let [mf, ms] = feedback_and_status_topics(context, settings, &m, type_names::MOVE)?;
@@ -88,7 +121,26 @@ impl ActionReaders {
             move_status: subscribe(node, &ms, &status)?,
             switch_feedback: subscribe(node, &sf, &deep)?,
             switch_status: subscribe(node, &ss, &status)?,
+            events: with_events
+                .then(|| EventReaders::subscribe(context, node, settings, [m.as_str(), s.as_str()]))
+                .transpose()?,
         })
+    }
+
+    /// Hands every service event the readers hold to `f`, with how it was received; how many
+    /// (none if not subscribed to them).
+    pub fn take_events(
+        &self,
+        mut f: impl FnMut(ActionEvent, &MessageInfo) -> Result<()>,
+    ) -> Result<usize> {
+        let Some(e) = &self.events else { return Ok(0) };
+        use ActionEvent::*;
+        Ok(take_all(&e.move_goal, MoveSendGoal, &mut f)?
+            + take_all(&e.move_result, MoveGetResult, &mut f)?
+            + take_all(&e.move_cancel, MoveCancelGoal, &mut f)?
+            + take_all(&e.switch_goal, SwitchSendGoal, &mut f)?
+            + take_all(&e.switch_result, SwitchGetResult, &mut f)?
+            + take_all(&e.switch_cancel, SwitchCancelGoal, &mut f)?)
     }
 
     /// Hands every sample the readers hold to `f`, with how it was received; how many.
@@ -102,5 +154,30 @@ impl ActionReaders {
                 + take_all(&self.switch_feedback, ActionSample::SwitchFeedback, &mut f)?
                 + take_all(&self.switch_status, ActionSample::SwitchStatus, &mut f)?,
         )
+    }
+}
+
+impl EventReaders {
+    /// Subscribes to the service events of the actions `move` and `switch` (relative names),
+    /// with the QoS the controller offers them (transient local: the events of goals sent
+    /// before the recorder matched come in too).
+    fn subscribe(
+        context: &ros2_client::Context,
+        node: &mut ros2_client::Node,
+        settings: &RosOptions,
+        [m, s]: [&str; 2],
+    ) -> Result<Self> {
+        let [mg, mr, mc] = service_event_topics(context, settings, m, type_names::MOVE)?;
+        let [sg, sr, sc] =
+            service_event_topics(context, settings, s, type_names::SWITCH_ATTRACTOR)?;
+        let q = qos::service_events();
+        Ok(EventReaders {
+            move_goal: subscribe(node, &mg, &q)?,
+            move_result: subscribe(node, &mr, &q)?,
+            move_cancel: subscribe(node, &mc, &q)?,
+            switch_goal: subscribe(node, &sg, &q)?,
+            switch_result: subscribe(node, &sr, &q)?,
+            switch_cancel: subscribe(node, &sc, &q)?,
+        })
     }
 }

@@ -1,6 +1,6 @@
 //! The recorder node: subscribes to every topic of the capsule graph (state, force commands,
 //! controller status, `/clock`, the `set_mode` service events, `/diagnostics` and the
-//! actions' feedback and status, [`crate::action_readers`]) and writes them to one MCAP file
+//! actions' feedback, status and service events, [`crate::action_readers`]) and writes them to one MCAP file
 //! per run through [`capsule_record`].
 //!
 //! Bytes: ros2-client hands over deserialised messages, so the recorder serialises them again
@@ -39,7 +39,7 @@ use tracing::{info, warn};
 use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 
-use crate::action_readers::{ActionReaders, ActionSample};
+use crate::action_readers::{ActionEvent, ActionReaders, ActionSample};
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -191,6 +191,18 @@ pub enum Channel {
     SwitchFeedback = 8,
     /// `<controller>/switch_attractor/_action/status`
     SwitchStatus = 9,
+    /// `<controller>/move/_action/send_goal/_service_event`
+    MoveSendGoalEvent = 10,
+    /// `<controller>/move/_action/get_result/_service_event`
+    MoveGetResultEvent = 11,
+    /// `<controller>/move/_action/cancel_goal/_service_event`
+    MoveCancelGoalEvent = 12,
+    /// `<controller>/switch_attractor/_action/send_goal/_service_event`
+    SwitchSendGoalEvent = 13,
+    /// `<controller>/switch_attractor/_action/get_result/_service_event`
+    SwitchGetResultEvent = 14,
+    /// `<controller>/switch_attractor/_action/cancel_goal/_service_event`
+    SwitchCancelGoalEvent = 15,
 }
 
 impl Channel {
@@ -207,7 +219,7 @@ impl Channel {
 
 /// Takes what the action readers hold into `rec`, each sample as received; how many.
 pub fn drain_actions(readers: &ActionReaders, rec: &mut GraphRecording) -> Result<usize> {
-    readers.take(|sample, info| {
+    let topics = readers.take(|sample, info| {
         let channel = Channel::of_action(&sample);
         match &sample {
             ActionSample::MoveFeedback(m) => rec.write_received(channel, m, info),
@@ -216,7 +228,54 @@ pub fn drain_actions(readers: &ActionReaders, rec: &mut GraphRecording) -> Resul
                 rec.write_received(channel, m, info)
             }
         }
-    })
+    })?;
+    let events = readers.take_events(|event, info| {
+        use ActionEvent::*;
+        match &event {
+            MoveSendGoal(e) => rec.write_received(Channel::MoveSendGoalEvent, e, info),
+            MoveGetResult(e) => rec.write_received(Channel::MoveGetResultEvent, e, info),
+            MoveCancelGoal(e) => rec.write_received(Channel::MoveCancelGoalEvent, e, info),
+            SwitchSendGoal(e) => rec.write_received(Channel::SwitchSendGoalEvent, e, info),
+            SwitchGetResult(e) => rec.write_received(Channel::SwitchGetResultEvent, e, info),
+            SwitchCancelGoal(e) => rec.write_received(Channel::SwitchCancelGoalEvent, e, info),
+        }
+    })?;
+    Ok(topics + events)
+}
+
+/// The actions' service events as a recording holds them, in [`Channel`] order after the
+/// actions' topics (move's `send_goal`, `get_result`, `cancel_goal`, then the switch's):
+/// relative name, ROS type (rosidl's), the QoS the controller offers
+/// ([`capsule_ros_base::qos::service_events`]).
+pub fn action_event_topics(controller_node: &str) -> [(String, &'static str, OfferedQos); 6] {
+    let offered = OfferedQos {
+        durability: capsule_record::types::Durability::TransientLocal,
+        ..OfferedQos::reliable(64)
+    };
+    let [m, s] = crate::action_readers::action_names(controller_node);
+    let event = |action: &str, service: &str, ros_type: &'static str| {
+        (
+            format!("{action}/_action/{service}/_service_event"),
+            ros_type,
+            offered,
+        )
+    };
+    [
+        event(&m, "send_goal", type_names::MOVE_SEND_GOAL_EVENT),
+        event(&m, "get_result", type_names::MOVE_GET_RESULT_EVENT),
+        event(&m, "cancel_goal", type_names::CANCEL_GOAL_EVENT),
+        event(
+            &s,
+            "send_goal",
+            type_names::SWITCH_ATTRACTOR_SEND_GOAL_EVENT,
+        ),
+        event(
+            &s,
+            "get_result",
+            type_names::SWITCH_ATTRACTOR_GET_RESULT_EVENT,
+        ),
+        event(&s, "cancel_goal", type_names::CANCEL_GOAL_EVENT),
+    ]
 }
 
 /// The actions' topics as a recording holds them, in [`Channel`] order after the graph's:
@@ -341,7 +400,8 @@ impl GraphRecording {
             let id = writer.add_topic(&full, ros_type, &OfferedQos::reliable(depth))?;
             channels.push((id, full, 0));
         }
-        for (name, ros_type, offered) in action_topics(controller_node) {
+        let actions = action_topics(controller_node).into_iter();
+        for (name, ros_type, offered) in actions.chain(action_event_topics(controller_node)) {
             let full = settings.resolve_name(&name);
             let id = writer.add_topic(&full, ros_type, &offered)?;
             channels.push((id, full, 0));
@@ -528,7 +588,8 @@ impl Readers {
         let clock = subscribe::<Clock>(node, &topics[3], &reader_qos)?;
         let event = subscribe::<SetModeEvent>(node, &topics[4], &qos::service_events())?;
         let diagnostics = subscribe::<DiagnosticArray>(node, &topics[5], &slow_qos)?;
-        let actions = ActionReaders::subscribe(context, node, settings, &opts.controller_node)?;
+        let actions =
+            ActionReaders::subscribe(context, node, settings, &opts.controller_node, true)?;
         if !graph
             .wait_publishers(force.guid(), 1, opts.wait_publishers)
             .await

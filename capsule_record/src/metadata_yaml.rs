@@ -58,7 +58,7 @@ pub fn metadata_yaml(topics: &[BagTopic], files: &[BagFile], ros_distro: &str) -
                     r#type: &t.type_name,
                     serialization_format: "cdr",
                     offered_qos_profiles: &t.qos_yaml,
-                    type_description_hash: "",
+                    type_description_hash: crate::types::type_hash(&t.type_name).unwrap_or(""),
                 },
                 message_count: t.count,
             })

@@ -2,16 +2,21 @@
 //! (ROS 2 service introspection), and the QoS text rosbag2 writes on every channel.
 
 use capsule_msgs::{
+    actions::{
+        CancelGoalRequest, CancelGoalResponse, GetResultRequest, GetResultResponse,
+        SendGoalRequest, SendGoalResponse,
+    },
     constants,
     interface::{
-        nested_definition, ros2msg_text, split_action, GOAL_STATUS_ARRAY_MSG, GOAL_STATUS_MSG,
-        MOVE_ACTION, SWITCH_ATTRACTOR_ACTION,
+        nested_definition, ros2msg_text, split_action, split_service, CANCEL_GOAL_SRV,
+        GOAL_STATUS_ARRAY_MSG, GOAL_STATUS_MSG, MOVE_ACTION, SWITCH_ATTRACTOR_ACTION,
     },
     names::type_names,
     ActuatorForce, CapsuleState, ControllerStatus, RosInterface, SetModeRequest, SetModeResponse,
     Time,
 };
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::sync::LazyLock;
 
 /// `service_msgs/msg/ServiceEventInfo` (ROS 2 Jazzy): what a service event reports.
@@ -38,21 +43,35 @@ constants!(ServiceEventInfo: u8 {
     RESPONSE_RECEIVED: 3,
 });
 
-/// One service event of `set_mode`: the layout rosidl generates for service introspection
-/// (`SetMode_Event`: info, then request and response as bounded sequences of at most one),
-/// recorded as `capsule_msgs/msg/SetModeEvent`. Why not the rosidl name: both reference
-/// readers refuse `srv` types in MCAP schemas (`mcap-ros2-support` rejects the `_` in
-/// `SetMode_Event`, `rosbags` files it under `capsule_msgs/srv/msg/...`), so the recording uses
-/// an underscore-free `msg` name with byte-identical CDR.
+/// One service event: the layout rosidl generates for service introspection (`S_Event`: info,
+/// then request and response as bounded sequences of at most one, empty when not introspected
+/// or not of the event's kind).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct SetModeEvent {
+pub struct ServiceEvent<Q, A> {
     /// Event kind, time, client and sequence number.
     pub info: ServiceEventInfo,
-    /// The request (empty when not introspected).
-    pub request: Vec<SetModeRequest>,
-    /// The response (empty on request events).
-    pub response: Vec<SetModeResponse>,
+    /// The request (on request events).
+    pub request: Vec<Q>,
+    /// The response (on response events).
+    pub response: Vec<A>,
 }
+
+/// One service event of `set_mode`, recorded as `capsule_msgs/msg/SetModeEvent`. Why not the
+/// rosidl name: both Python reference readers refuse `srv` types in MCAP schemas
+/// (`mcap-ros2-support` rejects the `_` in `SetMode_Event`, `rosbags` files it under
+/// `capsule_msgs/srv/msg/...`), so the recording uses an underscore-free `msg` name with
+/// byte-identical CDR. (The actions' events keep rosidl's names: rosbags and Foxglove read
+/// them, see [`ACTION_EVENT_TYPES`].)
+pub type SetModeEvent = ServiceEvent<SetModeRequest, SetModeResponse>;
+
+/// An action's `send_goal` service event (rosidl's `A_SendGoal_Event`), goals `G`.
+pub type SendGoalEvent<G> = ServiceEvent<SendGoalRequest<G>, SendGoalResponse>;
+
+/// An action's `get_result` service event (rosidl's `A_GetResult_Event`), results `R`.
+pub type GetResultEvent<R> = ServiceEvent<GetResultRequest, GetResultResponse<R>>;
+
+/// An action's `cancel_goal` service event (`action_msgs/srv/CancelGoal_Event`).
+pub type CancelGoalEvent = ServiceEvent<CancelGoalRequest, CancelGoalResponse>;
 
 /// `service_msgs/msg/ServiceEventInfo` text (Jazzy).
 pub const SERVICE_EVENT_INFO_MSG: &str = "uint8 REQUEST_SENT = 0\nuint8 REQUEST_RECEIVED = 1\nuint8 RESPONSE_SENT = 2\nuint8 RESPONSE_RECEIVED = 3\n\nuint8 event_type\nbuiltin_interfaces/Time stamp\nchar[16] client_gid\nint64 sequence_number\n";
@@ -116,6 +135,7 @@ pub fn ros2msg_schema(type_name: &str) -> Option<String> {
                 SWITCH_ATTRACTOR_ACTION,
             ))
         }
+        t if ACTION_EVENT_TYPES.contains(&t) => return action_event_schema(t),
         _ => return None,
     };
     Some(ros2msg_text(root, package, &nested_text))
@@ -144,6 +164,90 @@ pub const ACTION_TOPIC_TYPES: [&str; 3] = [
     type_names::SWITCH_ATTRACTOR_FEEDBACK_MESSAGE,
     type_names::GOAL_STATUS_ARRAY,
 ];
+
+/// The types of the actions' service events a recording holds (`<action>/_action/<service>/
+/// _service_event`, as rosbag2 records an action): rosidl's names, as rcl publishes them.
+pub const ACTION_EVENT_TYPES: [&str; 5] = [
+    type_names::MOVE_SEND_GOAL_EVENT,
+    type_names::MOVE_GET_RESULT_EVENT,
+    type_names::SWITCH_ATTRACTOR_SEND_GOAL_EVENT,
+    type_names::SWITCH_ATTRACTOR_GET_RESULT_EVENT,
+    type_names::CANCEL_GOAL_EVENT,
+];
+
+/// The REP-2016 hash of a type as recorded: capsule_msgs' hash of it, or of the rosidl type a
+/// recording names otherwise (`cancel_goal`'s events, see
+/// [`type_names::CANCEL_GOAL_EVENT`]).
+pub fn type_hash(recorded: &str) -> Option<&'static str> {
+    match recorded {
+        type_names::CANCEL_GOAL_EVENT => {
+            capsule_msgs::hashes::of("action_msgs/srv/CancelGoal_Event")
+        }
+        other => capsule_msgs::hashes::of(other),
+    }
+}
+
+/// The texts of the types an action's service events nest, by the spelling their fields use
+/// (`capsule_msgs/Move_SendGoal_Request`; with the package, as Foxglove resolves a field only
+/// against a `MSG:` line of its exact spelling): each action's goal, result, and its two
+/// services' halves as rosidl derives them, and `action_msgs/srv/CancelGoal`'s halves.
+static ACTION_PARTS: LazyLock<BTreeMap<String, String>> = LazyLock::new(|| {
+    let mut parts = BTreeMap::new();
+    for (action, text) in [
+        (type_names::MOVE, MOVE_ACTION),
+        (type_names::SWITCH_ATTRACTOR, SWITCH_ATTRACTOR_ACTION),
+    ] {
+        let (package, name) = type_names::split(action);
+        let part = |p: &str| format!("{package}/{name}_{p}");
+        let (goal, result, _) = split_action(text);
+        let uuid = "unique_identifier_msgs/UUID goal_id\n";
+        for (p, t) in [
+            ("Goal", goal.to_string()),
+            ("Result", result.to_string()),
+            ("SendGoal_Request", format!("{uuid}{} goal\n", part("Goal"))),
+            (
+                "SendGoal_Response",
+                "bool accepted\nbuiltin_interfaces/Time stamp\n".to_string(),
+            ),
+            ("GetResult_Request", uuid.to_string()),
+            (
+                "GetResult_Response",
+                format!("int8 status\n{} result\n", part("Result")),
+            ),
+        ] {
+            parts.insert(part(p), t);
+        }
+    }
+    let (request, response) = split_service(CANCEL_GOAL_SRV);
+    // its fields name `GoalInfo` without the package
+    let spelled = |t: &str| -> String {
+        t.lines()
+            .map(|l| match l.starts_with("GoalInfo") {
+                true => format!("action_msgs/{l}\n"),
+                false => format!("{l}\n"),
+            })
+            .collect()
+    };
+    parts.insert("action_msgs/CancelGoal_Request".into(), spelled(request));
+    parts.insert("action_msgs/CancelGoal_Response".into(), spelled(response));
+    parts
+});
+
+/// The schema of an action's service-event type (one of [`ACTION_EVENT_TYPES`]): rosidl's
+/// `S_Event` fields, its request and response spelled as in [`ACTION_PARTS`].
+fn action_event_schema(event_type: &str) -> Option<String> {
+    let (package, name) = type_names::split(event_type);
+    let service = name.strip_suffix("_Event")?;
+    let root = format!(
+        "service_msgs/ServiceEventInfo info\n{package}/{service}_Request[<=1] request\n{package}/{service}_Response[<=1] response\n"
+    );
+    Some(ros2msg_text(&root, package, &|t| {
+        ACTION_PARTS
+            .get(t)
+            .map(String::as_str)
+            .or_else(|| nested_text(t))
+    }))
+}
 
 /// Every type name [`ros2msg_schema`] knows.
 pub const KNOWN_TYPES: [&str; 6] = [
@@ -231,7 +335,11 @@ mod tests {
 
     #[test]
     fn every_field_type_has_a_msg_block_of_exactly_its_spelling() {
-        for t in KNOWN_TYPES.into_iter().chain(ACTION_TOPIC_TYPES) {
+        for t in KNOWN_TYPES
+            .into_iter()
+            .chain(ACTION_TOPIC_TYPES)
+            .chain(ACTION_EVENT_TYPES)
+        {
             let s = ros2msg_schema(t).unwrap_or_default();
             assert!(!s.is_empty(), "{t}");
             let blocks: Vec<&str> = s.lines().filter_map(|l| l.strip_prefix("MSG: ")).collect();
@@ -251,6 +359,41 @@ mod tests {
             assert!(blocks.iter().all(|b| !b.contains("/msg/")), "{t}:\n{s}");
         }
         assert!(ros2msg_schema("sensor_msgs/msg/Imu").is_none());
+    }
+
+    #[test]
+    fn action_event_schemas_nest_the_request_and_response_rosidl_derives() {
+        let s = ros2msg_schema(type_names::MOVE_SEND_GOAL_EVENT).unwrap_or_default();
+        assert!(s.starts_with(
+            "service_msgs/ServiceEventInfo info\ncapsule_msgs/Move_SendGoal_Request[<=1] request\n"
+        ));
+        for block in [
+            "MSG: capsule_msgs/Move_SendGoal_Request\nunique_identifier_msgs/UUID goal_id\ncapsule_msgs/Move_Goal goal\n",
+            "MSG: capsule_msgs/Move_SendGoal_Response\nbool accepted\nbuiltin_interfaces/Time stamp\n",
+        ] {
+            assert!(s.contains(block), "{s}");
+        }
+        let r = ros2msg_schema(type_names::SWITCH_ATTRACTOR_GET_RESULT_EVENT).unwrap_or_default();
+        assert!(
+            r.contains("int8 status\ncapsule_msgs/SwitchAttractor_Result result\n"),
+            "{r}"
+        );
+        let c = ros2msg_schema(type_names::CANCEL_GOAL_EVENT).unwrap_or_default();
+        assert!(
+            c.contains("\naction_msgs/GoalInfo[] goals_canceling"),
+            "{c}"
+        );
+        // rosbag2's metadata names each with its REP-2016 hash
+        for t in ACTION_EVENT_TYPES {
+            assert!(
+                type_hash(t).is_some_and(|h| h.starts_with("RIHS01_")),
+                "{t}"
+            );
+        }
+        assert_eq!(
+            type_hash(type_names::STATE),
+            capsule_msgs::hashes::of(type_names::STATE)
+        );
     }
 
     #[test]

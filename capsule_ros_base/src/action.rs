@@ -11,13 +11,25 @@
 //! QoS as rcl_action's defaults: services reliable and volatile (keep last 10), feedback
 //! reliable and volatile, status reliable and transient local (keep last 1), so a client that
 //! joins late reads the statuses.
+//!
+//! Service introspection as rcl_action's (`rcl_action_server_configure_action_introspection`),
+//! so rosbag2's `--all-actions` and our recorder get the goals and results, which travel only
+//! in the services: each of the three services publishes on `<service>/_service_event`
+//! (`<action>/_action/send_goal/_service_event`, rosidl's `A_SendGoal_Event`,
+//! `A_GetResult_Event`, `action_msgs/srv/CancelGoal_Event`) a REQUEST_RECEIVED event per request
+//! and a RESPONSE_SENT event per answer sent, with the client's gid and the request's sequence
+//! number, stamped with the node's ROS time; [`Introspection`] chooses off, metadata or
+//! contents.
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use capsule_msgs::actions::{GoalStatus, Uuid};
+use capsule_msgs::actions::{self as msgs, GoalStatus, Uuid};
 use capsule_msgs::Time;
 use capsule_record::cdr;
+use capsule_record::types::{
+    CancelGoalEvent, GetResultEvent, SendGoalEvent, ServiceEvent, ServiceEventInfo,
+};
 use ros2_client::action::{
     ActionServer, ActionServerQosPolicies, CancelGoalRequest, CancelGoalResponse, GoalId, GoalInfo,
     GoalStatusEnum,
@@ -25,11 +37,12 @@ use ros2_client::action::{
 use ros2_client::action::{GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
 use ros2_client::qos::{Durability, History};
-use ros2_client::{builtin_interfaces, ActionTypeName, Node, RmwRequestId};
+use ros2_client::{builtin_interfaces, ActionTypeName, Node, Publisher, RmwRequestId};
 use serde::{de::DeserializeOwned, Serialize};
 use tracing::warn;
 
 use crate::action_goals::{GoalTable, ResultAnswer, RESULT_TIMEOUT_S};
+use crate::clock::RosClock;
 use crate::error::{Context as _, Result};
 use crate::graph::Graph;
 use crate::service::MATCH_WAIT;
@@ -67,12 +80,32 @@ pub fn status_qos() -> ros2_client::QosProfile {
         .history(History::KeepLast { depth: 1 })
 }
 
+/// A topic `<full>/_action/<suffix>` of DDS type `dds_type`, made on the participant
+/// (ros2-client names an action's DDS types only inside its own action client and server).
+fn action_topic(
+    context: &ros2_client::Context,
+    full: &str,
+    suffix: &str,
+    dds_type: String,
+    qos: ros2_client::QosProfile,
+) -> Result<rustdds::Topic> {
+    let qos: rustdds::QosPolicies = (&qos).into();
+    context
+        .domain_participant()
+        .create_topic(
+            format!("rt{full}/_action/{suffix}"),
+            dds_type,
+            &qos,
+            rustdds::TopicKind::NoKey,
+        )
+        .with_context(|| format!("topic {full}/_action/{suffix}"))
+}
+
 /// The feedback and status topics of the action `name` (resolved as [`RosOptions::ros_name`])
 /// of type `type_name` (`pkg/action/Name`), as an action client or a recorder reads them:
 /// `<name>/_action/feedback` (`pkg::action::dds_::Name_FeedbackMessage_`) and
 /// `<name>/_action/status` (`action_msgs::msg::dds_::GoalStatusArray_`), without the client's
-/// three services. (ros2-client names an action's DDS types only inside its own action client
-/// and server, so the topics are made on the participant.)
+/// three services.
 pub fn feedback_and_status_topics(
     context: &ros2_client::Context,
     settings: &RosOptions,
@@ -81,30 +114,131 @@ pub fn feedback_and_status_topics(
 ) -> Result<[rustdds::Topic; 2]> {
     let (package, ty) = capsule_msgs::names::type_names::split(type_name);
     let full = settings.resolve_name(name);
-    let topic = |suffix: &str, dds_type: String, qos: ros2_client::QosProfile| {
-        let qos: rustdds::QosPolicies = (&qos).into();
-        context
-            .domain_participant()
-            .create_topic(
-                format!("rt{full}/_action/{suffix}"),
-                dds_type,
-                &qos,
-                rustdds::TopicKind::NoKey,
-            )
-            .with_context(|| format!("topic {full}/_action/{suffix}"))
-    };
     Ok([
-        topic(
+        action_topic(
+            context,
+            &full,
             "feedback",
             format!("{package}::action::dds_::{ty}_FeedbackMessage_"),
             qos::service(),
         )?,
-        topic(
+        action_topic(
+            context,
+            &full,
             "status",
             "action_msgs::msg::dds_::GoalStatusArray_".to_string(),
             status_qos(),
         )?,
     ])
+}
+
+/// The service-event topics of the action `name` (resolved as [`RosOptions::ros_name`]) of
+/// type `type_name` (`pkg/action/Name`), as rcl names them: `send_goal`, `get_result` and
+/// `cancel_goal`'s `_service_event` under `<name>/_action/`, of rosidl's types
+/// (`pkg::action::dds_::Name_SendGoal_Event_`, `pkg::action::dds_::Name_GetResult_Event_`,
+/// `action_msgs::srv::dds_::CancelGoal_Event_`), with [`qos::service_events`].
+pub fn service_event_topics(
+    context: &ros2_client::Context,
+    settings: &RosOptions,
+    name: &str,
+    type_name: &str,
+) -> Result<[rustdds::Topic; 3]> {
+    let (package, ty) = capsule_msgs::names::type_names::split(type_name);
+    let full = settings.resolve_name(name);
+    let topic = |service: &str, dds_type: String| {
+        action_topic(
+            context,
+            &full,
+            &format!("{service}/_service_event"),
+            dds_type,
+            qos::service_events(),
+        )
+    };
+    Ok([
+        topic(
+            "send_goal",
+            format!("{package}::action::dds_::{ty}_SendGoal_Event_"),
+        )?,
+        topic(
+            "get_result",
+            format!("{package}::action::dds_::{ty}_GetResult_Event_"),
+        )?,
+        topic(
+            "cancel_goal",
+            "action_msgs::srv::dds_::CancelGoal_Event_".to_string(),
+        )?,
+    ])
+}
+
+/// What an action server's services publish about their requests and answers, as rcl's
+/// `rcl_service_introspection_state_t`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Introspection {
+    /// No service events.
+    Off,
+    /// Events with their kind, stamp, client and sequence number, without the request or the
+    /// response.
+    Metadata,
+    /// Events with the request or the response too (the goals and the results).
+    Contents,
+}
+
+impl std::str::FromStr for Introspection {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "off" => Ok(Introspection::Off),
+            "metadata" => Ok(Introspection::Metadata),
+            "contents" => Ok(Introspection::Contents),
+            other => Err(format!(
+                "{other:?} is not an introspection state (off, metadata, contents)"
+            )),
+        }
+    }
+}
+
+/// The three services' introspection publishers.
+struct Events<G: Serialize, R: Serialize> {
+    send_goal: Publisher<SendGoalEvent<G>>,
+    get_result: Publisher<GetResultEvent<R>>,
+    cancel_goal: Publisher<CancelGoalEvent>,
+    /// With the requests and responses ([`Introspection::Contents`]).
+    contents: bool,
+    clock: RosClock,
+    name: Arc<str>,
+}
+
+impl<G: Serialize, R: Serialize> Events<G, R> {
+    /// Publishes the event of request `req`: REQUEST_RECEIVED with `request`, or RESPONSE_SENT
+    /// with `response`.
+    fn publish<Q: Serialize, A: Serialize>(
+        &self,
+        on: &Publisher<ServiceEvent<Q, A>>,
+        req: RmwRequestId,
+        request: Option<Q>,
+        response: Option<A>,
+    ) {
+        let event_type = match response {
+            Some(_) => ServiceEventInfo::RESPONSE_SENT,
+            None => ServiceEventInfo::REQUEST_RECEIVED,
+        };
+        fn kept<T>(x: Option<T>, contents: bool) -> Vec<T> {
+            x.filter(|_| contents).into_iter().collect()
+        }
+        let event = ServiceEvent {
+            info: ServiceEventInfo {
+                event_type,
+                stamp: self.clock.now(),
+                client_gid: req.writer_gid.to_bytes16(),
+                sequence_number: req.sequence_number,
+            },
+            request: kept(request, self.contents),
+            response: kept(response, self.contents),
+        };
+        if on.publish(event).is_err() {
+            warn!("{}: service event not sent", self.name);
+        }
+    }
 }
 
 /// One action served: goals `G`, results `R`, feedback `F`.
@@ -120,6 +254,8 @@ where
     /// The action's resolved name (`/capsule_controller/move`).
     name: Arc<str>,
     start: Instant,
+    /// Service introspection (`None`: off).
+    events: Option<Arc<Events<G, R>>>,
 }
 
 /// The bytes of a goal id.
@@ -181,7 +317,36 @@ where
             graph: graph.clone(),
             name: settings.resolve_name(name).into(),
             start: Instant::now(),
+            events: None,
         })
+    }
+
+    /// Publishes the services' events (rcl's service introspection, [`Introspection`]) of the
+    /// action of type `type_name` on `node`, stamped with `clock`.
+    pub fn introspect(
+        mut self,
+        context: &ros2_client::Context,
+        settings: &RosOptions,
+        node: &mut Node,
+        type_name: &str,
+        (clock, state): (&RosClock, Introspection),
+    ) -> Result<Self> {
+        if state == Introspection::Off {
+            self.events = None;
+            return Ok(self);
+        }
+        let [goal, result, cancel] =
+            service_event_topics(context, settings, &self.name, type_name)?;
+        let publisher = "service-event publisher";
+        self.events = Some(Arc::new(Events {
+            send_goal: node.create_publisher(&goal, None).context(publisher)?,
+            get_result: node.create_publisher(&result, None).context(publisher)?,
+            cancel_goal: node.create_publisher(&cancel, None).context(publisher)?,
+            contents: state == Introspection::Contents,
+            clock: clock.clone(),
+            name: Arc::clone(&self.name),
+        }));
+        Ok(self)
     }
 
     /// The action's resolved name.
@@ -205,11 +370,20 @@ where
         let mut out = Vec::new();
         loop {
             match self.server.receive_goal() {
-                Ok(Some((req, goal))) => out.push(Request::Goal {
-                    id: goal.goal_id,
-                    req,
-                    goal: goal.goal.0,
-                }),
+                Ok(Some((req, goal))) => {
+                    if let Some(ev) = &self.events {
+                        let request = msgs::SendGoalRequest {
+                            goal_id: goal_id_bytes(&goal.goal_id),
+                            goal: goal.goal.0.clone(),
+                        };
+                        ev.publish(&ev.send_goal, req, Some(request), None);
+                    }
+                    out.push(Request::Goal {
+                        id: goal.goal_id,
+                        req,
+                        goal: goal.goal.0,
+                    })
+                }
                 Ok(None) => break,
                 Err(e) => {
                     warn!("{}: bad goal request: {e:?}", self.name);
@@ -220,7 +394,17 @@ where
         loop {
             match self.server.receive_cancel_request() {
                 Ok(Some((req, cancel))) => match read_cancel(&cancel) {
-                    Some((id, stamp)) => out.push(Request::Cancel { req, id, stamp }),
+                    Some((id, stamp)) => {
+                        if let Some(ev) = &self.events {
+                            let goal_info = msgs::GoalInfo {
+                                goal_id: goal_id_bytes(&id),
+                                stamp,
+                            };
+                            let request = msgs::CancelGoalRequest { goal_info };
+                            ev.publish(&ev.cancel_goal, req, Some(request), None);
+                        }
+                        out.push(Request::Cancel { req, id, stamp })
+                    }
                     None => warn!("{}: cancel request not readable", self.name),
                 },
                 Ok(None) => break,
@@ -232,7 +416,7 @@ where
         }
         loop {
             match self.server.receive_result_request() {
-                Ok(Some((req, r))) => match self.goals.result_request(r.goal_id, req) {
+                Ok(Some((req, r))) => match self.result_request(req, r.goal_id) {
                     ResultAnswer::Now(status, result) => {
                         self.answer_result(req, status, result.unwrap_or_default())
                     }
@@ -263,26 +447,14 @@ where
             return false;
         }
         self.goals.set_status(id, GoalStatus::STATUS_EXECUTING);
-        self.answer_goal(
-            req,
-            SendGoalResponse {
-                accepted: true,
-                stamp: to_ros_time(stamp),
-            },
-        );
+        self.answer_goal(req, true, stamp);
         self.publish_status();
         true
     }
 
     /// Refuses a goal (rcl_action: it never shows on the status topic).
     pub fn refuse(&self, req: RmwRequestId) {
-        self.answer_goal(
-            req,
-            SendGoalResponse {
-                accepted: false,
-                stamp: builtin_interfaces::Time::ZERO,
-            },
-        );
+        self.answer_goal(req, false, Time::ZERO);
     }
 
     /// Answers a cancel request: the running goals it names become CANCELING and are returned;
@@ -315,9 +487,23 @@ where
                 })
                 .collect(),
         };
-        let server = Arc::clone(&self.server);
+        let event = msgs::CancelGoalResponse {
+            return_code: code,
+            goals_canceling: picked
+                .iter()
+                .map(|(g, stamp)| msgs::GoalInfo {
+                    goal_id: goal_id_bytes(g),
+                    stamp: *stamp,
+                })
+                .collect(),
+        };
+        let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "cancel_goal", move |req| {
-            server.send_cancel_response(req, response).is_ok()
+            let sent = server.send_cancel_response(req, response).is_ok();
+            if let Some(ev) = events.filter(|_| sent) {
+                ev.publish(&ev.cancel_goal, req, None, Some(event));
+            }
+            sent
         });
         picked.into_iter().map(|(g, _)| g).collect()
     }
@@ -339,21 +525,49 @@ where
         }
     }
 
-    fn answer_goal(&self, req: RmwRequestId, response: SendGoalResponse) {
-        let server = Arc::clone(&self.server);
+    /// A `get_result` request for goal `id`: its event, and the table's answer.
+    fn result_request(&mut self, req: RmwRequestId, id: GoalId) -> ResultAnswer<R> {
+        if let Some(ev) = &self.events {
+            let request = msgs::GetResultRequest {
+                goal_id: goal_id_bytes(&id),
+            };
+            ev.publish(&ev.get_result, req, Some(request), None);
+        }
+        self.goals.result_request(id, req)
+    }
+
+    fn answer_goal(&self, req: RmwRequestId, accepted: bool, stamp: Time) {
+        let response = SendGoalResponse {
+            accepted,
+            stamp: to_ros_time(stamp),
+        };
+        let event = msgs::SendGoalResponse { accepted, stamp };
+        let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "send_goal", move |req| {
-            server.send_goal_response(req, response).is_ok()
+            let sent = server.send_goal_response(req, response).is_ok();
+            if let Some(ev) = events.filter(|_| sent) {
+                ev.publish(&ev.send_goal, req, None, Some(event));
+            }
+            sent
         });
     }
 
     fn answer_result(&self, req: RmwRequestId, status: i8, result: R) {
-        let server = Arc::clone(&self.server);
+        let event = msgs::GetResultResponse {
+            status,
+            result: result.clone(),
+        };
         let response = GetResultResponse {
             status: status_enum(status),
             result: Wire(result),
         };
+        let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "get_result", move |req| {
-            server.send_result(req, response).is_ok()
+            let sent = server.send_result(req, response).is_ok();
+            if let Some(ev) = events.filter(|_| sent) {
+                ev.publish(&ev.get_result, req, None, Some(event));
+            }
+            sent
         });
     }
 

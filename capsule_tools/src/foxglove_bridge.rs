@@ -530,7 +530,7 @@ impl Bridge {
         let feed = Feed::create(source, &mut node, settings, &outputs, opts.max_rate_hz)?;
         let status_sub = subscribe(&mut node, &status_topic, &qos::data_reader())?;
         let actions =
-            ActionReaders::subscribe(&context, &mut node, settings, &opts.controller_node)?;
+            ActionReaders::subscribe(&context, &mut node, settings, &opts.controller_node, false)?;
         let server = foxglove::WebSocketServer::new()
             .name(capsule_msgs::names::nodes::FOXGLOVE)
             .bind(Ipv4Addr::LOCALHOST.to_string(), opts.port)

@@ -8,7 +8,8 @@ custom decoding. For each reader it prints, per topic, the type, the count, and 
 tests compare (floats as their IEEE-754 bit patterns; state: seq, stamp, mass_position, capsule_velocity, stuck; force: state_seq,
 force; service events: event_type, mode, gain, accepted; clock: ns; status: mode,
 commands_sent; diagnostics: the first status's level, message and key=value pairs; action
-feedback: goal id, travelled_m or orbit_period; action status: goal id and status of each), plus
+feedback: goal id, travelled_m or orbit_period; action status: goal id and status of each; an
+action's service events: kind, sequence number, client and the request or response), plus
 the file's profile and the rosbag2 metadata keys. The mcap reader's refusals of a schema are
 listed per topic under "refused" with the reader's reason (mcap-ros2-support refuses rosidl's
 `_` in derived names such as `Move_FeedbackMessage`), and that topic's messages left out.
@@ -28,6 +29,21 @@ def stamp_ns(t):
     return int(t.sec) * 1_000_000_000 + int(t.nanosec)
 
 
+def plain(v):
+    """A decoded message as JSON: fields by name, byte arrays (ids) as hex, floats as they are."""
+    if hasattr(v, "tobytes"):
+        return v.tobytes().hex()
+    if isinstance(v, (bytes, bytearray)):
+        return bytes(v).hex()
+    if isinstance(v, (list, tuple)):
+        return [plain(x) for x in v]
+    names = getattr(v, "__dataclass_fields__", None) or getattr(v, "__slots__", None)
+    if names:
+        # fields only: not the constants (upper case) nor rosbags' private names
+        return {k: plain(getattr(v, k)) for k in names if not k.startswith("_") and not k.isupper()}
+    return v
+
+
 def row(topic_type, m):
     if topic_type.endswith("/CapsuleState"):
         return [int(m.seq), stamp_ns(m.header.stamp), bits(m.mass_position),
@@ -40,6 +56,15 @@ def row(topic_type, m):
         return [int(m.info.event_type), int(m.info.sequence_number),
                 int(req[0].mode) if req else None, bits(req[0].gain) if req else None,
                 bool(res[0].accepted) if res else None]
+    if topic_type.endswith("_Event"):
+        # an action's service events (rosidl's `A_SendGoal_Event`, `A_GetResult_Event`,
+        # `action_msgs/srv/CancelGoal_Event`): the event and its request or response
+        req, res = list(m.request), list(m.response)
+        return {"event_type": int(m.info.event_type),
+                "sequence_number": int(m.info.sequence_number),
+                "client_gid": bytes(m.info.client_gid).hex(),
+                "request": plain(req[0]) if req else None,
+                "response": plain(res[0]) if res else None}
     if topic_type.endswith("/Clock"):
         return [stamp_ns(m.clock)]
     if topic_type.endswith("/ControllerStatus"):

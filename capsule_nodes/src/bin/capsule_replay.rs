@@ -185,7 +185,7 @@ impl Pub {
     }
 }
 
-/// `msgs` without the actions' feedback and status, which are an action server's to publish: a
+/// `msgs` without the actions' feedback, status and service events, an action server's to publish: a
 /// replay stands in for the graph's topics, not for a server that clients could take for the
 /// live one (said on stderr when there were some).
 fn without_actions(msgs: Vec<Message>) -> Vec<Message> {
@@ -194,7 +194,7 @@ fn without_actions(msgs: Vec<Message>) -> Vec<Message> {
         .partition(|m| m.topic.contains("/_action/"));
     if !actions.is_empty() {
         eprintln!(
-            "capsule replay: not replaying the actions' feedback and status ({} messages)",
+            "capsule replay: not replaying the actions' feedback, status and service events ({} messages)",
             actions.len()
         );
     }

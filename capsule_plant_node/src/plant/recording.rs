@@ -142,7 +142,7 @@ impl InPlantRecording {
             rec,
             status_sub: subscribe(node, &status_topic, &deep)?,
             event_sub: subscribe(node, &event_topic, &qos::service_events())?,
-            actions: ActionReaders::subscribe(context, node, settings, &r.controller_node)?,
+            actions: ActionReaders::subscribe(context, node, settings, &r.controller_node, true)?,
             last_poll: Instant::now(),
             _apart: None,
         })

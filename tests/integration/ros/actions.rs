@@ -174,7 +174,8 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
 }
 
 /// The first lock-step run's recording: the goal's feedback and statuses, as rosbag2 records an
-/// action's topics, read by rosbags, mcap-ros2-support and Foxglove's readers alike.
+/// action's topics, read by rosbags, mcap-ros2-support and Foxglove's readers alike; and the
+/// goal and its result.
 fn recorded_goal(run: &super::harness::Run) {
     let parse = |tag: &str| -> serde_json::Value {
         serde_json::from_str(run.after(tag))
@@ -228,6 +229,83 @@ fn recorded_goal(run: &super::harness::Run) {
         "{fox}"
     );
     assert_eq!(fox["messages"], fox["indexed_messages"], "{fox}");
+    recorded_goal_and_result(run, &readers, &fox, &goal);
+}
+
+/// The goal and its result in the recording, from the action's service events (rcl's service
+/// introspection, as rosbag2's `--all-actions` records them): `send_goal`'s request (the goal,
+/// under the id its feedback carries) and response (accepted), `get_result`'s response (the
+/// result the peer received), each response paired with its request by client and sequence
+/// number; read by rosbags and by Foxglove's readers.
+fn recorded_goal_and_result(
+    run: &super::harness::Run,
+    readers: &serde_json::Value,
+    fox: &serde_json::Value,
+    goal: &serde_json::Value,
+) {
+    let send_goal = "/capsule_controller/move/_action/send_goal/_service_event";
+    let get_result = "/capsule_controller/move/_action/get_result/_service_event";
+    let rosbags = &readers["rosbags"]["topics"];
+    assert_eq!(
+        rosbags[send_goal]["type"], "capsule_msgs/action/Move_SendGoal_Event",
+        "{readers}"
+    );
+    assert_eq!(
+        rosbags[get_result]["type"],
+        "capsule_msgs/action/Move_GetResult_Event"
+    );
+    let rows = |topic: &str| {
+        rosbags[topic]["rows"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default()
+    };
+    // 1 = REQUEST_RECEIVED (with the request), 2 = RESPONSE_SENT (with the response)
+    let of_kind = |topic: &str, kind: i64| -> Vec<serde_json::Value> {
+        rows(topic)
+            .into_iter()
+            .filter(|r| r["event_type"].as_i64() == Some(kind))
+            .collect()
+    };
+    let pair = |topic: &str| {
+        let (requests, responses) = (of_kind(topic, 1), of_kind(topic, 2));
+        let response = responses.last().cloned().unwrap_or_default();
+        let request = requests
+            .into_iter()
+            .find(|r| {
+                r["client_gid"] == response["client_gid"]
+                    && r["sequence_number"] == response["sequence_number"]
+            })
+            .unwrap_or_else(|| panic!("{topic}: no request for the response:\n{readers}"));
+        (request, response)
+    };
+    let (request, response) = pair(send_goal);
+    assert_eq!(request["request"]["goal_id"]["uuid"], *goal, "{readers}");
+    assert_eq!(request["request"]["goal"]["distance_m"], 0.01, "{readers}");
+    assert_eq!(response["response"]["accepted"], true, "{readers}");
+    let (request, response) = pair(get_result);
+    assert_eq!(request["request"]["goal_id"]["uuid"], *goal, "{readers}");
+    let result = &response["response"];
+    assert_eq!(result["status"], 4, "{readers}");
+    let peer_travelled = json_number(run.line("RUN1"), "travelled_m");
+    assert_eq!(result["result"]["reached"], true, "{readers}");
+    assert_eq!(
+        result["result"]["travelled_m"].as_f64(),
+        peer_travelled,
+        "{readers}"
+    );
+    // Foxglove's readers: the goal in the first send_goal event, the result in the last
+    // get_result event
+    let first = &fox["topics"][send_goal]["first"]["request"];
+    assert_eq!(first["goal"]["distance_m"], 0.01, "{fox}");
+    assert_eq!(first["goal_id"]["uuid"], *goal, "{fox}");
+    let last = &fox["topics"][get_result]["last"]["response"];
+    assert_eq!(last["status"], 4, "{fox}");
+    assert_eq!(
+        last["result"]["travelled_m"].as_f64(),
+        peer_travelled,
+        "{fox}"
+    );
 }
 
 #[test]

@@ -484,3 +484,35 @@ EOF
         "no <enclave path=\"/lab/x\">",
     ]);
 }
+
+#[test]
+fn a_move_goal_under_enforce_succeeds_for_the_operator_and_is_refused_a_role_without_the_grant() {
+    // the graph secured (Enforce), the plant and the controller with their enclaves; the
+    // operator's enclave (policy.txt grants it the action's requests and replies) sends a Move
+    // goal; the recorder's enclave (it may only read) tries the same
+    let run = secured(
+        netns_with_peer,
+        200,
+        r#"
+        keystore "$TMP/ks"
+        secure "$TMP/ks"
+        start_plant --enclave /capsule/plant
+        start_controller --enclave /capsule/controller
+        ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/operator $B/capsule_ros move 0.003 \
+            --answer-timeout-s 30; echo "OPERATOR rc=$?"
+        ROS_SECURITY_ENCLAVE_OVERRIDE=/capsule/recorder $B/capsule_ros move 0.003 \
+            --answer-timeout-s 5; echo "RECORDER rc=$?"
+        stop $P $C"#,
+    );
+    run.assert_ok();
+    run.assert_stdout(&["result: status=SUCCEEDED reached=true", "OPERATOR rc=0"]);
+    // the recorder's goal never reached the controller: one goal accepted, the operator's
+    let rc = run.after("RECORDER rc=");
+    assert_ne!(rc.trim(), "0", "{}", run.all());
+    assert_eq!(
+        run.stderr.matches("goal 0.003 m accepted").count(),
+        1,
+        "{}",
+        run.all()
+    );
+}

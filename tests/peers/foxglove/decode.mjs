@@ -9,7 +9,8 @@
 // Reads the file twice: linearly (McapStreamReader, every record in file order) and, when the
 // file has a summary, through its indexes (McapIndexedReader, as the app opens files). Prints
 // JSON: per topic the schema name and message count, the totals of both passes, and the first
-// and last decoded value of a few fields (an action's feedback, its statuses). Exits 1 (message
+// and last decoded value of a few fields (an action's feedback, its statuses, a service
+// event's request or response). Exits 1 (message
 // on stderr) when a schema does not parse, a message does not decode or leaves bytes over, or
 // the two passes disagree.
 import { readFileSync } from "node:fs";
@@ -42,12 +43,29 @@ function readerFor(schema) {
   return new MessageReader(parse(text, { ros2: true }));
 }
 
+// a decoded value as JSON: int64 as a string, uint8 arrays (ids) as hex
+function plain(v) {
+  if (v === undefined || v === null) return null;
+  if (typeof v === "bigint") return String(v);
+  if (v instanceof Uint8Array) return Buffer.from(v).toString("hex");
+  if (Array.isArray(v)) return v.map(plain);
+  if (typeof v === "object") return Object.fromEntries(Object.entries(v).map(([k, x]) => [k, plain(x)]));
+  return v;
+}
+
 function sample(topic, m) {
   if (m == null || typeof m !== "object") return null;
   if ("seq" in m && "mass_position" in m) return { seq: String(m.seq), mass_position: m.mass_position };
   if ("state_seq" in m) return { state_seq: String(m.state_seq), force: m.force };
   if ("clock" in m) return { sec: m.clock.sec, nanosec: m.clock.nanosec };
-  if ("info" in m) return { event_type: m.info.event_type, requests: m.request.length };
+  if ("info" in m) {
+    return {
+      event_type: m.info.event_type,
+      requests: m.request.length,
+      request: plain(m.request[0]),
+      response: plain(m.response[0]),
+    };
+  }
   if ("commands_sent" in m) return { mode: m.mode, commands_sent: String(m.commands_sent) };
   if ("goal_id" in m && "feedback" in m) return { feedback: m.feedback };
   if (Array.isArray(m.status_list)) return { statuses: m.status_list.map((s) => s.status) };

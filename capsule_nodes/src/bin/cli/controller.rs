@@ -5,7 +5,9 @@ use capsule_msgs::names::nodes;
 use std::time::Duration;
 
 use anyhow::Result;
-use capsule_args::controller_settings::{DIAGNOSTICS, SCENE, STATUS_PERIOD_MS};
+use capsule_args::controller_settings::{
+    ACTION_INTROSPECTION, DIAGNOSTICS, SCENE, STATUS_PERIOD_MS,
+};
 use capsule_args::{scene_file::SceneFile, settings::CHECK};
 use capsule_controller_node::{
     controller::ControllerOptions, controller_params, controller_settings::ControllerFlags,
@@ -58,6 +60,11 @@ pub fn build(
         settings.use_sim_time,
         overrides,
     )?;
+    let action_introspection = flags
+        .text(&ACTION_INTROSPECTION)
+        .unwrap_or_default()
+        .parse()
+        .map_err(anyhow::Error::msg)?;
     Ok((
         settings,
         ControllerOptions {
@@ -65,6 +72,7 @@ pub fn build(
             status_period: Duration::from_millis(flags.count(&STATUS_PERIOD_MS)),
             params,
             diagnostics: flags.switch(&DIAGNOSTICS),
+            action_introspection,
         },
     ))
 }
