@@ -1,11 +1,17 @@
 //! The plant's states and the force commands of a recording as time series on the sample
 //! grid, SI: what `capsule identify` fits a twin to. One file or a split recording.
 //!
-//! The force after each sample is the command answering it (`/capsule/actuator_force`, keyed
-//! by the state's `seq`; a sample without an answer gets zero, as the plant answers it). A
-//! recording without commands (`capsule simulate --record`) gives the force the states say was
-//! applied, the mean of two consecutive samples' `actuator_force` (the simulator's law is
-//! continuous: the mean is its value over the interval to second order).
+//! The force after each sample, in a plant's recording (it has commands), is what acted over
+//! the period: the next state's `actuator_force`, which the plant fills with the force applied
+//! over the period before it (a device's report of its actuator, the simulator's held force).
+//! A command says only what was asked, not when it arrived: a late answer (a device that runs
+//! on its own clock, an emulator late in lock-step) acts over another period than the one it
+//! answers, or not at all. Where a state has no applied force, the force is the command
+//! answering the sample (`/capsule/actuator_force`, keyed by the state's `seq`; a sample
+//! without an answer gets zero, as the plant answers it). A recording without commands
+//! (`capsule simulate --record`) gives the force the states say was applied, the mean of two
+//! consecutive samples' `actuator_force` (the simulator's law is continuous: the mean is its
+//! value over the interval to second order).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,6 +27,9 @@ use crate::{cdr, messages, RecordError};
 pub enum ForceSource {
     /// The commands on `/capsule/actuator_force`, each held after the sample it answers.
     Commands,
+    /// What the plant says acted over each period (the next state's `actuator_force`), after
+    /// the actuator's limit, lag and dead band.
+    Acted,
     /// The states' `actuator_force`, averaged over each interval.
     Applied,
 }
@@ -30,8 +39,15 @@ impl ForceSource {
     pub fn name(self) -> &'static str {
         match self {
             ForceSource::Commands => "commands",
+            ForceSource::Acted => "force applied over each period",
             ForceSource::Applied => "applied force",
         }
+    }
+
+    /// Whether the forces are what acted on the mass, already through the actuator (the
+    /// states' forces are; commands are what was asked).
+    pub fn acted(self) -> bool {
+        self != ForceSource::Commands
     }
 }
 
@@ -87,6 +103,24 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, RecordError> {
     } else {
         Ok(vec![path.to_path_buf()])
     }
+}
+
+/// A plant's recording (with commands) whose states all say what acted over the period
+/// before them: the force over each period, that of the state ending it (after the last
+/// state, its command's).
+fn acted(states: &[CapsuleState], answers: &BTreeMap<u64, f64>) -> Option<Vec<f64>> {
+    let last = states.last()?;
+    if answers.is_empty() || !states[1..].iter().all(|s| s.actuator_force.is_finite()) {
+        return None;
+    }
+    let after = answers.get(&last.seq).copied().unwrap_or(0.0);
+    Some(
+        states[1..]
+            .iter()
+            .map(|s| s.actuator_force)
+            .chain([after])
+            .collect(),
+    )
 }
 
 /// The series of the recording at `path`.
@@ -147,7 +181,9 @@ pub fn series(path: &Path) -> Result<Series, SeriesError> {
     }
     let states = kept;
     let repeated = before - states.len();
-    let (command_n, forces) = if !answers.is_empty() {
+    let (command_n, forces) = if let Some(acted) = acted(&states, &answers) {
+        (acted, ForceSource::Acted)
+    } else if !answers.is_empty() {
         let c = states
             .iter()
             .map(|s| answers.get(&s.seq).copied().unwrap_or(0.0))
@@ -182,4 +218,30 @@ pub fn series(path: &Path) -> Result<Series, SeriesError> {
         forces,
         repeated,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state(seq: u64, actuator_force: f64) -> CapsuleState {
+        CapsuleState {
+            seq,
+            actuator_force,
+            ..CapsuleState::default()
+        }
+    }
+
+    #[test]
+    fn a_plant_s_states_say_which_force_acted_over_each_period() {
+        // the answers were late: the force over period k is the one state k + 1 reports
+        let states = [state(0, 0.0), state(1, 0.5), state(2, 0.25)];
+        let answers = BTreeMap::from([(0, 0.7), (1, 0.3), (2, 0.1)]);
+        assert_eq!(acted(&states, &answers), Some(vec![0.5, 0.25, 0.1]));
+        // a state without its applied force, or no commands (not a plant's): not this way
+        let unknown = [state(0, 0.0), state(1, f64::NAN), state(2, 0.25)];
+        assert_eq!(acted(&unknown, &answers), None);
+        assert_eq!(acted(&states, &BTreeMap::new()), None);
+        assert!(ForceSource::Acted.acted() && !ForceSource::Commands.acted());
+    }
 }
