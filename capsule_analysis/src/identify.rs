@@ -726,7 +726,12 @@ fn mixture_weights(outer: &Outer, noise_m: f64) -> Weights {
     let rec = outer.rec;
     let mut w = Weights {
         channels: vec![[1.0; 2]; rec.len()],
-        picks: prior.iter().copied().cycle().take(per * rec.len()).collect(),
+        picks: prior
+            .iter()
+            .copied()
+            .cycle()
+            .take(per * rec.len())
+            .collect(),
     };
     if floor <= 0.0 {
         return w;

@@ -354,9 +354,9 @@ impl Twin<'_> {
         let (picks, end) = self.picks(a, n, s0)?;
         let weights: Vec<f64> = self.pick.offsets.iter().map(|o| o.1).collect();
         out.extend(picks.chunks(weights.len()).map(|at| {
-            at.iter().zip(&weights).fold([0.0; 2], |m, (x, w)| {
-                [m[0] + w * x[0], m[1] + w * x[1]]
-            })
+            at.iter()
+                .zip(&weights)
+                .fold([0.0; 2], |m, (x, w)| [m[0] + w * x[0], m[1] + w * x[1]])
         }));
         Ok(end)
     }
@@ -390,7 +390,11 @@ impl Twin<'_> {
             .map(|at| {
                 let var = [0, 1].map(|c| {
                     let m: f64 = at.iter().zip(offsets).map(|(x, o)| o.1 * x[c]).sum();
-                    let v: f64 = at.iter().zip(offsets).map(|(x, o)| o.1 * (x[c] - m).powi(2)).sum();
+                    let v: f64 = at
+                        .iter()
+                        .zip(offsets)
+                        .map(|(x, o)| o.1 * (x[c] - m).powi(2))
+                        .sum();
                     v.max(0.0)
                 });
                 (var, var.map(|v| v * jitter))
@@ -485,7 +489,11 @@ impl Twin<'_> {
     /// of its responsibility). A failed run gives 1 m.
     pub fn residuals(&self, rec: &Recorded, a: usize, n: usize, s0: State) -> Vec<f64> {
         let mixture = self.weights.filter(|w| !w.picks.is_empty());
-        let per = if mixture.is_some() { self.pick_count() } else { 1 };
+        let per = if mixture.is_some() {
+            self.pick_count()
+        } else {
+            1
+        };
         let mut out = Vec::with_capacity((n + 1) * per);
         let ran = match mixture {
             Some(_) => self.picks(a, n, s0).map(|(p, _)| out = p),
@@ -828,7 +836,10 @@ mod tests {
         let p = pick.probabilities();
         assert_eq!((picks.len(), p.len()), (2 * (n + 1), 2));
         // the capsule moves: the two delays see it apart, and the mean is their average
-        let apart = picks.chunks(2).map(|x| (x[0][1] - x[1][1]).abs()).fold(0.0, f64::max);
+        let apart = picks
+            .chunks(2)
+            .map(|x| (x[0][1] - x[1][1]).abs())
+            .fold(0.0, f64::max);
         assert!(apart > 0.0);
         for (m, x) in mean.iter().zip(picks.chunks(2)) {
             assert!((m[1] - (p[0] * x[0][1] + p[1] * x[1][1])).abs() < 1e-15);

@@ -65,7 +65,8 @@ pub struct Series {
     /// Where the forces came from.
     pub forces: ForceSource,
     /// Samples dropped as repeats of the one before (a late device: the plant stepped on with
-    /// the last measurement); the series is on the device's own sample grid.
+    /// the last measurement, and no applied force); the series is on the device's own sample
+    /// grid.
     pub repeated: usize,
 }
 
@@ -103,6 +104,23 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, RecordError> {
     } else {
         Ok(vec![path.to_path_buf()])
     }
+}
+
+/// The device's own samples of a plant's recording (`commands`): a plant whose device was late
+/// steps on with the last measurement and no applied force; such a sample is dropped where the
+/// others say what acted. (Equal positions do not tell it: a sensor may send one reading
+/// twice, the typical device one sample in four.)
+fn device_samples(states: Vec<CapsuleState>, commands: bool) -> Vec<CapsuleState> {
+    let reports = states.iter().skip(1).any(|s| s.actuator_force.is_finite());
+    if !(reports && commands) {
+        return states;
+    }
+    states
+        .into_iter()
+        .enumerate()
+        .filter(|(i, s)| *i == 0 || s.actuator_force.is_finite())
+        .map(|(_, s)| s)
+        .collect()
 }
 
 /// A plant's recording (with commands) whose states all say what acted over the period
@@ -161,25 +179,8 @@ pub fn series(path: &Path) -> Result<Series, SeriesError> {
             h_s,
         });
     }
-    // a plant whose device was late steps on with the last measurement: such a sample is no
-    // sample of the device (the same positions to the bit, nothing else measured), dropped
-    let stale = |a: &CapsuleState, b: &CapsuleState| {
-        let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
-        same(a.mass_position, b.mass_position)
-            && same(a.capsule_position, b.capsule_position)
-            && same(a.mass_velocity, b.mass_velocity)
-            && same(a.capsule_velocity, b.capsule_velocity)
-            && a.mass_velocity.is_nan()
-    };
     let before = states.len();
-    let mut kept: Vec<CapsuleState> = Vec::with_capacity(before);
-    for s in states {
-        if kept.last().is_some_and(|p| stale(p, &s)) {
-            continue;
-        }
-        kept.push(s);
-    }
-    let states = kept;
+    let states = device_samples(states, !answers.is_empty());
     let repeated = before - states.len();
     let (command_n, forces) = if let Some(acted) = acted(&states, &answers) {
         (acted, ForceSource::Acted)
@@ -243,5 +244,25 @@ mod tests {
         assert_eq!(acted(&unknown, &answers), None);
         assert_eq!(acted(&states, &BTreeMap::new()), None);
         assert!(ForceSource::Acted.acted() && !ForceSource::Commands.acted());
+    }
+
+    #[test]
+    fn the_samples_a_late_device_left_without_a_measurement_are_dropped_not_its_repeats() {
+        let mut repeat = state(2, 0.25);
+        repeat.capsule_position = 1.0;
+        let mut same = state(4, 0.5);
+        same.capsule_position = 1.0;
+        let states = vec![
+            state(0, f64::NAN),
+            state(1, 0.5),
+            repeat,
+            state(3, f64::NAN),
+            same,
+        ];
+        let seqs = |v: Vec<CapsuleState>| v.iter().map(|s| s.seq).collect::<Vec<_>>();
+        // the sensor's reading sent twice stays; the sample without a measurement goes
+        assert_eq!(seqs(device_samples(states.clone(), true)), [0, 1, 2, 4]);
+        // not a plant's recording (no commands): every state stays
+        assert_eq!(seqs(device_samples(states, false)), [0, 1, 2, 3, 4]);
     }
 }

@@ -38,11 +38,17 @@ fn scene_text(factors: [f64; 4]) -> String {
             if line.starts_with('[') {
                 section = line.trim_matches(['[', ']']).to_string();
             }
-            let key = line.split_once(" = ").map(|(k, v)| (format!("{section}.{k}"), v));
+            let key = line
+                .split_once(" = ")
+                .map(|(k, v)| (format!("{section}.{k}"), v));
             match key.and_then(|(k, v)| Some((KEYS.iter().position(|x| *x == k)?, v))) {
                 Some((i, v)) => {
                     let v: f64 = v.parse().unwrap_or_else(|e| panic!("{line}: {e}"));
-                    format!("{} = {}", KEYS[i].trim_start_matches("capsule."), v * factors[i])
+                    format!(
+                        "{} = {}",
+                        KEYS[i].trim_start_matches("capsule."),
+                        v * factors[i]
+                    )
                 }
                 None => line.to_string(),
             }
@@ -97,8 +103,7 @@ fn a_recording_of_the_plant_in_front_of_the_emulated_device_identifies_its_capsu
         .unwrap_or_else(|e| panic!("{e}\n{}", graph.all()));
     let mut lines = vec![format!(
         "{samples} device samples ({} repeated dropped)\n{}",
-        s.repeated,
-        graph.stderr
+        s.repeated, graph.stderr
     )];
     for e in &fit.report.parameters {
         let t = truth.number(&e.key).unwrap_or(f64::NAN);
@@ -115,10 +120,7 @@ fn a_recording_of_the_plant_in_front_of_the_emulated_device_identifies_its_capsu
     println!("{said}");
     for e in &fit.report.parameters {
         let t = truth.number(&e.key).unwrap_or(f64::NAN);
-        let (v, sd) = (
-            e.value.unwrap_or(f64::NAN),
-            e.std_error.unwrap_or(f64::NAN),
-        );
+        let (v, sd) = (e.value.unwrap_or(f64::NAN), e.std_error.unwrap_or(f64::NAN));
         // covered by the reported uncertainty (three standard errors), and within 5 % where
         // SECONDS of data hold that much (delta's standard error at 10 s is about 5 %)
         assert!((v - t).abs() <= 3.0 * sd, "{} not covered:\n{said}", e.key);
