@@ -251,50 +251,52 @@ fn print_report(args: &Args, o: &Outcome, forces: ForceSource, wall: f64) {
         r.evaluations, r.termination
     );
     if let Some(v) = &o.validation {
-        println!(
-            "validation     on {} ({:.0} drive periods)",
-            o.validated_on, v.periods
-        );
-        for h in &v.horizons {
-            if h.starts == 0 {
-                println!(
-                    "  {:>2} period(s) no start: the run is shorter than the horizon",
-                    h.periods
-                );
-                continue;
-            }
-            println!(
-                "  {:>2} period(s) x2 error {:.1} um at the end ({:.1} um RMS over), x1 - x2 {:.1} um ({:.1}), {} starts",
-                h.periods,
-                h.capsule_end_m * 1e6,
-                h.capsule_rms_m * 1e6,
-                h.displacement_end_m * 1e6,
-                h.displacement_rms_m * 1e6,
-                h.starts
-            );
-        }
-        if v.progression_error.is_finite() {
-            println!(
-                "  progression  recorded {:+.4} mm per period, predicted {:+.4} mm ({:+.2} %)",
-                v.recorded_progression_m * 1e3,
-                v.predicted_progression_m * 1e3,
-                100.0 * v.progression_error
-            );
-        } else {
-            println!(
-                "  progression  recorded {:+.4} mm per period, no prediction to compare",
-                v.recorded_progression_m * 1e3
-            );
-        }
-        for f in &v.findings {
-            println!("  - {f}");
-        }
+        print_validation(v, &o.validated_on);
     }
     if let Some(out) = &args.out {
         println!("scene          {}", out.display());
     }
     if let Some(p) = &args.plot {
         println!("picture        {}.svg, .png", p.display());
+    }
+}
+
+/// The validation's part of the report.
+fn print_validation(v: &Validation, on: &str) {
+    println!("validation     on {} ({:.0} drive periods)", on, v.periods);
+    for h in &v.horizons {
+        if h.starts == 0 {
+            println!(
+                "  {:>2} period(s) no start: the run is shorter than the horizon",
+                h.periods
+            );
+            continue;
+        }
+        println!(
+            "  {:>2} period(s) x2 error {:.1} um at the end ({:.1} um RMS over), x1 - x2 {:.1} um ({:.1}), {} starts",
+            h.periods,
+            h.capsule_end_m * 1e6,
+            h.capsule_rms_m * 1e6,
+            h.displacement_end_m * 1e6,
+            h.displacement_rms_m * 1e6,
+            h.starts
+        );
+    }
+    if v.progression_error.is_finite() {
+        println!(
+            "  progression  recorded {:+.4} mm per period, predicted {:+.4} mm ({:+.2} %)",
+            v.recorded_progression_m * 1e3,
+            v.predicted_progression_m * 1e3,
+            100.0 * v.progression_error
+        );
+    } else {
+        println!(
+            "  progression  recorded {:+.4} mm per period, no prediction to compare",
+            v.recorded_progression_m * 1e3
+        );
+    }
+    for f in &v.findings {
+        println!("  - {f}");
     }
 }
 
