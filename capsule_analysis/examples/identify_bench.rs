@@ -6,8 +6,8 @@
 //! `cargo run --release -p capsule_analysis --example identify_bench [SECONDS [G B D X
 //! [KEY=VALUE...]]]` (G B D X: the factors on gamma, beta, delta and xi; KEY=VALUE: the
 //! device's `jitter_s`, `latency_s`, `noise_m`, `quantum_m`, `lag_s` or `seed`, or `window`,
-//! the identification's window in drive periods; for the experiments docs/perf/identify.md
-//! reports)
+//! the identification's window in drive periods, or `mixture=0`, the pick's mean weighted
+//! instead of its mixture; for the experiments docs/perf/identify.md reports)
 
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::emulated_run;
@@ -31,7 +31,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "lag_s" => device.lag_s = v,
             "seed" => device.seed = v as u32,
             "window" => settings.window_periods = v,
-            _ => return Err(format!("{k}: not a device setting of this bench").into()),
+            "mixture" => settings.mixture = v != 0.0,
+            _ => return Err(format!("{k}: not a setting of this bench").into()),
         }
     }
     nominal.device = Some(device);
@@ -65,7 +66,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for e in &fit.report.parameters {
         let t = truth.number(&e.key)?;
         let v = e.raw_value;
-        let sd = e.std_error.unwrap_or(f64::NAN);
+        let Some(sd) = e.std_error else {
+            // withheld (not told apart): the raw value, no error in standard errors
+            println!(
+                "{:<14} true {:.6} withheld (raw {:.6}: error {:+.2} %): {}",
+                e.key,
+                t,
+                v,
+                100.0 * (v / t - 1.0),
+                e.statement.as_deref().unwrap_or("")
+            );
+            continue;
+        };
         println!(
             "{:<14} true {:.6} fitted {:.6} +- {:.6} (textbook {:.6}): error {:+.2} %, {:.2} s.e.",
             e.key,
@@ -79,9 +91,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let d = &fit.report.delay;
     println!(
-        "delay          {:.3} ms +- {:.3} ms (device latency {} ms)",
+        "delay          {:.3} ms +- {} (device latency {} ms)",
         d.raw_value * 1e3,
-        d.std_error.unwrap_or(f64::NAN) * 1e3,
+        d.std_error
+            .map_or("withheld".into(), |sd| format!("{:.3} ms", sd * 1e3)),
         device.latency_s * 1e3
     );
     println!(

@@ -19,7 +19,10 @@
 //!   reading's age is a coin toss between two samples, the mean of both). Where the age varies,
 //!   a second stage refits with each residual weighted by the error that variation gives it
 //!   (the capsule's speed times the spread of the age, `pick_weights`), from the first stage's
-//!   twin: the slow samples (turning points on the stop, the stuck shell) carry the gap.
+//!   twin: the slow samples (turning points on the stop, the stuck shell) carry the gap. Where
+//!   the age is a coin toss between readings, the second stage fits the mixture instead
+//!   (`mixture`): each measurement is the capsule at one of the pick's delays, the same on both
+//!   channels, weighed by how likely each is given the data (expectation-maximisation).
 //! - Uncertainty: the standard error from the projected Jacobian at the optimum, as a
 //!   cluster-robust ("sandwich") estimate with the windows as clusters,
 //!   `A^-1 (sum_w J_w^T r_w r_w^T J_w) A^-1` with `A = J^T J`: the residuals within a window are
@@ -32,6 +35,7 @@
 
 use crate::twin::{
     fit_window, state_jacobian, window_samples, windows, Forcing, Recorded, SensorPick, Twin,
+    Weights,
 };
 use capsule_plant::scene::{KeyError, Scene};
 use capsule_plant::State;
@@ -75,6 +79,9 @@ pub struct Settings {
     pub window_periods: f64,
     /// Levenberg-Marquardt's patience: at most this many evaluations per fitted number + 1.
     pub patience: usize,
+    /// Where the sensor's pick is a coin toss between readings, fit the mixture of its delays
+    /// (`mixture`) instead of weighting the residuals of their mean.
+    pub mixture: bool,
 }
 
 impl Default for Settings {
@@ -82,6 +89,7 @@ impl Default for Settings {
         Settings {
             window_periods: 1.0,
             patience: 30,
+            mixture: true,
         }
     }
 }
@@ -307,7 +315,7 @@ struct Outer<'a> {
     free: &'a [Free],
     forcing: &'a Forcing,
     pick: &'a SensorPick,
-    weights: Option<&'a [[f64; 2]]>,
+    weights: Option<Weights>,
     rec: &'a Recorded,
     starts: &'a [usize],
     n: usize,
@@ -322,6 +330,18 @@ struct Outer<'a> {
 }
 
 impl Outer<'_> {
+    /// The twin of `scene` and `delay_s` on this recording, weighted as the fit is (`weighted`)
+    /// or not.
+    fn twin<'s>(&'s self, scene: &'s Scene, delay_s: f64, weighted: bool) -> Twin<'s> {
+        Twin {
+            scene,
+            forcing: self.forcing,
+            pick: self.pick,
+            weights: self.weights.as_ref().filter(|_| weighted),
+            delay_s,
+        }
+    }
+
     /// The scene and delay of parameters `p` (clamped to the bounds).
     fn candidate(&self, p: &DVector<f64>) -> (Scene, f64) {
         let mut s = self.base.clone();
@@ -346,13 +366,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Outer<'_> {
         self.jac = OnceLock::new();
         self.evaluations += 1;
         let (scene, delay_s) = self.candidate(x);
-        let twin = Twin {
-            scene: &scene,
-            forcing: self.forcing,
-            pick: self.pick,
-            weights: self.weights,
-            delay_s,
-        };
+        let twin = self.twin(&scene, delay_s, true);
         let (rec, n) = (self.rec, self.n);
         let from = self.best.as_ref().map_or(&self.states, |b| &b.1);
         let fits: Vec<_> = self
@@ -414,13 +428,7 @@ impl Outer<'_> {
             .par_iter()
             .zip(self.states.par_iter().zip(self.res.par_iter()))
             .map(|(a, (s, r0))| {
-                let twin = Twin {
-                    scene: &base_scene,
-                    forcing: self.forcing,
-                    pick: self.pick,
-                    weights: self.weights,
-                    delay_s: base_delay,
-                };
+                let twin = self.twin(&base_scene, base_delay, true);
                 let js = state_jacobian(&twin, self.rec, *a, self.n, *s, Some(r0));
                 let mut jp = DMatrix::zeros(r0.len(), np);
                 for c in 0..np {
@@ -428,13 +436,7 @@ impl Outer<'_> {
                     let step = PARAM_STEP * p[c].abs().max(1.0);
                     p[c] += step;
                     let (scene, delay_s) = self.candidate(&p);
-                    let t = Twin {
-                        scene: &scene,
-                        forcing: self.forcing,
-                        pick: self.pick,
-                        weights: self.weights,
-                        delay_s,
-                    };
+                    let t = self.twin(&scene, delay_s, true);
                     let r = t.residuals(self.rec, *a, self.n, *s);
                     for (i, (ri, r0i)) in r.iter().zip(r0).enumerate() {
                         jp[(i, c)] = (ri - r0i) / step;
@@ -546,20 +548,17 @@ pub fn identify(
         TOLERANCE
     };
     let (mut outer, mut report) = minimise(outer, &free, settings, first)?;
-    let weights;
     if two_stages {
         let all = all_windows(outer, &starts, &states, step);
         let noise_m = scene.device.map_or(0.0, |d| {
             (d.noise_m * d.noise_m + d.quantum_m * d.quantum_m / 12.0).sqrt()
         });
-        weights = pick_weights(&all, noise_m);
-        let weighted = Outer {
-            weights: Some(&weights),
-            best: None,
-            jac: OnceLock::new(),
-            ..all
+        (outer, report) = if settings.mixture && pick.count() > 1 {
+            mixture(all, &free, settings, noise_m)?
+        } else {
+            let weights = pick_weights(&all, noise_m);
+            minimise(reweighted(all, weights), &free, settings, TOLERANCE)?
         };
-        (outer, report) = minimise(weighted, &free, settings, TOLERANCE)?;
     }
     let (fitted, delay_s) = outer.candidate(&outer.p);
     let report = summarise(
@@ -615,13 +614,7 @@ fn checked_windows(
 
 /// The residuals of every window without the weights, \[m\].
 fn residuals_in_metres(outer: &Outer, fitted: &Scene, delay_s: f64) -> Vec<Vec<f64>> {
-    let raw = Twin {
-        scene: fitted,
-        forcing: outer.forcing,
-        pick: outer.pick,
-        weights: None,
-        delay_s,
-    };
+    let raw = outer.twin(fitted, delay_s, false);
     outer
         .starts
         .par_iter()
@@ -667,21 +660,122 @@ fn minimise<'a>(
     Ok((outer, report))
 }
 
+/// `outer` with `weights`, its fit to be redone.
+fn reweighted(outer: Outer<'_>, weights: Weights) -> Outer<'_> {
+    Outer {
+        weights: Some(weights),
+        best: None,
+        jac: OnceLock::new(),
+        ..outer
+    }
+}
+
+/// Most rounds of expectation-maximisation over the sensor's pick.
+const MIXTURE_ROUNDS: usize = 4;
+
+/// The rounds stop once no scaled parameter moved by more than this (a relative change of
+/// 1e-3 of a key; a thousandth of a sample of the delay).
+const MIXTURE_MOVE: f64 = 1e-3;
+
+/// Where the reading's age is a coin toss between samples (the typical device's 2 or 3 ms):
+/// the measurement is the capsule at one of the pick's delays, not their mean, the same on both
+/// channels. Expectation-maximisation: each round weighs, for every sample, how likely each
+/// delay is given the measurement and the fitted twin (`mixture_weights`), then refits with
+/// each delay's residuals weighted by that (a weighted least squares whose optimum is the
+/// maximum of the mixture's likelihood once the rounds settle).
+fn mixture<'a>(
+    mut outer: Outer<'a>,
+    free: &[Free],
+    settings: &Settings,
+    noise_m: f64,
+) -> Result<(Outer<'a>, MinimizationReport<f64>), IdentifyError> {
+    let mut round = 0;
+    loop {
+        let before = outer.p.clone();
+        let weights = mixture_weights(&outer, noise_m);
+        let report;
+        (outer, report) = minimise(reweighted(outer, weights), free, settings, TOLERANCE)?;
+        round += 1;
+        let moved = (&outer.p - before).amax();
+        if round >= MIXTURE_ROUNDS || moved < MIXTURE_MOVE {
+            return Ok((outer, report));
+        }
+    }
+}
+
+/// The mixture's weights from `outer`'s fit: per sample and delay of the pick, the probability
+/// that the measurement is the capsule at that delay (its prior times a Gaussian likelihood of
+/// both channels with the noise and the jitter's variance), and per channel
+/// `floor / sqrt(floor^2 + jitter variance)` (`floor` as in [`pick_weights`]).
+fn mixture_weights(outer: &Outer, noise_m: f64) -> Weights {
+    let (scene, delay_s) = outer.candidate(&outer.p);
+    let twin = outer.twin(&scene, delay_s, false);
+    let per = twin.pick_count();
+    let prior = outer.pick.probabilities();
+    let runs: Vec<(usize, Vec<[f64; 2]>)> = outer
+        .starts
+        .par_iter()
+        .zip(outer.states.par_iter())
+        .filter_map(|(a, s)| Some((*a, twin.picks(*a, outer.n, *s).ok()?.0)))
+        .collect();
+    let (sum, count) = runs
+        .iter()
+        .flat_map(|(_, p)| twin.pick_variances(p).0)
+        .fold((0.0, 0usize), |(s, c), v| (s + v[0] + v[1], c + 2));
+    let floor = noise_m.max(0.1 * (sum / count.max(1) as f64).sqrt());
+    let rec = outer.rec;
+    let mut w = Weights {
+        channels: vec![[1.0; 2]; rec.len()],
+        picks: prior
+            .iter()
+            .copied()
+            .cycle()
+            .take(per * rec.len())
+            .collect(),
+    };
+    if floor <= 0.0 {
+        return w;
+    }
+    for (a, picks) in runs {
+        let (_, within) = twin.pick_variances(&picks);
+        for (i, at) in picks.chunks(per).enumerate() {
+            let k = a + i;
+            let var = within[i].map(|v| floor * floor + v);
+            w.channels[k] = var.map(|v| floor / v.sqrt());
+            let meas = [rec.rel_m[k], rec.x2_m[k]];
+            let log: Vec<f64> = at
+                .iter()
+                .zip(&prior)
+                .map(|(x, p)| {
+                    let d: f64 = (0..2)
+                        .filter(|c| meas[*c].is_finite())
+                        .map(|c| (x[c] - meas[c]).powi(2) / var[c])
+                        .sum();
+                    p.ln() - 0.5 * d
+                })
+                .collect();
+            let top = log.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let e: Vec<f64> = log.iter().map(|l| (l - top).exp()).collect();
+            let total: f64 = e.iter().sum();
+            if total.is_finite() && total > 0.0 {
+                for (j, v) in e.iter().enumerate() {
+                    w.picks[k * per + j] = v / total;
+                }
+            }
+        }
+    }
+    w
+}
+
 /// Weights of the residuals, per sample of the recording: `floor / sqrt(floor^2 + var)`, `var`
 /// the variance the reading's age gives the measurement (the fitted twin's positions over the
 /// pick's delays, [`Twin::spread`]), `floor` the sensor's noise but at least a tenth of the
 /// RMS spread (a noiseless sensor would weigh the standstills a million times the motion).
 /// From the twin, not from the data: weights made from the measured positions carry their
 /// noise and biased delta by 2 standard errors.
-fn pick_weights(outer: &Outer, noise_m: f64) -> Vec<[f64; 2]> {
+fn pick_weights(outer: &Outer, noise_m: f64) -> Weights {
     let (scene, delay_s) = outer.candidate(&outer.p);
-    let twin = Twin {
-        scene: &scene,
-        forcing: outer.forcing,
-        pick: outer.pick,
-        weights: None,
-        delay_s,
-    };
+    let twin = outer.twin(&scene, delay_s, false);
     let spreads: Vec<(usize, Vec<[f64; 2]>)> = outer
         .starts
         .par_iter()
@@ -694,15 +788,17 @@ fn pick_weights(outer: &Outer, noise_m: f64) -> Vec<[f64; 2]> {
         .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
     let floor = noise_m.max(0.1 * (sum / count.max(1) as f64).sqrt());
     let mut w = vec![[1.0; 2]; outer.rec.len()];
-    if floor <= 0.0 {
-        return w;
-    }
-    for (a, v) in spreads {
-        for (i, var) in v.iter().enumerate() {
-            w[a + i] = var.map(|x| floor / (floor * floor + x).sqrt());
+    if floor > 0.0 {
+        for (a, v) in spreads {
+            for (i, var) in v.iter().enumerate() {
+                w[a + i] = var.map(|x| floor / (floor * floor + x).sqrt());
+            }
         }
     }
-    w
+    Weights {
+        channels: w,
+        picks: Vec::new(),
+    }
 }
 
 /// Sums of squared residuals at the optimum: all, of the displacement `x1 - x2` (even rows),
@@ -861,7 +957,13 @@ fn summarise(
 ) -> Report {
     let j = outer.projected_jacobian();
     let np = j.ncols();
-    let (ss, _, _, count) = residual_sums(&outer.res);
+    let (ss, _, _, rows) = residual_sums(&outer.res);
+    // the mixture has a row per delay of the pick for each measurement
+    let per = match &outer.weights {
+        Some(w) if !w.picks.is_empty() => outer.pick.count(),
+        _ => 1,
+    };
+    let count = (rows / per).max(1);
     let (ss_m, ss_rel, ss_x2, _) = residual_sums(&residuals_in_metres(outer, fitted, delay_s));
     let (textbook, robust) = covariances(outer, &j, ss, count);
     // correlations from the robust estimate (the textbook one where it is degenerate)

@@ -18,7 +18,8 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn, Vector4, U4};
 
 /// A recorded run on its sample grid, SI: the positions the device measured (NaN where it
-/// measured nothing) and the force commanded after each sample.
+/// measured nothing) and the force after each sample: commanded (through the scene's actuator
+/// on its way to the mass) or, `acted`, what the actuator applied.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recorded {
     /// Sample spacing \[s\].
@@ -27,8 +28,12 @@ pub struct Recorded {
     pub rel_m: Vec<f64>,
     /// `x2` at each sample \[m\].
     pub x2_m: Vec<f64>,
-    /// The force commanded from each sample to the next \[N\].
+    /// The force commanded from each sample to the next \[N\] (`acted`: the mean force on the
+    /// mass over that period).
     pub command_n: Vec<f64>,
+    /// The forces are what acted on the mass (a device's report of its actuator): the twin
+    /// takes them as they are, without the scene's actuator.
+    pub acted: bool,
 }
 
 impl Recorded {
@@ -44,7 +49,13 @@ impl Recorded {
             rel_m: fit(rel_m, f64::NAN),
             command_n: fit(command_n, 0.0),
             x2_m,
+            acted: false,
         }
+    }
+
+    /// The same, its forces what acted on the mass or not (see [`Recorded::acted`]).
+    pub fn with_acted(self, acted: bool) -> Recorded {
+        Recorded { acted, ..self }
     }
 
     /// Samples in the recording.
@@ -71,6 +82,7 @@ impl Recorded {
             rel_m: self.rel_m[a..b].to_vec(),
             x2_m: self.x2_m[a..b].to_vec(),
             command_n: self.command_n[a..b].to_vec(),
+            acted: self.acted,
         }
     }
 }
@@ -86,8 +98,10 @@ pub struct Forcing {
 }
 
 impl Forcing {
-    /// The force of `rec`'s commands through `device`'s actuator (`None`: ideal).
+    /// The force of `rec`'s commands through `device`'s actuator (`None`, or forces that
+    /// acted: ideal).
     pub fn new(rec: &Recorded, device: Option<&DeviceModel>) -> Forcing {
+        let device = device.filter(|_| !rec.acted);
         let (lag_s, target): (f64, Vec<f64>) = match device {
             Some(d) => {
                 let a = Actuator::new(d);
@@ -239,6 +253,16 @@ impl SensorPick {
         self.offsets.len() > 1 || self.jitter_s > 0.0
     }
 
+    /// How many delays the pick can give.
+    pub fn count(&self) -> usize {
+        self.offsets.len()
+    }
+
+    /// The probability of each of the pick's delays, in the order of the twin's picks.
+    pub fn probabilities(&self) -> Vec<f64> {
+        self.offsets.iter().map(|o| o.1).collect()
+    }
+
     /// The mean delay of the readings \[s\].
     pub fn mean_delay_s(&self) -> f64 {
         self.mean_s
@@ -274,6 +298,18 @@ fn normal_cdf(x: f64) -> f64 {
     }
 }
 
+/// How a twin's residuals are weighted, per sample of the recording.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Weights {
+    /// The weights of the `x1 - x2` and `x2` residuals, per sample.
+    pub channels: Vec<[f64; 2]>,
+    /// Per sample, [`Twin::pick_count`] probabilities that the measurement is the reading of
+    /// each of the pick's delays, given the data (expectation-maximisation's responsibilities):
+    /// the twin then compares the capsule at each delay with the measurement, weighted by its
+    /// probability, instead of their mean. Empty: the mean.
+    pub picks: Vec<f64>,
+}
+
 /// A candidate twin: a scene, the recording's force, the measurement delay.
 pub struct Twin<'a> {
     /// The capsule, friction, solver and scale.
@@ -282,9 +318,8 @@ pub struct Twin<'a> {
     pub forcing: &'a Forcing,
     /// How the sensor picks its readings (the spread of the delay around its mean).
     pub pick: &'a SensorPick,
-    /// Per sample of the recording, the weights of the `x1 - x2` and `x2` residuals (`None`:
-    /// all 1).
-    pub weights: Option<&'a [[f64; 2]]>,
+    /// How the residuals are weighted (`None`: all 1, the pick's mean).
+    pub weights: Option<&'a Weights>,
     /// The mean delay: measurement `k` is the capsule at `t_k - delay_s - o`, averaged over the
     /// pick's offsets `o`.
     pub delay_s: f64,
@@ -316,39 +351,65 @@ impl Twin<'_> {
         s0: State,
         out: &mut Vec<[f64; 2]>,
     ) -> Result<State, SimError> {
-        self.simulate(a, n, s0, out, None)
+        let (picks, end) = self.picks(a, n, s0)?;
+        let weights: Vec<f64> = self.pick.offsets.iter().map(|o| o.1).collect();
+        out.extend(picks.chunks(weights.len()).map(|at| {
+            at.iter()
+                .zip(&weights)
+                .fold([0.0; 2], |m, (x, w)| [m[0] + w * x[0], m[1] + w * x[1]])
+        }));
+        Ok(end)
     }
 
     /// The variance of each measurement of a run from `s0` at `a` over `n` intervals that the
     /// age of the reading makes, `[x1 - x2, x2]` \[m^2\]: the capsule's motion over the pick's
     /// spread of delays, and over the jitter (`v^2 sigma^2`, from the pick's positions too).
     pub fn spread(&self, a: usize, n: usize, s0: State) -> Result<Vec<[f64; 2]>, SimError> {
-        let mut mean = Vec::with_capacity(n + 1);
-        let mut var = Vec::with_capacity(n + 1);
-        self.simulate(a, n, s0, &mut mean, Some(&mut var))?;
-        let picks = self.pick.variance_s2();
-        // the jitter's share, in proportion (the pick's spread stands for v^2)
-        let scale = if picks > 0.0 {
-            1.0 + self.pick.jitter_s * self.pick.jitter_s / picks
-        } else {
-            1.0
-        };
-        Ok(var
+        let (picks, _) = self.picks(a, n, s0)?;
+        let (between, within) = self.pick_variances(&picks);
+        Ok(between
             .iter()
-            .zip(&mean)
-            .map(|(v2, m)| [0, 1].map(|c| ((v2[c] - m[c] * m[c]) * scale).max(0.0)))
+            .zip(&within)
+            .map(|(b, w)| [b[0] + w[0], b[1] + w[1]])
             .collect())
     }
 
-    /// [`Twin::run`], and with `var` the weighted mean of the squared positions of the pick.
-    fn simulate(
-        &self,
-        a: usize,
-        n: usize,
-        s0: State,
-        out: &mut Vec<[f64; 2]>,
-        var: Option<&mut Vec<[f64; 2]>>,
-    ) -> Result<State, SimError> {
+    /// Per sample of `picks` ([`Twin::picks`]), the variance of the measurement between the
+    /// pick's readings and the jitter's within one, `[x1 - x2, x2]` \[m^2\] (the jitter's from
+    /// the same motion: in proportion to the pick's spread, which stands for `v^2`).
+    pub fn pick_variances(&self, picks: &[[f64; 2]]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+        let offsets = &self.pick.offsets;
+        let spread = self.pick.variance_s2();
+        let jitter = if spread > 0.0 {
+            self.pick.jitter_s * self.pick.jitter_s / spread
+        } else {
+            0.0
+        };
+        picks
+            .chunks(offsets.len())
+            .map(|at| {
+                let var = [0, 1].map(|c| {
+                    let m: f64 = at.iter().zip(offsets).map(|(x, o)| o.1 * x[c]).sum();
+                    let v: f64 = at
+                        .iter()
+                        .zip(offsets)
+                        .map(|(x, o)| o.1 * (x[c] - m).powi(2))
+                        .sum();
+                    v.max(0.0)
+                });
+                (var, var.map(|v| v * jitter))
+            })
+            .unzip()
+    }
+
+    /// The pick count: readings of different age the sensor may send for a sample.
+    pub fn pick_count(&self) -> usize {
+        self.pick.offsets.len()
+    }
+
+    /// The capsule `[x1 - x2, x2]` \[m\] at each delay of the pick for samples `a ..= a + n`
+    /// of a run from `s0` at `a`, [`Twin::pick_count`] a sample; and the state at `a + n`.
+    pub fn picks(&self, a: usize, n: usize, s0: State) -> Result<(Vec<[f64; 2]>, State), SimError> {
         let p = &self.scene.physical;
         let (l, ts, fs) = (p.length_m(), p.time_s(), p.force_n());
         let h = self.forcing.h_s;
@@ -360,18 +421,19 @@ impl Twin<'_> {
             .map(|o| o.0)
             .fold(f64::NEG_INFINITY, f64::max);
         let delay = self.delay_s + o_max;
-        // each offset's lead on the sample: whole samples and the rest, and its weight
-        let leads: Vec<(usize, f64, f64)> = self
+        // each offset's lead on the sample: whole samples and the rest
+        let leads: Vec<(usize, f64)> = self
             .pick
             .offsets
             .iter()
-            .map(|&(o, w)| {
+            .map(|&(o, _)| {
                 let lead = (o_max - o).max(0.0);
                 let whole = (lead / h + 1e-9).floor();
                 let rest = (lead - whole * h).max(0.0);
-                (whole as usize, if rest < 1e-9 * h { 0.0 } else { rest }, w)
+                (whole as usize, if rest < 1e-9 * h { 0.0 } else { rest })
             })
             .collect();
+        let count = leads.len();
         let q = pieces(h, self.forcing.lag_s);
         // the cuts in a sample interval: the pieces, the hold boundaries (in the measurement's
         // time they fall `delay mod h` after a sample) and the leads' rests
@@ -381,19 +443,11 @@ impl Twin<'_> {
         cuts.extend(leads.iter().map(|x| x.1));
         cuts.sort_by(f64::total_cmp);
         cuts.dedup_by(|x, y| (*x - *y).abs() <= 1e-9 * h);
-        let mut acc = vec![[0.0; 2]; n + 1];
-        let mut acc2 = vec![[0.0; 2]; if var.is_some() { n + 1 } else { 0 }];
+        let mut out = vec![[0.0; 2]; (n + 1) * count];
         let mut add = |j: usize, at: f64, s: State| {
-            for &(whole, rest, w) in &leads {
+            for (i, &(whole, rest)) in leads.iter().enumerate() {
                 if (rest - at).abs() <= 1e-9 * h && j >= whole && j - whole <= n {
-                    let (rel, x2) = ((s.x1 - s.x2) * l, s.x2 * l);
-                    let m = &mut acc[j - whole];
-                    m[0] += w * rel;
-                    m[1] += w * x2;
-                    if let Some(m2) = acc2.get_mut(j - whole) {
-                        m2[0] += w * rel * rel;
-                        m2[1] += w * x2 * x2;
-                    }
+                    out[(j - whole) * count + i] = [(s.x1 - s.x2) * l, s.x2 * l];
                 }
             }
         };
@@ -426,25 +480,34 @@ impl Twin<'_> {
                 }
             }
         }
-        out.extend(acc);
-        if let Some(v) = var {
-            v.extend(acc2);
-        }
-        Ok(end)
+        Ok((out, end))
     }
 
     /// Residuals of a run from `s0` at `a` over `n` intervals against `rec`, \[m\]: `x1 - x2`
-    /// then `x2` of each sample, zero where nothing was measured. A failed run gives 1 m.
+    /// then `x2` of each sample, zero where nothing was measured (with the pick's
+    /// responsibilities, [`Weights::picks`]: of each pick of each sample, times the square root
+    /// of its responsibility). A failed run gives 1 m.
     pub fn residuals(&self, rec: &Recorded, a: usize, n: usize, s0: State) -> Vec<f64> {
-        let mut out = Vec::with_capacity(n + 1);
-        if self.run(a, n, s0, &mut out).is_err() {
+        let mixture = self.weights.filter(|w| !w.picks.is_empty());
+        let per = if mixture.is_some() {
+            self.pick_count()
+        } else {
+            1
+        };
+        let mut out = Vec::with_capacity((n + 1) * per);
+        let ran = match mixture {
+            Some(_) => self.picks(a, n, s0).map(|(p, _)| out = p),
+            None => self.run(a, n, s0, &mut out).map(|_| ()),
+        };
+        if ran.is_err() {
             out.clear();
         }
-        out.resize(n + 1, [f64::NAN; 2]);
-        let mut r = Vec::with_capacity(2 * (n + 1));
+        out.resize((n + 1) * per, [f64::NAN; 2]);
+        let mut r = Vec::with_capacity(2 * (n + 1) * per);
         for (i, &[rel, x2]) in out.iter().enumerate() {
-            let k = a + i;
-            let w = self.weights.map_or([1.0; 2], |w| w[k]);
+            let k = a + i / per;
+            let w = self.weights.map_or([1.0; 2], |w| w.channels[k]);
+            let share = mixture.map_or(1.0, |m| m.picks[k * per + i % per].sqrt());
             for (c, (sim, meas)) in [(rel, rec.rel_m[k]), (x2, rec.x2_m[k])]
                 .into_iter()
                 .enumerate()
@@ -452,7 +515,7 @@ impl Twin<'_> {
                 r.push(if !meas.is_finite() {
                     0.0
                 } else if sim.is_finite() {
-                    w[c] * (sim - meas)
+                    share * w[c] * (sim - meas)
                 } else {
                     1.0
                 });
@@ -643,6 +706,7 @@ pub fn emulated_run(
         rel_m: Vec::with_capacity(n),
         x2_m: Vec::with_capacity(n),
         command_n: Vec::with_capacity(n),
+        acted: false,
     };
     closed_loop_observed(truth, &case, &mut |s| {
         if rec.x2_m.len() < n {
@@ -686,6 +750,7 @@ mod tests {
             rel_m: vec![0.0; n],
             x2_m: vec![0.0; n],
             command_n: commands,
+            acted: false,
         }
     }
 
@@ -707,6 +772,10 @@ mod tests {
         // split anywhere, the same
         let split = lagged.integral(0.0, 0.7e-3) + lagged.integral(0.7e-3, 2e-3);
         assert!((split - want).abs() < 1e-15);
+        // forces that acted on the mass do not go through the coil again
+        let acted = Forcing::new(&r.clone().with_acted(true), Some(&d));
+        assert!((acted.integral(0.0, 2e-3) - 2e-3).abs() < 1e-15);
+        assert_eq!(acted.lag_s(), 0.0);
     }
 
     #[test]
@@ -739,6 +808,55 @@ mod tests {
         };
         let late = SensorPick::new(Some(&between), 1e-3);
         assert!((late.mean_delay_s() - 3e-3).abs() < 1e-9, "{late:?}");
+    }
+
+    #[test]
+    fn the_mixture_compares_each_delay_of_the_pick_and_the_mean_is_their_average() {
+        let scene = Scene::default();
+        let d = DeviceModel {
+            latency_s: 2e-3,
+            jitter_s: 1e-4,
+            ..DeviceModel::typical(&scene.physical)
+        };
+        let n = 40;
+        let r = rec((0..=n).map(|k| 0.1 * (k as f64 * 0.2).sin()).collect());
+        let forcing = Forcing::new(&r, Some(&d));
+        let pick = SensorPick::new(Some(&d), r.h_s);
+        let twin = Twin {
+            scene: &scene,
+            forcing: &forcing,
+            pick: &pick,
+            weights: None,
+            delay_s: pick.mean_delay_s(),
+        };
+        let s0 = scene.initial_state();
+        let (picks, _) = twin.picks(0, n, s0).expect("picks");
+        let mut mean = Vec::new();
+        twin.run(0, n, s0, &mut mean).expect("run");
+        let p = pick.probabilities();
+        assert_eq!((picks.len(), p.len()), (2 * (n + 1), 2));
+        // the capsule moves: the two delays see it apart, and the mean is their average
+        let apart = picks
+            .chunks(2)
+            .map(|x| (x[0][1] - x[1][1]).abs())
+            .fold(0.0, f64::max);
+        assert!(apart > 0.0);
+        for (m, x) in mean.iter().zip(picks.chunks(2)) {
+            assert!((m[1] - (p[0] * x[0][1] + p[1] * x[1][1])).abs() < 1e-15);
+        }
+        // all of a sample's responsibility on its first delay: its residuals are that delay's
+        let w = Weights {
+            channels: vec![[1.0; 2]; n + 1],
+            picks: [1.0, 0.0].repeat(n + 1),
+        };
+        let mixture = Twin {
+            weights: Some(&w),
+            ..twin
+        };
+        let res = mixture.residuals(&r, 0, n, s0);
+        assert_eq!(res.len(), 4 * (n + 1));
+        assert_eq!(res[1], picks[0][1] - r.x2_m[0]);
+        assert_eq!((res[2], res[3]), (0.0, 0.0));
     }
 
     #[test]

@@ -257,11 +257,17 @@ fn findings(
     progression_error: f64,
 ) -> Vec<String> {
     let mut out = Vec::new();
-    out.push(format!(
-        "progression per period: the twin predicts {:+.1} % of the recorded",
-        100.0 * progression_error
-    ));
-    if let (Some(first), Some(last)) = (horizons.first(), horizons.last()) {
+    out.push(if progression_error.is_finite() {
+        format!(
+            "progression per period: the twin predicts {:+.1} % of the recorded",
+            100.0 * progression_error
+        )
+    } else {
+        "progression per period: no comparison (the twin's run over the recording failed, or the capsule did not move)".into()
+    });
+    // the horizons the run was long enough for
+    let told: Vec<&HorizonError> = horizons.iter().filter(|h| h.starts > 0).collect();
+    if let (Some(first), Some(last)) = (told.first(), told.last()) {
         out.push(format!(
             "the capsule's position error grows from {:.1} um after {} period(s) to {:.1} um after {} (RMS at the horizon's end)",
             first.capsule_end_m * 1e6,
@@ -307,4 +313,40 @@ pub fn first_state(scene: &Scene, delay_s: f64, rec: &Recorded) -> Option<(usize
     let twin = unweighted(scene, &forcing, &pick, delay_s);
     let fit = fit_window(&twin, rec, a, n, twin.guess(rec, a, (n / 16).max(3)));
     Some((a, fit.state))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn horizon(periods: usize, starts: usize, end_m: f64) -> HorizonError {
+        HorizonError {
+            periods,
+            starts,
+            capsule_end_m: end_m,
+            displacement_end_m: end_m,
+            capsule_rms_m: end_m,
+            displacement_rms_m: end_m,
+            predicted_progression_m: 0.0,
+            recorded_progression_m: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_findings_say_what_is_there_and_print_no_nan() {
+        // 20 periods did not fit in the run, and the twin's whole run failed
+        let h = [
+            horizon(1, 10, 2e-6),
+            horizon(5, 4, 9e-6),
+            horizon(20, 0, f64::NAN),
+        ];
+        let phases = [1e-6; 8];
+        let f = findings(&h, &phases, (f64::NAN, 1e-6), f64::NAN);
+        let text = f.join("\n");
+        assert!(!text.contains("NaN"), "{text}");
+        assert!(text.contains("no comparison"), "{text}");
+        assert!(text.contains("after 5"), "{text}");
+        let f = findings(&h[..1], &phases, (2e-6, 1e-6), 0.01);
+        assert!(f[0].contains("+1.0 %") && f[1].contains("after 1"), "{f:?}");
+    }
 }

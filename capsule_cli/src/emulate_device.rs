@@ -148,8 +148,10 @@ impl DeviceLatency {
 /// Re-sends in lock-step while no answer comes.
 const RESEND: Duration = Duration::from_millis(50);
 
-/// The measurement frame of a reading at device time `t_s`.
-fn measurement(r: &Reading, t_s: f64) -> Measurement {
+/// The measurement frame of a reading at device time `t_s`, with the mean force the actuator
+/// applied over the sample period that ends at `t_s` (not the sensor's delayed reading of the
+/// coil: the device knows what it applied without the sensor's latency).
+fn measurement(r: &Reading, t_s: f64, applied_n: f64) -> Measurement {
     let (contact_measured, in_contact) = match r.contact {
         Some(c) => (1u8, u8::from(c) << 1),
         None => (0, 0),
@@ -161,7 +163,7 @@ fn measurement(r: &Reading, t_s: f64) -> Measurement {
         capsule_m: r.capsule_m as f32,
         mass_velocity: r.mass_v as f32,
         capsule_velocity: r.capsule_v as f32,
-        applied_force_n: r.force_n as f32,
+        applied_force_n: applied_n as f32,
         flags: contact_measured | in_contact,
     }
 }
@@ -339,7 +341,8 @@ fn serve(
             break;
         }
         let silent = args.silent_after_s.is_some_and(|s| t >= s);
-        let mut m = measurement(&proto.read(), t);
+        let reading = proto.read();
+        let mut m = measurement(&reading, t, proto.applied_n());
         let every = |n: Option<u64>| n.is_some_and(|n| (k + 1) % n == 0);
         if every(args.nan_every) {
             m.relative_m = f32::NAN;
@@ -518,16 +521,19 @@ mod tests {
             contact: None,
             force_n: 0.25,
         };
-        let m = measurement(&r, 4295.0);
+        let m = measurement(&r, 4295.0, 0.125);
         // the microsecond clock wraps at 2^32 us (4294.967296 s)
         assert_eq!(m.t_us, 32_704);
         assert!(m.mass_velocity.is_nan() && m.capsule_velocity.is_nan());
         assert_eq!((m.relative_m, m.capsule_m, m.flags), (1e-3, 2e-3, 0));
+        // the applied force is the period's mean the device was given, not the reading's
+        assert_eq!(m.applied_force_n, 0.125);
         let touching = measurement(
             &Reading {
                 contact: Some(true),
                 ..r
             },
+            0.0,
             0.0,
         );
         assert_eq!(touching.flags, 0b11);

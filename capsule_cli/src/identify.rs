@@ -12,7 +12,7 @@ use capsule_analysis::twin::Recorded;
 use capsule_analysis::twin_validation::Validation;
 use capsule_args::scene_file::SceneFile;
 use capsule_plant::scene::Scene;
-use capsule_record::series::{series, Series};
+use capsule_record::series::{series, ForceSource, Series};
 
 use crate::svg::{self, Curve, Panel, Style};
 use crate::{work, Refused};
@@ -75,7 +75,8 @@ fn parse_segment(s: &str) -> Result<Segment, String> {
 
 /// A recording's series as the twin's input.
 fn recorded(s: Series) -> Recorded {
-    Recorded::new(s.h_s, s.rel_m, s.x2_m, s.command_n)
+    let acted = s.forces.acted();
+    Recorded::new(s.h_s, s.rel_m, s.x2_m, s.command_n).with_acted(acted)
 }
 
 /// Runs `capsule identify`.
@@ -176,8 +177,19 @@ fn write_scene(out: &Path, file: &SceneFile, fitted: &Scene, args: &Args) -> Res
     Ok(())
 }
 
+/// The change from the nominal value in per cent, or `-` where there is no ratio (a nominal
+/// zero: the delay of an ideal sensor).
+fn change(v: f64, nominal: f64) -> String {
+    let c = 100.0 * (v / nominal - 1.0);
+    if nominal != 0.0 && c.is_finite() {
+        format!("{c:>+8.1} %")
+    } else {
+        "-".into()
+    }
+}
+
 /// The report as text.
-fn print_report(args: &Args, o: &Outcome, forces: capsule_record::series::ForceSource, wall: f64) {
+fn print_report(args: &Args, o: &Outcome, forces: ForceSource, wall: f64) {
     let r = &o.report;
     println!(
         "recording      {}: {} samples at {:.0} Hz ({:.1} s), forces from the {}",
@@ -186,8 +198,9 @@ fn print_report(args: &Args, o: &Outcome, forces: capsule_record::series::ForceS
         1.0 / o.h_s,
         o.samples as f64 * o.h_s,
         match forces {
-            capsule_record::series::ForceSource::Commands => "commands",
-            capsule_record::series::ForceSource::Applied => "states' applied force",
+            ForceSource::Commands => "commands",
+            ForceSource::Acted => "force the states say acted over each period",
+            ForceSource::Applied => "states' applied force",
         }
     );
     println!(
@@ -201,16 +214,12 @@ fn print_report(args: &Args, o: &Outcome, forces: capsule_record::series::ForceS
     for e in r.parameters.iter().chain([&r.delay]) {
         match (e.value, e.std_error) {
             (Some(v), Some(sd)) => println!(
-                "{:<22} {:>12.6} {:>12.6} {:>12.6} {:>+8.1} %",
+                "{:<22} {:>12.6} {:>12.6} {:>12.6} {:>9}",
                 e.key,
                 e.nominal,
                 v,
                 sd,
-                if e.nominal != 0.0 {
-                    100.0 * (v / e.nominal - 1.0)
-                } else {
-                    f64::NAN
-                }
+                change(v, e.nominal)
             ),
             _ => println!(
                 "{:<22} {:>12.6} {:>12} {:>12} {:>9}",
@@ -242,36 +251,52 @@ fn print_report(args: &Args, o: &Outcome, forces: capsule_record::series::ForceS
         r.evaluations, r.termination
     );
     if let Some(v) = &o.validation {
-        println!(
-            "validation     on {} ({:.0} drive periods)",
-            o.validated_on, v.periods
-        );
-        for h in &v.horizons {
-            println!(
-                "  {:>2} period(s) x2 error {:.1} um at the end ({:.1} um RMS over), x1 - x2 {:.1} um ({:.1}), {} starts",
-                h.periods,
-                h.capsule_end_m * 1e6,
-                h.capsule_rms_m * 1e6,
-                h.displacement_end_m * 1e6,
-                h.displacement_rms_m * 1e6,
-                h.starts
-            );
-        }
-        println!(
-            "  progression  recorded {:+.4} mm per period, predicted {:+.4} mm ({:+.2} %)",
-            v.recorded_progression_m * 1e3,
-            v.predicted_progression_m * 1e3,
-            100.0 * v.progression_error
-        );
-        for f in &v.findings {
-            println!("  - {f}");
-        }
+        print_validation(v, &o.validated_on);
     }
     if let Some(out) = &args.out {
         println!("scene          {}", out.display());
     }
     if let Some(p) = &args.plot {
         println!("picture        {}.svg, .png", p.display());
+    }
+}
+
+/// The validation's part of the report.
+fn print_validation(v: &Validation, on: &str) {
+    println!("validation     on {} ({:.0} drive periods)", on, v.periods);
+    for h in &v.horizons {
+        if h.starts == 0 {
+            println!(
+                "  {:>2} period(s) no start: the run is shorter than the horizon",
+                h.periods
+            );
+            continue;
+        }
+        println!(
+            "  {:>2} period(s) x2 error {:.1} um at the end ({:.1} um RMS over), x1 - x2 {:.1} um ({:.1}), {} starts",
+            h.periods,
+            h.capsule_end_m * 1e6,
+            h.capsule_rms_m * 1e6,
+            h.displacement_end_m * 1e6,
+            h.displacement_rms_m * 1e6,
+            h.starts
+        );
+    }
+    if v.progression_error.is_finite() {
+        println!(
+            "  progression  recorded {:+.4} mm per period, predicted {:+.4} mm ({:+.2} %)",
+            v.recorded_progression_m * 1e3,
+            v.predicted_progression_m * 1e3,
+            100.0 * v.progression_error
+        );
+    } else {
+        println!(
+            "  progression  recorded {:+.4} mm per period, no prediction to compare",
+            v.recorded_progression_m * 1e3
+        );
+    }
+    for f in &v.findings {
+        println!("  - {f}");
     }
 }
 

@@ -67,7 +67,10 @@ pub struct Measurement {
     pub mass_velocity: f32,
     /// The shell's velocity \[m/s\] (NaN: not measured).
     pub capsule_velocity: f32,
-    /// The force the actuator applies now \[N\] (after its limit, lag and dead band; NaN: unknown).
+    /// The mean force the actuator applied on the mass over the sample period that ends with
+    /// this measurement \[N\] (after its limit, lag and dead band; NaN: unknown): what acted,
+    /// whenever the force frames came, so that a recording says which force moved the capsule
+    /// between two measurements even where the answers were late.
     pub applied_force_n: f32,
     /// Bit 0: contact is measured; bit 1: the mass touches the stop.
     pub flags: u8,

@@ -441,7 +441,8 @@ pub fn identify(
         capsule_record::series::series(p).map_err(|e| PyValueError::new_err(e.to_string()))
     };
     let recorded = |s: capsule_record::series::Series| {
-        capsule_analysis::twin::Recorded::new(s.h_s, s.rel_m, s.x2_m, s.command_n)
+        let acted = s.forces.acted();
+        capsule_analysis::twin::Recorded::new(s.h_s, s.rel_m, s.x2_m, s.command_n).with_acted(acted)
     };
     let rec = read(&recording)?;
     let forces = rec.forces.name();

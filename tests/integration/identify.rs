@@ -6,9 +6,8 @@
 //!
 //! The heavy checks call the library (the test profile is optimised); the recordings are the
 //! emulator's prototype closed through the controller's law in lock-step
-//! (`twin::emulated_run`, what the plant records in front of `capsule emulate-device` when
-//! nothing is late; the path through the ROS graph is not tested: on a loaded machine the
-//! emulator falls behind the lock-step plant, docs/hardware.md has the figures).
+//! (`twin::emulated_run`, what the plant records in front of `capsule emulate-device`; the
+//! path through the ROS graph is tests/integration/ros/identify.rs).
 
 use crate::common::{assert_refused, capsule, files_in, json_of, TempDir};
 use crate::root;

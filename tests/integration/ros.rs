@@ -18,6 +18,7 @@ mod fastdds;
 mod fault_matrix;
 mod faults;
 mod foxglove;
+mod identify;
 mod interop;
 mod joint_commands;
 mod lifecycle;

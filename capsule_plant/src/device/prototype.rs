@@ -19,6 +19,8 @@ pub struct Prototype {
     sensor: Sensor,
     actuator: Actuator,
     lag_s: f64,
+    /// The mean force on the mass over the last hold \[N\].
+    applied_n: f64,
 }
 
 impl Prototype {
@@ -30,6 +32,7 @@ impl Prototype {
             sensor: Sensor::new(device),
             actuator: Actuator::new(device),
             lag_s: device.lag_s,
+            applied_n: 0.0,
         }
     }
 
@@ -66,13 +69,22 @@ impl Prototype {
         };
         let t0 = self.sim.snapshot().tau;
         let dtau = dt_s / self.scale.time_s();
+        let mut sum_n = 0.0;
         for i in 1..=pieces {
             let mean_n = self.actuator.hold(command_n, dt_s / f64::from(pieces));
+            sum_n += mean_n;
             let tau_end = t0 + dtau * f64::from(i) / f64::from(pieces);
             self.sim
                 .advance(&ConstantForce(mean_n / self.scale.force_n()), tau_end)?;
         }
+        self.applied_n = sum_n / f64::from(pieces);
         Ok(())
+    }
+
+    /// The mean force the actuator put on the mass over the last hold \[N\] (zero before
+    /// the first): what acted over the sample period that ends now, whenever its command came.
+    pub fn applied_n(&self) -> f64 {
+        self.applied_n
     }
 }
 
@@ -124,6 +136,9 @@ mod tests {
         );
         // after one time constant the coil carries 1 - 1/e of the command
         assert!((tb.force_n / f - (1.0 - (-1.0f64).exp())).abs() < 1e-12);
+        // and its mean over the hold (what the device reports as applied) is 1/e of it
+        assert!((b.applied_n() / f - (-1.0f64).exp()).abs() < 1e-12);
+        assert_eq!(a.applied_n(), f);
         Ok(())
     }
 }

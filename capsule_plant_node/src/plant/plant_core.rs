@@ -336,10 +336,14 @@ impl<H: CapsuleHardware> PlantCore<H> {
     }
 
     /// Moves to the next sample: `reading`'s, or the last one again (a timeout or a fault of a
-    /// device: the samples go on at the node's rate, the device's answer is zero).
+    /// device: the samples go on at the node's rate, the device's answer is zero). Such a
+    /// sample has no applied force (NaN: nobody measured what acted over its period), which
+    /// also tells it from the device's own samples in a recording: a sensor may send one
+    /// reading twice, so equal positions do not.
     pub fn next_sample(&mut self, reading: Reading) {
-        if let Reading::Sample(s) = reading {
-            self.current = s;
+        match reading {
+            Reading::Sample(s) => self.current = s,
+            _ => self.current.actuator_force = f64::NAN,
         }
         self.note_health();
         self.step += 1;
@@ -532,6 +536,22 @@ mod tests {
         assert_eq!(command(&mut p, 0, 1.0, 0.01, true), Outcome::Duplicate);
         assert!(!p.answered());
         assert_eq!(p.stats.latencies.count(), 1);
+        Ok(())
+    }
+
+    #[test]
+    fn a_sample_without_a_new_measurement_keeps_the_positions_and_says_no_applied_force(
+    ) -> Result<()> {
+        let mut p = published(plant());
+        command(&mut p, 0, 1.0, 0.0, false);
+        p.step()?;
+        let measured = p.state();
+        assert_eq!(measured.actuator_force, 1.0);
+        p.next_sample(Reading::Timeout);
+        let again = p.state();
+        assert_eq!(again.seq, measured.seq + 1);
+        assert_eq!(again.capsule_position, measured.capsule_position);
+        assert!(again.actuator_force.is_nan());
         Ok(())
     }
 
