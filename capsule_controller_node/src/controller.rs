@@ -27,7 +27,7 @@ use capsule_ros_base::error::Result;
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
 use capsule_ros_base::{clock::RosClock, params::ParamTable, ros_options::RosOptions};
 use futures::StreamExt;
-use ros2_client::{Context, Node};
+use ros2_client::dds::{Context, Node};
 use tracing::{info, warn};
 
 use crate::controller_actions::{ControllerActions, CoreAccess};
@@ -50,8 +50,13 @@ pub struct ControllerOptions {
     pub diagnostics: bool,
 }
 
-/// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM.
+/// Runs the controller node on DDS (on Zenoh if `RMW_IMPLEMENTATION` asks: `controller_zenoh`),
+/// in a participant of its own, until SIGINT/SIGTERM.
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
+    #[cfg(feature = "zenoh")]
+    if settings.middleware.is_zenoh() {
+        return crate::controller_zenoh::run(settings, opts).await;
+    }
     let end = capsule_ros_base::signals::shutdown();
     let node = ControllerNode {
         settings,

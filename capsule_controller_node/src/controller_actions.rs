@@ -36,7 +36,7 @@ use capsule_ros_base::{
     types,
 };
 use ros2_client::action::GoalId;
-use ros2_client::{Node, Subscription};
+use ros2_client::dds::{Node, Subscription};
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;

@@ -13,8 +13,9 @@ use capsule_msgs::names::{topics, type_names};
 use capsule_ros_base::action::{feedback_and_status_topics, status_qos};
 use capsule_ros_base::error::Result;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions};
+use ros2_client::dds::Subscription;
 use ros2_client::qos::History;
-use ros2_client::{MessageInfo, Subscription};
+use ros2_client::MessageInfo;
 use tracing::warn;
 
 /// One sample of an action's topics.
@@ -70,8 +71,8 @@ fn take_all<M: serde::de::DeserializeOwned + 'static>(
 impl ActionReaders {
     /// Subscribes to the actions of `controller_node` (relative, as the recorder names it).
     pub fn subscribe(
-        context: &ros2_client::Context,
-        node: &mut ros2_client::Node,
+        context: &ros2_client::dds::Context,
+        node: &mut ros2_client::dds::Node,
         settings: &RosOptions,
         controller_node: &str,
     ) -> Result<Self> {

@@ -24,8 +24,9 @@ use ros2_client::action::{
 };
 use ros2_client::action::{GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
+use ros2_client::dds::Node;
 use ros2_client::qos::{Durability, History};
-use ros2_client::{builtin_interfaces, ActionTypeName, Node, RmwRequestId};
+use ros2_client::{builtin_interfaces, ActionTypeName, RmwRequestId};
 use serde::{de::DeserializeOwned, Serialize};
 use tracing::warn;
 
@@ -74,7 +75,7 @@ pub fn status_qos() -> ros2_client::QosProfile {
 /// three services. (ros2-client names an action's DDS types only inside its own action client
 /// and server, so the topics are made on the participant.)
 pub fn feedback_and_status_topics(
-    context: &ros2_client::Context,
+    context: &ros2_client::dds::Context,
     settings: &RosOptions,
     name: &str,
     type_name: &str,

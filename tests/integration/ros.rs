@@ -27,3 +27,5 @@ mod replies;
 mod security;
 mod switch;
 mod views;
+#[cfg(feature = "zenoh")]
+mod zenoh;
