@@ -14,19 +14,85 @@ use capsule_msgs::{
 use capsule_ros_base::endpoints::Wire;
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::{qos, ros_options::RosOptions, types};
+use ros2_client::zenoh::{Node, Publisher, Server, Subscription};
+use ros2_client::RmwRequestId;
 use tracing::{info, warn};
 
-use crate::controller::ControllerOptions;
+use crate::controller_core::ControllerCore;
 
 /// The wall clock as ROS time (no `/clock` on Zenoh yet).
 fn now() -> capsule_msgs::Time {
     capsule_msgs::Time::from_nanos(capsule_record::writer::now_ns() as i64)
 }
 
-/// Runs the controller on Zenoh until SIGINT/SIGTERM.
-pub(crate) async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
+/// The controller's endpoints on Zenoh.
+struct Endpoints {
+    states: Subscription<CapsuleState>,
+    force: Publisher<ActuatorForce>,
+    status: Publisher<ControllerStatus>,
+    server: Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
+}
+
+impl Endpoints {
+    /// The state subscription, the force and status publishers and the set_mode server of
+    /// `node`, named as on DDS.
+    fn create(settings: &RosOptions, node: &Node) -> Result<Endpoints> {
+        let topic = |name: &str, type_name| -> Result<_> {
+            Ok(node.create_topic(&settings.ros_name(name)?, type_name, &qos::data()))
+        };
+        Ok(Endpoints {
+            states: node
+                .create_subscription(
+                    &topic(topics::STATE, types::state())?,
+                    Some(qos::data_reader()),
+                )
+                .context("state subscription on Zenoh")?,
+            force: node
+                .create_publisher(&topic(topics::FORCE, types::force())?, None)
+                .context("force publisher on Zenoh")?,
+            status: node
+                .create_publisher(&topic(topics::STATUS, types::status())?, None)
+                .context("status publisher on Zenoh")?,
+            server: node
+                .create_server(&settings.ros_name(topics::SET_MODE)?, &types::set_mode())
+                .context("set_mode service on Zenoh")?,
+        })
+    }
+
+    /// A state sample: the command sent; whether an attractor-switch event asks for a status.
+    async fn on_state(&self, core: &mut ControllerCore, state: &CapsuleState, now: f64) -> bool {
+        let Some(cmd) = core.on_state(state, now) else {
+            return false;
+        };
+        if let Err(e) = self.force.async_publish(cmd).await {
+            warn!("command not sent: {e:?}");
+        }
+        core.take_switch_event()
+    }
+
+    /// A set_mode request: the core's answer sent back.
+    fn on_request(&self, core: &mut ControllerCore, id: RmwRequestId, req: &SetModeRequest) {
+        let resp = core.set_mode(req);
+        info!(
+            "set_mode (mode {}): accepted {} ({})",
+            req.mode, resp.accepted, resp.reason
+        );
+        if let Err(e) = self.server.send_response(id, Wire(resp)) {
+            warn!("set_mode response not sent: {e:?}");
+        }
+    }
+}
+
+/// Runs the controller on Zenoh until SIGINT/SIGTERM: `core` answers, its status every
+/// `status_period`; `diagnostics` (asked for) is refused.
+pub(crate) async fn run(
+    settings: RosOptions,
+    mut core: ControllerCore,
+    status_period: std::time::Duration,
+    diagnostics: bool,
+) -> Result<()> {
     let mw = &settings.middleware;
-    if opts.diagnostics {
+    if diagnostics {
         mw.refuse_on_zenoh("the controller's /diagnostics")?;
     }
     if settings.use_sim_time {
@@ -34,28 +100,7 @@ pub(crate) async fn run(settings: RosOptions, opts: ControllerOptions) -> Result
     }
     let context = settings.zenoh_context()?;
     let node = settings.zenoh_node(&context)?;
-    let topic = |name: &str, type_name| -> Result<_> {
-        Ok(node.create_topic(&settings.ros_name(name)?, type_name, &qos::data()))
-    };
-    let states = node
-        .create_subscription::<CapsuleState>(
-            &topic(topics::STATE, types::state())?,
-            Some(qos::data_reader()),
-        )
-        .context("state subscription on Zenoh")?;
-    let force = node
-        .create_publisher::<ActuatorForce>(&topic(topics::FORCE, types::force())?, None)
-        .context("force publisher on Zenoh")?;
-    let status = node
-        .create_publisher::<ControllerStatus>(&topic(topics::STATUS, types::status())?, None)
-        .context("status publisher on Zenoh")?;
-    let server = node
-        .create_server::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
-            &settings.ros_name(topics::SET_MODE)?,
-            &types::set_mode(),
-        )
-        .context("set_mode service on Zenoh")?;
-    let mut core = opts.core;
+    let io = Endpoints::create(&settings, &node)?;
     info!(
         "{}: state {} -> force {}, status {}, service {}; {} k_p = {}; not on Zenoh yet: \
          parameters, actions, set_mode service events",
@@ -69,37 +114,23 @@ pub(crate) async fn run(settings: RosOptions, opts: ControllerOptions) -> Result
     );
     let start = Instant::now();
     let steady = || start.elapsed().as_secs_f64();
-    let mut tick = tokio::time::interval(opts.status_period);
+    let mut tick = tokio::time::interval(status_period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let end = capsule_ros_base::signals::shutdown();
     tokio::pin!(end);
     loop {
         let report = tokio::select! {
             stopped = &mut end => return stopped,
-            state = states.async_take() => {
-                match state {
-                    Ok((state, _)) => match core.on_state(&state, steady()) {
-                        Some(cmd) => {
-                            if let Err(e) = force.async_publish(cmd).await {
-                                warn!("command not sent: {e:?}");
-                            }
-                            core.take_switch_event()
-                        }
-                        None => false,
-                    },
-                    Err(e) => {
-                        warn!("bad state sample: {e:?}");
-                        false
-                    }
+            state = io.states.async_take() => match state {
+                Ok((state, _)) => io.on_state(&mut core, &state, steady()).await,
+                Err(e) => {
+                    warn!("bad state sample: {e:?}");
+                    false
                 }
-            }
-            request = server.async_receive_request() => match request {
+            },
+            request = io.server.async_receive_request() => match request {
                 Ok((id, Wire(req))) => {
-                    let resp = core.set_mode(&req);
-                    info!("set_mode (mode {}): {} ({})", req.mode, resp.accepted, resp.reason);
-                    if let Err(e) = server.send_response(id, Wire(resp)) {
-                        warn!("set_mode response not sent: {e:?}");
-                    }
+                    io.on_request(&mut core, id, &req);
                     true
                 }
                 Err(e) => {
@@ -115,7 +146,7 @@ pub(crate) async fn run(settings: RosOptions, opts: ControllerOptions) -> Result
             }
         };
         if report {
-            if let Err(e) = status.async_publish(core.status(now())).await {
+            if let Err(e) = io.status.async_publish(core.status(now())).await {
                 warn!("status not sent: {e:?}");
             }
         }
