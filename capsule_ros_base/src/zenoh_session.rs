@@ -105,7 +105,7 @@ impl RosOptions {
 mod tests {
     use super::*;
 
-    fn get<'a>(config: &zenoh::Config, key: &str) -> String {
+    fn get(config: &zenoh::Config, key: &str) -> String {
         config
             .get_json(key)
             .unwrap_or_else(|e| format!("{key}: {e}"))
