@@ -27,8 +27,11 @@ command -v python3 >/dev/null 2>&1 || need+=(python3)
 python3 -m pip --version >/dev/null 2>&1 || need+=(python3-pip)
 [ "${#need[@]}" -eq 0 ] || apt_install "${need[@]}"
 
-py_modules="mcap.reader, mcap_ros2.decoder, rosbags.highlevel"
-pkgs=("mcap>=1.2,<2" "mcap-ros2-support>=0.5,<1" "rosbags>=0.10,<1")
+# ROS 2 Jazzy's own rosidl (PyPI wheels): tests/peers/rosidl_type_hashes.py
+py_modules="mcap.reader, mcap_ros2.decoder, rosbags.highlevel, rosidl_generator_type_description, rosidl_adapter.msg"
+pkgs=("mcap>=1.2,<2" "mcap-ros2-support>=0.5,<1" "rosbags>=0.10,<1"
+  "ros-rosidl-generator-type-description==4.6.6" "ros-rosidl-adapter==4.6.6"
+  "ros-rosidl-parser==4.6.6" "ros-rosidl-pycommon==4.6.6")
 if ! python3 -c "import $py_modules" >/dev/null 2>&1; then
   echo "record-setup: missing a module of $py_modules: pip install ${pkgs[*]}"
   python3 -m pip install --quiet --disable-pip-version-check "${pkgs[@]}" \

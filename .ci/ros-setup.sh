@@ -10,6 +10,8 @@
 #     default): c++, the Fast DDS and Fast CDR headers and libraries
 #   - tests/peers/cyclone_peer.py: PyPI `cyclonedds` (ships its C library)
 #   - tests/peers/foxglove_ws_client.py: PyPI `websockets`, a WebSocket client that is not ours
+#   - tests/peers/zenoh_peer.py: PyPI `eclipse-zenoh` (an rmw_zenoh speaker; the version of the
+#     zenoh crate the nodes use on Zenoh)
 #   - tests/integration/ros/faults.rs: iptables (loss, duplicates, delay through NFQUEUE to
 #     tests/peers/nfqueue_delay.py, partitions: inside each test's own namespace)
 #   - tests/integration/ros/security.rs: tcpdump (captures the namespace's loopback, searched for
@@ -80,6 +82,7 @@ check_all() {
   if have_cmd python3; then
     have_py python3 cyclonedds || missing+=("module cyclonedds|cyclonedds==11.0.1|pip")
     have_py python3 websockets || missing+=("module websockets|websockets==15.0.1|pip")
+    have_py python3 zenoh || missing+=("module zenoh|eclipse-zenoh==1.10.2|pip")
     # the keystore made as `ros2 security` makes one (tests/peers/sros2_keystore.py)
     have_py python3 cryptography.hazmat.primitives.serialization.pkcs7 \
       || missing+=("module cryptography|cryptography==48.0.0|pip")

@@ -27,7 +27,7 @@ use capsule_ros_base::error::Result;
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
 use capsule_ros_base::{clock::RosClock, params::ParamTable, ros_options::RosOptions};
 use futures::StreamExt;
-use ros2_client::{Context, Node};
+use ros2_client::dds::{Context, Node};
 use tracing::{info, warn};
 
 use crate::controller_actions::{ControllerActions, CoreAccess};
@@ -53,8 +53,14 @@ pub struct ControllerOptions {
     pub action_introspection: Introspection,
 }
 
-/// Runs the controller node on DDS, in a participant of its own, until SIGINT/SIGTERM.
+/// Runs the controller node on DDS (on Zenoh if `RMW_IMPLEMENTATION` asks: `controller_zenoh`),
+/// in a participant of its own, until SIGINT/SIGTERM.
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
+    #[cfg(feature = "zenoh")]
+    if settings.middleware.is_zenoh() {
+        let (core, period, diagnostics) = (opts.core, opts.status_period, opts.diagnostics);
+        return crate::controller_zenoh::run(settings, core, period, diagnostics).await;
+    }
     let end = capsule_ros_base::signals::shutdown();
     let node = ControllerNode {
         settings,

@@ -37,7 +37,7 @@ use capsule_ros_base::{
     types,
 };
 use ros2_client::action::GoalId;
-use ros2_client::{Context, Node, Subscription};
+use ros2_client::dds::{Context, Node, Subscription};
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;

@@ -26,7 +26,8 @@ use capsule_ros_base::{
     service::Service,
     types,
 };
-use ros2_client::{Gid, Node, Publisher, RmwRequestId, Subscription};
+use ros2_client::dds::{Node, Publisher, Subscription};
+use ros2_client::{Gid, RmwRequestId};
 use tracing::warn;
 
 use crate::controller_handlers::{lock, Handlers};

@@ -6,6 +6,7 @@
 //!   [`controller_core`]: its decisions without DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
 //!   parameters; [`controller_settings`]: its settings table
 //! - [`controller_actions`]: its actions (Move, SwitchAttractor) on DDS
+//! - `controller_zenoh` (feature `zenoh`): its core interface on Zenoh
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
 
@@ -20,4 +21,6 @@ mod controller_endpoints;
 mod controller_handlers;
 pub mod controller_params;
 pub mod controller_settings;
+#[cfg(feature = "zenoh")]
+mod controller_zenoh;
 pub mod plant_identity;

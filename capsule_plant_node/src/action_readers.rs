@@ -16,8 +16,9 @@ use capsule_record::types::{CancelGoalEvent, GetResultEvent, SendGoalEvent};
 use capsule_ros_base::action::{feedback_and_status_topics, service_event_topics, status_qos};
 use capsule_ros_base::error::Result;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions};
+use ros2_client::dds::Subscription;
 use ros2_client::qos::History;
-use ros2_client::{MessageInfo, Subscription};
+use ros2_client::MessageInfo;
 use tracing::warn;
 
 /// One sample of an action's topics.
@@ -102,8 +103,8 @@ impl ActionReaders {
     /// Subscribes to the actions of `controller_node` (relative, as the recorder names it): to
     /// their service events too if `with_events`.
     pub fn subscribe(
-        context: &ros2_client::Context,
-        node: &mut ros2_client::Node,
+        context: &ros2_client::dds::Context,
+        node: &mut ros2_client::dds::Node,
         settings: &RosOptions,
         controller_node: &str,
         with_events: bool,

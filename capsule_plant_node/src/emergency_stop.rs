@@ -16,7 +16,7 @@ use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions, types};
 use futures::StreamExt;
-use ros2_client::Node;
+use ros2_client::dds::Node;
 use tracing::{info, warn};
 
 use capsule_hardware::Stopper;

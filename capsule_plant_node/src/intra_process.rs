@@ -20,7 +20,8 @@ use std::time::Duration;
 use capsule_msgs::{ActuatorForce, CapsuleState};
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::graph::Graph;
-use ros2_client::{Gid, Publisher};
+use ros2_client::dds::Publisher;
+use ros2_client::Gid;
 use serde::Serialize;
 use tracing::{error, warn};
 

@@ -490,7 +490,7 @@ impl GraphRecording {
 
 /// Takes every sample `sub` holds into `rec` on `channel`; returns how many.
 pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
-    sub: &ros2_client::Subscription<M>,
+    sub: &ros2_client::dds::Subscription<M>,
     rec: &mut GraphRecording,
     channel: Channel,
 ) -> Result<usize> {
@@ -514,7 +514,7 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
 /// the sample last recorded (same writer, seq and stamp) is not written again; returns how many
 /// were written. `last`: the sample last written, kept between calls.
 fn drain_states(
-    sub: &ros2_client::Subscription<CapsuleState>,
+    sub: &ros2_client::dds::Subscription<CapsuleState>,
     rec: &mut GraphRecording,
     last: &std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
 ) -> Result<usize> {
@@ -541,12 +541,12 @@ fn drain_states(
 
 /// The recorder's readers, one per topic of the graph.
 struct Readers {
-    state: ros2_client::Subscription<CapsuleState>,
-    force: ros2_client::Subscription<ActuatorForce>,
-    status: ros2_client::Subscription<ControllerStatus>,
-    clock: ros2_client::Subscription<Clock>,
-    event: ros2_client::Subscription<SetModeEvent>,
-    diagnostics: ros2_client::Subscription<DiagnosticArray>,
+    state: ros2_client::dds::Subscription<CapsuleState>,
+    force: ros2_client::dds::Subscription<ActuatorForce>,
+    status: ros2_client::dds::Subscription<ControllerStatus>,
+    clock: ros2_client::dds::Subscription<Clock>,
+    event: ros2_client::dds::Subscription<SetModeEvent>,
+    diagnostics: ros2_client::dds::Subscription<DiagnosticArray>,
     /// The state sample last recorded (writer, seq, stamp): its re-sends are not recorded.
     last_state: std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
     actions: ActionReaders,
@@ -557,8 +557,8 @@ impl Readers {
     /// publisher has matched (or `opts.wait_publishers` has passed).
     async fn subscribe(
         settings: &RosOptions,
-        context: &ros2_client::Context,
-        node: &mut ros2_client::Node,
+        context: &ros2_client::dds::Context,
+        node: &mut ros2_client::dds::Node,
         graph: &Graph,
         opts: &RecorderOptions,
     ) -> Result<Self> {

@@ -31,7 +31,8 @@ use capsule_msgs::{
     CapsuleState, Header, Time,
 };
 use capsule_ros_base::error::{Context as _, Result};
-use ros2_client::{qos::History, MessageTypeName, Node, Publisher, QosProfile};
+use ros2_client::dds::{Node, Publisher};
+use ros2_client::{qos::History, MessageTypeName, QosProfile};
 
 use crate::plant::LoopStats;
 use capsule_hardware::latency::LatencyHistogram;

@@ -36,8 +36,10 @@ use ros2_client::action::{
 };
 use ros2_client::action::{GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
+use ros2_client::dds::Node;
 use ros2_client::qos::{Durability, History};
-use ros2_client::{builtin_interfaces, ActionTypeName, Node, Publisher, RmwRequestId};
+use ros2_client::dds::Publisher;
+use ros2_client::{builtin_interfaces, ActionTypeName, RmwRequestId};
 use serde::{de::DeserializeOwned, Serialize};
 use tracing::warn;
 
@@ -107,7 +109,7 @@ fn action_topic(
 /// `<name>/_action/status` (`action_msgs::msg::dds_::GoalStatusArray_`), without the client's
 /// three services.
 pub fn feedback_and_status_topics(
-    context: &ros2_client::Context,
+    context: &ros2_client::dds::Context,
     settings: &RosOptions,
     name: &str,
     type_name: &str,

@@ -4,7 +4,7 @@ use capsule_msgs::names::topics;
 use capsule_msgs::std_types::Clock;
 use capsule_msgs::Time;
 use futures::StreamExt;
-use ros2_client::Node;
+use ros2_client::dds::Node;
 use std::sync::{
     atomic::{AtomicI64, Ordering},
     Arc,

@@ -2,7 +2,8 @@
 //! name ([`crate::naming`]), subscriptions that name their topic when refused, and [`Wire`], which
 //! carries capsule_msgs' plain serde types as ros2-client messages.
 
-use ros2_client::{Message, MessageTypeName, Node, QosProfile, ServiceTypeName};
+use ros2_client::dds::Node;
+use ros2_client::{Message, MessageTypeName, QosProfile, ServiceTypeName};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 use crate::error::{Context as _, Result};
@@ -57,7 +58,7 @@ pub fn subscribe<M: 'static>(
     node: &mut Node,
     topic: &rustdds::Topic,
     qos: &QosProfile,
-) -> Result<ros2_client::Subscription<M>> {
+) -> Result<ros2_client::dds::Subscription<M>> {
     use rustdds::TopicDescription as _;
     node.create_subscription(topic, Some(qos.clone()))
         .with_context(|| format!("subscription to {}", topic.name()))

@@ -20,6 +20,8 @@
 //! - [`service`]: service servers whose answers wait for the client's reply reader
 //! - [`action`], [`action_goals`]: action servers as rcl_action serves them (status topic,
 //!   `get_result`, cancel policy)
+//! - [`middleware`]: DDS or Zenoh, as `RMW_IMPLEMENTATION` chooses; `zenoh_session` (feature
+//!   `zenoh`): the Zenoh session as rmw_zenoh_cpp opens its own, and the type hashes it announces
 //! - [`error`]: the nodes' error, [`error::NodeError`]
 
 #![warn(missing_docs)]
@@ -32,6 +34,7 @@ pub mod conflicts;
 pub mod endpoints;
 pub mod error;
 pub mod graph;
+pub mod middleware;
 pub mod naming;
 pub mod node_life;
 pub mod node_main;
@@ -46,3 +49,5 @@ pub mod security;
 pub mod service;
 pub mod signals;
 pub mod types;
+#[cfg(feature = "zenoh")]
+pub mod zenoh_session;

@@ -6,7 +6,7 @@
 
 use std::future::Future;
 
-use ros2_client::{Context, Node};
+use ros2_client::dds::{Context, Node};
 
 use crate::{error::Result, graph::Graph, ros_options::RosOptions};
 

@@ -5,6 +5,7 @@
 use crate::error::{BoxError, Context as _, NodeError, Result};
 use crate::{
     affinity::{self, CpuList},
+    middleware::Middleware,
     ros_options::RosOptions,
 };
 
@@ -30,10 +31,24 @@ where
     E: From<NodeError>,
     F: std::future::Future<Output = Result<T, E>>,
 {
+    block_on_with(cpus, &Middleware::Dds, fut)
+}
+
+/// [`block_on`] on the runtime `middleware` needs ([`Middleware::runtime`]).
+pub fn block_on_with<T, E, F>(
+    cpus: Option<&CpuList>,
+    middleware: &Middleware,
+    fut: F,
+) -> Result<T, E>
+where
+    E: From<NodeError>,
+    F: std::future::Future<Output = Result<T, E>>,
+{
     if let Some(list) = cpus {
         affinity::pin_process(list).with_context(|| format!("--cpu-affinity {list}"))?;
     }
-    tokio::runtime::Builder::new_current_thread()
+    middleware
+        .runtime()
         .enable_all()
         .build()
         .context("cannot start the tokio runtime")?
@@ -87,7 +102,11 @@ where
     F: std::future::Future<Output = Result<()>>,
 {
     node_main(name, check, built, would, |settings, opts| {
-        let cpus = settings.cpu_affinity.clone();
-        Ok(block_on(cpus.as_ref(), run(settings, opts))?)
+        let (cpus, middleware) = (settings.cpu_affinity.clone(), settings.middleware.clone());
+        Ok(block_on_with(
+            cpus.as_ref(),
+            &middleware,
+            run(settings, opts),
+        )?)
     })
 }

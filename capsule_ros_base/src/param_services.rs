@@ -14,10 +14,11 @@ use std::sync::{Arc, Mutex, PoisonError};
 use crate::error::{Context as _, Result};
 use capsule_msgs::Time;
 use futures::StreamExt;
+use ros2_client::dds::{Context, Node, Publisher};
 use ros2_client::{
     parameters::raw,
     qos::{Durability, History, WhenFull},
-    rcl_interfaces as rcl, Context, Node, ParameterValue, Publisher, QosProfile, ServiceTypeName,
+    rcl_interfaces as rcl, ParameterValue, QosProfile, ServiceTypeName,
 };
 use tokio::sync::mpsc;
 use tracing::{info, warn};

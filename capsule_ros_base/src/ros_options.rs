@@ -7,10 +7,12 @@ use std::collections::BTreeMap;
 
 use crate::error::{bail, Context as _, Result};
 use clap::{Args, ValueEnum};
-use ros2_client::{Name, NodeName, ServiceMapping};
+use ros2_client::dds::ServiceMapping;
+use ros2_client::{Name, NodeName};
 
 use crate::{
     affinity::{self, CpuList},
+    middleware::{Middleware, ZenohEnv},
     security::{Security, SecurityEnv},
 };
 
@@ -93,6 +95,8 @@ pub struct RosEnv {
     pub rmw_implementation: Option<String>,
     /// SROS2's `ROS_SECURITY_*`.
     pub security: SecurityEnv,
+    /// rmw_zenoh_cpp's `ZENOH_SESSION_CONFIG_URI` and `ZENOH_CONFIG_OVERRIDE`.
+    pub zenoh: ZenohEnv,
 }
 
 impl RosEnv {
@@ -109,6 +113,7 @@ impl RosEnv {
             localhost_only: get("ROS_LOCALHOST_ONLY"),
             rmw_implementation: get("RMW_IMPLEMENTATION"),
             security: SecurityEnv::from_process(),
+            zenoh: ZenohEnv::from_vars(|k| std::env::var(k).ok()),
         }
     }
 }
@@ -134,6 +139,8 @@ pub struct RosOptions {
     pub cpu_affinity: Option<CpuList>,
     /// DDS Security: the enclave, or why not.
     pub security: Security,
+    /// DDS or Zenoh (`RMW_IMPLEMENTATION`).
+    pub middleware: Middleware,
 }
 
 impl RosOptions {
@@ -192,6 +199,11 @@ impl RosOptions {
             use_sim_time: args.use_sim_time,
             cpu_affinity: args.cpu_affinity.clone(),
             security: Security::resolve(&env.security, args.enclave.as_deref())?,
+            middleware: Middleware::resolve(
+                env.rmw_implementation.as_deref(),
+                &env.zenoh,
+                &env.security,
+            )?,
         };
         if let Some(list) = &settings.cpu_affinity {
             affinity::check(list, &affinity::allowed()?)
@@ -216,9 +228,10 @@ impl RosOptions {
     /// One line for the log: where this node talks.
     pub fn describe(&self) -> String {
         format!(
-            "node {}/{} domain {} discovery {:?} service mapping {:?}, {}{}",
+            "node {}/{} on {} domain {} discovery {:?} service mapping {:?}, {}{}",
             self.namespace.trim_end_matches('/'),
             self.node_name,
+            self.middleware.describe(),
             self.domain_id,
             self.range,
             self.mapping,

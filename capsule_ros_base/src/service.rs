@@ -20,7 +20,8 @@
 use std::{sync::Arc, time::Duration};
 
 use futures::stream::FusedStream;
-use ros2_client::{Message, ReadResult, RmwRequestId, Server};
+use ros2_client::dds::Server;
+use ros2_client::{Message, ReadResult, RmwRequestId};
 use tracing::warn;
 
 use crate::graph::Graph;

@@ -7,7 +7,8 @@ use std::time::Duration;
 use capsule_msgs::std_types::{ChangeStateRequest, ChangeStateResponse, LifecycleTransition};
 use capsule_msgs::{CapsuleState, SetModeRequest, SetModeResponse, Time};
 use capsule_ros_base::error::{bail, invalid, Context as _, Result};
-use ros2_client::{service::Client, Node};
+use ros2_client::dds::Node;
+use ros2_client::service::Client;
 
 use capsule_ros_base::{
     endpoints::{subscribe, Wire},
@@ -246,7 +247,7 @@ impl SegmentMeter {
 pub fn state_subscription(
     node: &mut Node,
     settings: &RosOptions,
-) -> Result<ros2_client::Subscription<CapsuleState>> {
+) -> Result<ros2_client::dds::Subscription<CapsuleState>> {
     let topic = settings.topic(node, topics::STATE, types::state(), &qos::data())?;
     let reader_qos = qos::data().history(ros2_client::qos::History::KeepLast { depth: 2000 });
     subscribe::<CapsuleState>(node, &topic, &reader_qos)
@@ -258,7 +259,7 @@ pub fn status_subscription(
     node: &mut Node,
     settings: &RosOptions,
     service: &str,
-) -> Result<ros2_client::Subscription<capsule_msgs::ControllerStatus>> {
+) -> Result<ros2_client::dds::Subscription<capsule_msgs::ControllerStatus>> {
     let (controller, _) = service
         .rsplit_once('/')
         .with_context(|| format!("service {service:?}: expected .../NODE/set_mode"))?;

@@ -44,7 +44,7 @@ use capsule_plant_node::intra_process::Link;
 use capsule_plant_node::recorder::{action_topics, Channel};
 use capsule_plant_node::views::BODY_FRAME;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
-use ros2_client::Subscription;
+use ros2_client::dds::Subscription;
 
 /// Foxglove channel of the capsule body's transform (the 3D panel's frame).
 pub const FRAME_TOPIC: &str = "/capsule/frame";
@@ -382,7 +382,7 @@ impl Feed {
     /// nothing while no client subscribes to a channel of `outputs`).
     fn create(
         source: Source,
-        node: &mut ros2_client::Node,
+        node: &mut ros2_client::dds::Node,
         settings: &RosOptions,
         outputs: &Outputs,
         max_rate_hz: f64,
@@ -475,8 +475,8 @@ pub struct Bridge {
     actions: ActionReaders,
     outputs: Outputs,
     server: foxglove::WebSocketServerHandle,
-    _node: ros2_client::Node,
-    _context: ros2_client::Context,
+    _node: ros2_client::dds::Node,
+    _context: ros2_client::dds::Context,
 }
 
 impl Bridge {

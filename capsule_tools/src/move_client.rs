@@ -10,8 +10,9 @@ use capsule_msgs::names::type_names;
 use capsule_ros_base::error::{bail, invalid, Context as _, Result};
 use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions};
 use ros2_client::action::{ActionClient, ActionClientQosPolicies};
+use ros2_client::dds::Node;
 use ros2_client::qos::{Durability, History};
-use ros2_client::{ActionTypeName, Node};
+use ros2_client::ActionTypeName;
 
 type Client = ActionClient<Wire<MoveGoal>, Wire<MoveResult>, Wire<MoveFeedback>>;
 

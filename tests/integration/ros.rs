@@ -28,3 +28,5 @@ mod replies;
 mod security;
 mod switch;
 mod views;
+#[cfg(feature = "zenoh")]
+mod zenoh;

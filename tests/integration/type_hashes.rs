@@ -1,6 +1,7 @@
 //! The REP-2016 hashes capsule_msgs computes at build time, against rosbags' (PyPI), an
 //! independent implementation with its own .msg parser, its own definitions of the standard
-//! messages and its own hashing (tests/peers/type_hashes.py; installed by .ci/record-setup.sh).
+//! messages and its own hashing (tests/peers/type_hashes.py), and against ROS 2's own rosidl
+//! (tests/peers/rosidl_type_hashes.py); both installed by .ci/record-setup.sh.
 
 use std::process::Command;
 
@@ -9,22 +10,21 @@ use capsule_msgs::names::type_names;
 
 use crate::root;
 
-#[test]
-fn every_type_hash_is_the_one_an_independent_implementation_computes() {
+/// Runs `peer` (a script under tests/peers/ printing `{type: hash}` for capsule_msgs' types) and
+/// panics unless it gives every type in the table our hash; `who` names it in the messages.
+fn assert_same_hashes(peer: &str, who: &str) {
     let mut cmd = Command::new("python3");
-    cmd.arg(root().join("tests/peers/type_hashes.py"))
+    cmd.arg(root().join("tests/peers").join(peer))
         .arg(root().join("capsule_msgs"));
     cmd.args(TYPE_HASHES.iter().map(|(name, _)| name));
-    let out = cmd
-        .output()
-        .expect("run python3 tests/peers/type_hashes.py");
-    let printed = crate::common::succeeded(&out, "type_hashes.py (run .ci/record-setup.sh)");
+    let out = cmd.output().expect("run python3 tests/peers/...");
+    let printed = crate::common::succeeded(&out, &format!("{peer} (run .ci/record-setup.sh)"));
     let peer: serde_json::Map<String, serde_json::Value> =
-        serde_json::from_str(&printed).expect("type_hashes.py prints a JSON object");
+        serde_json::from_str(&printed).expect("the peer prints a JSON object");
     let differ: Vec<String> = TYPE_HASHES
         .iter()
         .filter(|(name, hash)| peer.get(*name).and_then(|v| v.as_str()) != Some(*hash))
-        .map(|(name, hash)| format!("{name}: ours {hash}, rosbags {:?}", peer.get(*name)))
+        .map(|(name, hash)| format!("{name}: ours {hash}, {who} {:?}", peer.get(*name)))
         .collect();
     assert!(
         differ.is_empty(),
@@ -38,6 +38,18 @@ fn every_type_hash_is_the_one_an_independent_implementation_computes() {
         "only {} types hashed",
         TYPE_HASHES.len()
     );
+}
+
+#[test]
+fn every_type_hash_is_the_one_an_independent_implementation_computes() {
+    assert_same_hashes("type_hashes.py", "rosbags");
+}
+
+/// ROS 2's own: rosidl_adapter, rosidl_parser and rosidl_generator_type_description (Jazzy's
+/// 4.6.6, PyPI), the code that gives rmw_zenoh_cpp its hashes (tests/peers/rosidl_type_hashes.py).
+#[test]
+fn every_type_hash_is_the_one_ros2s_rosidl_computes() {
+    assert_same_hashes("rosidl_type_hashes.py", "rosidl");
 }
 
 #[test]

@@ -36,8 +36,9 @@ fn main() -> std::process::ExitCode {
         would,
         |settings, (core, opts)| {
             let started = std::time::Instant::now();
-            let (stats, last) = node_main::block_on(
+            let (stats, last) = node_main::block_on_with(
                 settings.cpu_affinity.clone().as_ref(),
+                &settings.middleware.clone(),
                 plant::run(settings, core, opts),
             )?;
             if let Some(path) = &cli.summary_json() {

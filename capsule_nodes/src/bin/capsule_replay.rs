@@ -145,12 +145,12 @@ fn select(args: &Args, all: Vec<Message>) -> Result<Vec<Message>> {
 }
 
 enum Pub {
-    State(ros2_client::Publisher<CapsuleState>),
-    Force(ros2_client::Publisher<ActuatorForce>),
-    Status(ros2_client::Publisher<ControllerStatus>),
-    Clock(ros2_client::Publisher<Clock>),
-    Event(ros2_client::Publisher<SetModeEvent>),
-    Diagnostics(ros2_client::Publisher<DiagnosticArray>),
+    State(ros2_client::dds::Publisher<CapsuleState>),
+    Force(ros2_client::dds::Publisher<ActuatorForce>),
+    Status(ros2_client::dds::Publisher<ControllerStatus>),
+    Clock(ros2_client::dds::Publisher<Clock>),
+    Event(ros2_client::dds::Publisher<SetModeEvent>),
+    Diagnostics(ros2_client::dds::Publisher<DiagnosticArray>),
 }
 
 /// `$body` with `$p` bound to the publisher, whatever its message type.
@@ -168,7 +168,7 @@ macro_rules! with_publisher {
 }
 
 impl Pub {
-    fn subscribers(&self, node: &ros2_client::Node) -> usize {
+    fn subscribers(&self, node: &ros2_client::dds::Node) -> usize {
         with_publisher!(self, p => p.get_subscription_count(node))
     }
 

@@ -29,8 +29,8 @@ pub(super) const MATCH_GRACE: Duration = Duration::from_millis(200);
 pub(super) enum StateForce {
     /// Over DDS: the state's writer, the force's reader (boxed: the larger variant).
     Dds {
-        state_pub: Box<ros2_client::Publisher<CapsuleState>>,
-        force_sub: Box<ros2_client::Subscription<ActuatorForce>>,
+        state_pub: Box<ros2_client::dds::Publisher<CapsuleState>>,
+        force_sub: Box<ros2_client::dds::Subscription<ActuatorForce>>,
     },
     /// In-process: each sample handed to the controller, its answer queued here with the
     /// time it came (ns, [`capsule_record::writer::now_ns`]); the state's DDS copies queued to
@@ -48,19 +48,19 @@ pub(super) struct Endpoints {
     pub(super) state_force: StateForce,
     /// The state's DDS writer (in-process: the one its copies go out on).
     pub(super) state_guid: ros2_client::dds::rustdds::GUID,
-    pub(super) clock_pub: ros2_client::Publisher<Clock>,
+    pub(super) clock_pub: ros2_client::dds::Publisher<Clock>,
     pub(super) graph: Graph,
     /// Standard-type views (issue 10).
     pub(super) views: crate::views::PlantViews,
     /// JointState commands (`--joint-commands`), `None` when off: one branch per sample.
-    pub(super) joint_sub: Option<ros2_client::Subscription<JointState>>,
+    pub(super) joint_sub: Option<ros2_client::dds::Subscription<JointState>>,
 }
 
 impl Endpoints {
     /// The endpoints on `node`: state, clock and force topics, JointState commands if
     /// `opts` asks, and the views; with the graph's conflict rules for the plant's topics.
     pub(super) fn create(
-        node: &mut ros2_client::Node,
+        node: &mut ros2_client::dds::Node,
         settings: &RosOptions,
         graph: &Graph,
         opts: &PlantOptions,
@@ -211,7 +211,7 @@ impl Endpoints {
     }
 
     /// The DDS reader of commands (`None` in-process).
-    pub(super) fn force_sub(&self) -> Option<&ros2_client::Subscription<ActuatorForce>> {
+    pub(super) fn force_sub(&self) -> Option<&ros2_client::dds::Subscription<ActuatorForce>> {
         match &self.state_force {
             StateForce::Dds { force_sub, .. } => Some(force_sub),
             StateForce::InProcess { .. } => None,

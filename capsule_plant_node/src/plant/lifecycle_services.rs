@@ -17,7 +17,8 @@ use capsule_ros_base::graph::Graph;
 use capsule_ros_base::service::Service;
 use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions};
 use futures::{Future, StreamExt};
-use ros2_client::{MessageTypeName, Node, ServiceTypeName};
+use ros2_client::dds::Node;
+use ros2_client::{MessageTypeName, ServiceTypeName};
 use serde::{de::DeserializeOwned, Serialize};
 use tokio::sync::{mpsc, oneshot};
 use tracing::{info, warn};
@@ -30,7 +31,7 @@ use super::loop_control::Request;
 pub struct Lifecycle {
     state: Arc<Mutex<State>>,
     to_loop: mpsc::UnboundedSender<Request>,
-    events: Arc<ros2_client::Publisher<TransitionEvent>>,
+    events: Arc<ros2_client::dds::Publisher<TransitionEvent>>,
     /// One transition at a time.
     busy: Arc<tokio::sync::Mutex<()>>,
 }

@@ -29,7 +29,8 @@
 //! `loop_control` (what reaches the loop's thread), `simulator_loop` (the simulator's two
 //! loops), `device_loop` (the loop of a device, which paces itself), `silence` (what an unanswered lock-step
 //! sample leads to), [`lifecycle`] (the managed node's state
-//! machine) and `lifecycle_services` (its services).
+//! machine), `lifecycle_services` (its services) and `zenoh_loop` (the plant on Zenoh, feature
+//! `zenoh`).
 
 mod device_loop;
 mod endpoints;
@@ -43,6 +44,8 @@ mod recording;
 mod silence;
 mod simulator_loop;
 mod stats;
+#[cfg(feature = "zenoh")]
+mod zenoh_loop;
 
 pub use capsule_hardware::SourceHealth;
 pub use node::{run, run_in};

@@ -63,20 +63,25 @@ struct Ended<H: CapsuleHardware> {
     copies: Option<Arc<CopyCounts>>,
 }
 
-/// Runs the plant node on DDS, in a participant of its own, until `until_s`, a lifecycle
+/// Runs the plant node on DDS (on Zenoh if `RMW_IMPLEMENTATION` asks: `zenoh_loop`), in a
+/// participant of its own, until `until_s`, a lifecycle
 /// shutdown, or SIGINT/SIGTERM; logs the loop statistics at the end.
 pub async fn run<H: CapsuleHardware + 'static>(
     settings: RosOptions,
     core: PlantCore<H>,
     opts: PlantOptions,
 ) -> Result<(LoopStats, CapsuleState)> {
+    #[cfg(feature = "zenoh")]
+    if settings.middleware.is_zenoh() {
+        return super::zenoh_loop::run(settings, core, opts).await;
+    }
     run_in(None, settings, core, opts, Transport::Dds).await
 }
 
 /// [`run`] in the participant of `context` (a composed process's: `None` makes one) with state
 /// and force over `transport`.
 pub async fn run_in<H: CapsuleHardware + 'static>(
-    context: Option<&ros2_client::Context>,
+    context: Option<&ros2_client::dds::Context>,
     settings: RosOptions,
     core: PlantCore<H>,
     opts: PlantOptions,
@@ -98,7 +103,7 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
 
     /// Build: the recording's file first (an unwritable place is an error before anything else
     /// starts), then DDS: endpoints, conflict watch, emergency stop, parameters, lifecycle.
-    fn build(self, context: Option<&ros2_client::Context>) -> Result<Built<H>> {
+    fn build(self, context: Option<&ros2_client::dds::Context>) -> Result<Built<H>> {
         let PlantNode {
             settings,
             core,

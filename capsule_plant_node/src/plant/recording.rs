@@ -33,13 +33,13 @@ pub struct InPlantRecordOptions {
 /// machine, 5-10 us of kernel time per datagram).
 pub struct InPlantRecording {
     pub(super) rec: GraphRecording,
-    pub(super) status_sub: ros2_client::Subscription<ControllerStatus>,
-    pub(super) event_sub: ros2_client::Subscription<SetModeEvent>,
+    pub(super) status_sub: ros2_client::dds::Subscription<ControllerStatus>,
+    pub(super) event_sub: ros2_client::dds::Subscription<SetModeEvent>,
     pub(super) actions: ActionReaders,
     pub(super) last_poll: Instant,
     /// Composed: the participant and node of the status and event readers (RustDDS does not
     /// deliver a writer's samples to a reader on its own participant, where the controller is).
-    pub(super) _apart: Option<(ros2_client::Context, ros2_client::Node)>,
+    pub(super) _apart: Option<(ros2_client::dds::Context, ros2_client::dds::Node)>,
 }
 
 impl InPlantRecording {
@@ -124,8 +124,8 @@ impl InPlantRecording {
     pub(super) fn start(
         rec: GraphRecording,
         r: &InPlantRecordOptions,
-        context: &ros2_client::Context,
-        node: &mut ros2_client::Node,
+        context: &ros2_client::dds::Context,
+        node: &mut ros2_client::dds::Node,
         settings: &capsule_ros_base::ros_options::RosOptions,
     ) -> Result<InPlantRecording> {
         use capsule_ros_base::{endpoints::subscribe, qos};

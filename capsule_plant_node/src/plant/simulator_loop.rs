@@ -51,7 +51,7 @@ pub(super) fn outgoing<H: CapsuleHardware>(
 /// current sample and goes through [`PlantCore::on_command`] as a force command does.
 pub(super) fn take_joint_commands<H: CapsuleHardware>(
     core: &mut PlantCore<H>,
-    sub: &ros2_client::Subscription<JointState>,
+    sub: &ros2_client::dds::Subscription<JointState>,
     at: impl Fn(&ros2_client::MessageInfo) -> f64,
     refused_logged: &mut Throttle,
     bad: &mut Throttle,

@@ -1,0 +1,150 @@
+//! The nodes on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`, cargo feature `zenoh`), against an
+//! independent rmw_zenoh speaker: tests/peers/zenoh_peer.py on PyPI's `eclipse-zenoh`, written
+//! from rmw_zenoh's design document, through `capsule_zenohd` on 127.0.0.1:7447 inside the
+//! test's own loopback-only namespace. The hashes the peer subscribes and calls with are
+//! capsule_msgs', which `type_hashes.rs` checks against independent implementations.
+
+use std::process::Command;
+
+use capsule_msgs::hashes;
+use serde_json::Value;
+
+use super::harness::{bin_dir, netns, Run};
+
+/// The hash of `type_name` (`pkg/kind/Name`); panics if capsule_msgs has none.
+fn hash(type_name: &str) -> &'static str {
+    hashes::of(type_name).unwrap_or_else(|| panic!("no hash for {type_name}"))
+}
+
+/// Runs `script` in a namespace with the router started and `zpeer` defined; checks that the
+/// peer and the router can run first.
+fn with_router(timeout_s: u32, script: &str) -> Run {
+    let ok = Command::new("python3")
+        .args(["-c", "import zenoh"])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "python3 with eclipse-zenoh needed: run .ci/ros-setup.sh"
+    );
+    let router = bin_dir().join("capsule_zenohd");
+    assert!(
+        router.is_file(),
+        "{} missing: cargo build -p capsule_nodes --features zenoh",
+        router.display()
+    );
+    netns(
+        timeout_s,
+        &format!(
+            r#"export RMW_IMPLEMENTATION=rmw_zenoh_cpp
+            zpeer() {{ python3 "$ROOT/tests/peers/zenoh_peer.py" "$@"; }}
+            "$B/capsule_zenohd" 2> "$TMP/router.log" & Z=$!
+            for i in $(seq 50); do (echo > /dev/tcp/127.0.0.1/7447) 2>/dev/null && break; sleep 0.1; done
+            {script}
+            stop $Z"#
+        ),
+    )
+}
+
+/// The JSON lines on stdout.
+fn json_lines(run: &Run) -> Vec<Value> {
+    run.stdout
+        .lines()
+        .filter(|l| l.starts_with('{'))
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+#[test]
+fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_and_switches_the_mode() {
+    let run = with_router(
+        90,
+        &format!(
+            "start_plant --until-s 40 2> \"$TMP/plant.log\"
+            start_controller 2> \"$TMP/controller.log\"
+            zpeer graph --node capsule_plant --node capsule_controller || exit 1
+            zpeer state --hash {state} --samples 300 || exit 1
+            zpeer set-mode 1 0 --hash {set_mode} --status-hash {status} || exit 1
+            stop $C $P
+            cat \"$TMP/plant.log\" \"$TMP/controller.log\" >&2",
+            state = hash("capsule_msgs/msg/CapsuleState"),
+            set_mode = hash("capsule_msgs/srv/SetMode"),
+            status = hash("capsule_msgs/msg/ControllerStatus"),
+        ),
+    );
+    run.assert_ok();
+    let lines = json_lines(&run);
+    let entity = |node: &str, kind: &str, topic: &str| {
+        lines
+            .iter()
+            .find(|e| e["node"] == node && e["kind"] == kind && e["topic"] == topic)
+            .unwrap_or_else(|| panic!("no {kind} {topic} of {node}\n{}", run.all()))
+    };
+    for (node, kind, topic, type_name, dds) in [
+        (
+            "capsule_plant",
+            "MP",
+            "/capsule/state",
+            "capsule_msgs/msg/CapsuleState",
+            "capsule_msgs::msg::dds_::CapsuleState_",
+        ),
+        (
+            "capsule_controller",
+            "SS",
+            "/capsule_controller/set_mode",
+            "capsule_msgs/srv/SetMode",
+            "capsule_msgs::srv::dds_::SetMode_",
+        ),
+        (
+            "capsule_controller",
+            "MP",
+            "/capsule/actuator_force",
+            "capsule_msgs/msg/ActuatorForce",
+            "capsule_msgs::msg::dds_::ActuatorForce_",
+        ),
+    ] {
+        let e = entity(node, kind, topic);
+        assert_eq!(e["type"], dds, "{e}");
+        assert_eq!(e["hash"], hash(type_name), "{e}");
+    }
+    let state = lines
+        .iter()
+        .find(|l| l.get("samples").is_some())
+        .unwrap_or_else(|| panic!("no state report\n{}", run.all()));
+    assert_eq!(state["samples"], 300, "{state}");
+    for key in ["seq_increasing", "attachment_seq_increasing", "finite"] {
+        assert_eq!(state[key], true, "{key}: {state}");
+    }
+    assert_eq!(state["gids"], 1, "one publisher: {state}");
+    let rate = state["rate_hz"].as_f64().unwrap_or(f64::NAN);
+    assert!((rate - 1000.0).abs() < 1.0, "stamps at 1 kHz: {state}");
+    let answer = lines
+        .iter()
+        .find(|l| l.get("accepted").is_some())
+        .unwrap_or_else(|| panic!("no set_mode answer\n{}", run.all()));
+    assert_eq!(answer["accepted"], true, "{answer}");
+    assert_eq!(answer["mode"], 1, "FORWARD: {answer}");
+    let status = lines
+        .iter()
+        .find(|l| l.get("status_mode").is_some())
+        .unwrap_or_else(|| panic!("no status\n{}", run.all()));
+    assert_eq!(status["mode_name"], "FORWARD", "{status}");
+}
+
+#[test]
+fn on_zenoh_security_and_the_unported_nodes_are_refused_by_name() {
+    let run = with_router(
+        30,
+        "ROS_SECURITY_ENABLE=true \"$B/capsule_plant\" --scene \"$SCENE\" --check; echo \"secured=$?\"
+        \"$B/capsule_recorder\" --output \"$TMP/r.mcap\" --idle-stop-s 1; echo \"recorder=$?\"
+        \"$B/capsule_plant\" --scene \"$SCENE\" --pacing lockstep --until-s 1; echo \"lockstep=$?\"",
+    );
+    run.assert_ok();
+    run.assert_stdout(&["secured=2", "recorder=2", "lockstep=2"]);
+    run.assert_stderr(&[
+        "ROS_SECURITY_ENABLE=true with RMW_IMPLEMENTATION=rmw_zenoh_cpp",
+        "refusing to run unsecured",
+        "capsule_recorder is not available on Zenoh yet",
+        "--pacing lockstep is not available on Zenoh yet",
+    ]);
+}
