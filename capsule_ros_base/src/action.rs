@@ -37,8 +37,8 @@ use ros2_client::action::{
 use ros2_client::action::{GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
 use ros2_client::dds::Node;
-use ros2_client::qos::{Durability, History};
 use ros2_client::dds::Publisher;
+use ros2_client::qos::{Durability, History};
 use ros2_client::{builtin_interfaces, ActionTypeName, RmwRequestId};
 use serde::{de::DeserializeOwned, Serialize};
 use tracing::warn;
