@@ -13,9 +13,10 @@
 //! (`--wait-subscribers`). Chunks close every `flush_period` of wall time and every 0.5 s of
 //! log time, so a SIGKILL loses at most that much; SIGINT / SIGTERM finish the file.
 //!
-//! Each state sample is recorded once: a lock-step plant re-sends an unanswered sample, and the
-//! re-sends (same writer, seq and stamp as the sample last recorded) are not written again, so
-//! `capsule record info` counts samples, not sends.
+//! Each state sample and each command is recorded once: a lock-step plant re-sends an unanswered
+//! sample, and its controller answers each re-send again; the re-sends (same writer, seq and
+//! stamp as the sample last recorded, and for a command the same force) are not written again,
+//! so `capsule record info` counts samples, not sends.
 
 use capsule_msgs::names::{topics, type_names};
 use capsule_msgs::std_types::{Clock, DiagnosticArray};
@@ -510,29 +511,36 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
     }
 }
 
-/// Takes every state sample `sub` holds into `rec`, each once: a lock-step plant's re-send of
-/// the sample last recorded (same writer, seq and stamp) is not written again; returns how many
-/// were written. `last`: the sample last written, kept between calls.
-fn drain_states(
-    sub: &ros2_client::dds::Subscription<CapsuleState>,
+/// What tells a re-send from a new sample: the writer, the seq and the stamp, and for a
+/// command its force's bits (a lock-step controller answers each re-send of a state again).
+type SampleKey = (ros2_client::Gid, u64, i64, u64);
+
+/// Takes every sample `sub` holds into `rec` on `channel`, each once: a sample whose `key`
+/// equals the one last written (a lock-step plant's re-send of an unanswered state, the
+/// controller's answer to it again) is not written again; returns how many were written.
+/// `last`: the key last written, kept between calls.
+fn drain_once<M: Serialize + serde::de::DeserializeOwned + 'static>(
+    sub: &ros2_client::dds::Subscription<M>,
     rec: &mut GraphRecording,
-    last: &std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
+    channel: Channel,
+    last: &std::cell::Cell<Option<SampleKey>>,
+    key: impl Fn(&M, &ros2_client::MessageInfo) -> SampleKey,
 ) -> Result<usize> {
     let mut n = 0;
     loop {
         match sub.take() {
             Ok(Some((msg, mi))) => {
-                let key = Some((mi.publisher_gid(), msg.seq, msg.header.stamp.to_nanos()));
-                if last.get() == key {
+                let k = Some(key(&msg, &mi));
+                if last.get() == k {
                     continue;
                 }
-                last.set(key);
-                rec.write_received(Channel::State, &msg, &mi)?;
+                last.set(k);
+                rec.write_received(channel, &msg, &mi)?;
                 n += 1;
             }
             Ok(None) => return Ok(n),
             Err(e) => {
-                warn!("bad {:?} sample: {e:?}", Channel::State);
+                warn!("bad {channel:?} sample: {e:?}");
                 return Ok(n);
             }
         }
@@ -547,8 +555,9 @@ struct Readers {
     clock: ros2_client::dds::Subscription<Clock>,
     event: ros2_client::dds::Subscription<SetModeEvent>,
     diagnostics: ros2_client::dds::Subscription<DiagnosticArray>,
-    /// The state sample last recorded (writer, seq, stamp): its re-sends are not recorded.
-    last_state: std::cell::Cell<Option<(ros2_client::Gid, u64, i64)>>,
+    /// The state sample and the command last recorded: their re-sends are not recorded.
+    last_state: std::cell::Cell<Option<SampleKey>>,
+    last_force: std::cell::Cell<Option<SampleKey>>,
     actions: ActionReaders,
 }
 
@@ -608,6 +617,7 @@ impl Readers {
             event,
             diagnostics,
             last_state: std::cell::Cell::default(),
+            last_force: std::cell::Cell::default(),
             actions,
         })
     }
@@ -617,9 +627,26 @@ impl Readers {
     /// is idle all the same).
     fn drain(&self, sink: &mut GraphRecording) -> Result<usize> {
         drain_into(&self.diagnostics, sink, Channel::Diagnostics)?;
-        Ok(drain_states(&self.state, sink, &self.last_state)?
-            + drain_into(&self.force, sink, Channel::Force)?
-            + drain_into(&self.status, sink, Channel::Status)?
+        let state_key = |m: &CapsuleState, mi: &ros2_client::MessageInfo| {
+            (mi.publisher_gid(), m.seq, m.header.stamp.to_nanos(), 0)
+        };
+        let force_key = |m: &ActuatorForce, mi: &ros2_client::MessageInfo| {
+            let stamp = m.header.stamp.to_nanos();
+            (mi.publisher_gid(), m.state_seq, stamp, m.force.to_bits())
+        };
+        Ok(drain_once(
+            &self.state,
+            sink,
+            Channel::State,
+            &self.last_state,
+            state_key,
+        )? + drain_once(
+            &self.force,
+            sink,
+            Channel::Force,
+            &self.last_force,
+            force_key,
+        )? + drain_into(&self.status, sink, Channel::Status)?
             + drain_into(&self.clock, sink, Channel::Clock)?
             + drain_into(&self.event, sink, Channel::ServiceEvent)?
             + drain_actions(&self.actions, sink)?)

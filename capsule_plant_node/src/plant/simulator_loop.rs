@@ -153,10 +153,8 @@ pub(super) fn take_command<H: CapsuleHardware>(
     logs: &mut CommandLogs,
     rec: Option<&mut InPlantRecording>,
 ) -> Result<CommandOutcome> {
-    if let Some(r) = rec {
-        r.received(cmd, info)?;
-    }
     let outcome = core.on_command(cmd, at, false);
+    record_unless_resent(rec, cmd, info, outcome)?;
     match outcome {
         CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
         refused => log_refused(refused, cmd, &mut logs.refused, core.rejected()),
@@ -389,10 +387,23 @@ pub(super) fn take_answer<H: CapsuleHardware>(
     at: f64,
     rec: Option<&mut InPlantRecording>,
 ) -> Result<CommandOutcome> {
-    if let Some(r) = rec {
-        r.received(cmd, info)?;
+    let outcome = core.on_command(cmd, at, true);
+    record_unless_resent(rec, cmd, info, outcome)?;
+    Ok(outcome)
+}
+
+/// Records a command that arrived, unless it repeats the one last accepted (the controller's
+/// answer to a re-sent sample): a recording counts each command once, refused ones included.
+fn record_unless_resent(
+    rec: Option<&mut InPlantRecording>,
+    cmd: &capsule_msgs::ActuatorForce,
+    info: Option<&ros2_client::MessageInfo>,
+    outcome: CommandOutcome,
+) -> Result<()> {
+    match rec {
+        Some(r) if outcome != CommandOutcome::Duplicate => r.received(cmd, info),
+        _ => Ok(()),
     }
-    Ok(core.on_command(cmd, at, true))
 }
 
 /// Lock-step: what a command answering a sample does (recorded when recording).

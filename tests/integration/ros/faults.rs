@@ -370,16 +370,24 @@ fn a_lockstep_controller_stopped_thrice_for_150_ms_ends_on_the_clean_runs_sample
         once() { # TAG STOPS
             RUST_LOG=info,rustdds=error "$B/capsule_controller" --scene "$SCENE" --mode forward \
                 2> "$TMP/$1.ctl.log" & C=$!
-            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 --wait-subscribers 1 \
-                --lockstep-give-up-s 5 --summary-json "$TMP/$1.json" 2> "$TMP/$1.plant.log" & P=$!
+            # recorded twice: in the plant, and by the recorder, which hears every answer the
+            # controller sends (a stopped controller answers each re-sent sample it queued)
+            "$B/capsule_recorder" --output "$TMP/$1.rec.mcap" 2> "$TMP/$1.rec.log" & R=$!
+            $B/capsule_plant --scene "$SCENE" --pacing lockstep --until-s 6 --wait-subscribers 2 \
+                --lockstep-give-up-s 5 --summary-json "$TMP/$1.json" \
+                --record-output "$TMP/$1.mcap" 2> "$TMP/$1.plant.log" & P=$!
             for i in $(seq 300); do
                 grep -q "subscribers matched: starting" "$TMP/$1.plant.log" && break; sleep 0.1
             done
             for i in $(seq $2); do sleep 0.2; kill -STOP $C; sleep 0.15; kill -CONT $C; done
             wait $P; echo "$1 plant rc=$?"
-            stop $C
+            stop $R; stop $C
             grep -h "poll\|lock-step:" "$TMP/$1.ctl.log" "$TMP/$1.plant.log" | sed "s/^/$1 LOG /"
             echo "$1 $(cat $TMP/$1.json)"
+            for f in "$TMP/$1.mcap" "$TMP/$1.rec.mcap"; do
+                "$B/capsule" record info "$f" | grep -o "/capsule/[a-z_]* .*| count [0-9]*" \
+                    | awk -v t="$1" '{ print t, "COUNT", $1, $NF }'
+            done
         }
         once CLEAN 0
         once STOPPED 3"#,
@@ -403,6 +411,25 @@ fn a_lockstep_controller_stopped_thrice_for_150_ms_ends_on_the_clean_runs_sample
     // the stops fell in the loop: each held a sample for 150 ms, re-sent every 20 ms
     let stopped = run.line("STOPPED {");
     assert!(number(&run, stopped, "resent") >= 10.0, "{stopped}");
+    // both recordings count each sample once, re-sends and the answers to them included: 6,001
+    // states, each answered (the last one perhaps not yet), in the plant and in the recorder
+    let counts = run.lines_starting("STOPPED COUNT ");
+    for topic in ["/capsule/state", "/capsule/actuator_force"] {
+        let n: Vec<&str> = counts
+            .iter()
+            .filter(|l| l.split_whitespace().nth(2) == Some(topic))
+            .filter_map(|l| l.split_whitespace().nth(3))
+            .collect();
+        assert_eq!(n.len(), 2, "{topic}: {counts:?}\n{}", run.all());
+        for c in n {
+            let ok = if topic == "/capsule/state" {
+                c == "6001"
+            } else {
+                c == "6000" || c == "6001"
+            };
+            assert!(ok, "{topic} counted {c}: {counts:?}\n{}", run.all());
+        }
+    }
 }
 
 #[test]

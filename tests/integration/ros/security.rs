@@ -99,11 +99,12 @@ fn secured_demo_goes_forward_then_backward_and_records_every_sample() {
         python3 - "$TMP/rec.json" <<'EOF'
 import json, sys
 t = json.load(open(sys.argv[1]))["mcap"]["topics"]
-# a lock-step sample is re-sent until answered: every seq once at least, each answered
-seqs = sorted(set(r[0] for r in t["/capsule/state"]["rows"]))
+# a lock-step sample is re-sent until answered, and answered again at each re-send: the
+# recording holds every seq once, and its answer once
+seqs = sorted(r[0] for r in t["/capsule/state"]["rows"])
 # set_mode's service events: [event_type (1 request received, 2 response sent), _, mode, ...]
 ev = t.get("/capsule_controller/set_mode/_service_event", {"rows": []})["rows"]
-forces = sorted(set(r[0] for r in t["/capsule/actuator_force"]["rows"]))
+forces = sorted(r[0] for r in t["/capsule/actuator_force"]["rows"])
 print("RECORDING", json.dumps({"states": len(seqs), "first": seqs[0], "last": seqs[-1],
       "contiguous": seqs == list(range(seqs[0], seqs[-1] + 1)), "answered": forces == seqs,
       "requested_modes": sorted(set(r[2] for r in ev if r[0] == 1)),
@@ -337,8 +338,8 @@ fn sros2_method_keystore_secures_the_graph_and_the_fastdds_peer() {
           python3 - "$TMP/$tag.rec.json" $tag <<'EOF'
 import json, sys
 t = json.load(open(sys.argv[1]))["mcap"]["topics"]
-seqs = sorted(set(r[0] for r in t["/capsule/state"]["rows"]))
-forces = sorted(set(r[0] for r in t["/capsule/actuator_force"]["rows"]))
+seqs = sorted(r[0] for r in t["/capsule/state"]["rows"])
+forces = sorted(r[0] for r in t["/capsule/actuator_force"]["rows"])
 print("RECORDED", sys.argv[2], json.dumps({"first": seqs[0], "last": seqs[-1],
       "contiguous": seqs == list(range(seqs[0], seqs[-1] + 1)), "answered": forces == seqs}))
 EOF
