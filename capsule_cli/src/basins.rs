@@ -7,10 +7,10 @@ use crate::scene_args::SceneArgs;
 use crate::svg;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{BasinMap, Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin::{BasinMap, BasinRun, Cell, CellConfig, Grid, Method, Plane};
 use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
-use capsule_analysis::{GainSchedule, Param};
+use capsule_analysis::Param;
 use capsule_plant::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
@@ -202,13 +202,10 @@ pub fn compute_with(
     scenes
         .iter()
         .map(|(value, scene)| {
-            let cfg = SettleConfig {
-                known_tol,
-                ..SettleConfig::for_scene(scene)
-            };
-            let schedule = GainSchedule::constant(scene.control.kp);
+            let mut run = BasinRun::new(scene, *grid);
+            run.config.known_tol = known_tol;
             let t0 = std::time::Instant::now();
-            let map = basins_by(method, scene, &schedule, &cfg, grid, progress, cancel);
+            let map = basins_by(method, &run, progress, cancel);
             Computed {
                 value: *value,
                 scene: scene.clone(),

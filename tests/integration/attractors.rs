@@ -3,7 +3,7 @@
 
 use crate::common::{assert_refused_at_once, json, line, TempDir};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins, BasinMap, Grid};
+use capsule_analysis::basin::{basins, BasinMap, BasinRun, Grid};
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{GainSchedule, Pulse};
 use capsule_plant::scene::Scene;
@@ -19,16 +19,8 @@ fn coulomb(alpha: f64, kp: f64) -> Scene {
 }
 
 fn map(scene: &Scene, n: usize) -> BasinMap {
-    let cfg = SettleConfig::for_scene(scene);
-    let schedule = GainSchedule::constant(scene.control.kp);
-    basins(
-        scene,
-        &schedule,
-        &cfg,
-        &Grid::paper(n),
-        &|| {},
-        &AtomicBool::new(false),
-    )
+    let run = BasinRun::new(scene, Grid::paper(n));
+    basins(&run, &|| {}, &AtomicBool::new(false))
 }
 
 /// Share of the grid on attractors of period `k`.
