@@ -163,6 +163,8 @@ pub struct Computed {
     pub value: Option<f64>,
     /// The scene the map is of.
     pub scene: Scene,
+    /// When its runs counted as settled.
+    pub config: SettleConfig,
     /// The map.
     pub map: BasinMap,
     /// Wall time in seconds.
@@ -209,6 +211,7 @@ pub fn compute_with(
             Computed {
                 value: *value,
                 scene: scene.clone(),
+                config: run.config,
                 map,
                 wall_s: t0.elapsed().as_secs_f64(),
             }
@@ -283,19 +286,11 @@ pub fn main(args: Args) -> Result<()> {
         Some(prefix) => Some(write_all(prefix, name, &maps)?),
         None => None,
     };
-    let cfgs: Vec<SettleConfig> = maps
-        .iter()
-        .map(|m| SettleConfig {
-            known_tol: args.known_tol,
-            ..SettleConfig::for_scene(&m.scene)
-        })
-        .collect();
     if args.json {
         let out: Vec<serde_json::Value> = maps
             .iter()
-            .zip(&cfgs)
-            .map(|(m, cfg)| {
-                let mut v = serde_json::to_value(summary(&m.map, m.wall_s, cfg))?;
+            .map(|m| {
+                let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &m.config))?;
                 if let (Some(x), Some(obj)) = (m.value, v.as_object_mut()) {
                     obj.insert(name.to_string(), x.into());
                 }
@@ -309,15 +304,15 @@ pub fn main(args: Args) -> Result<()> {
         };
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
-        for (m, cfg) in maps.iter().zip(&cfgs) {
-            print_summary(m, name, cfg);
+        for m in &maps {
+            print_summary(m, name);
         }
         if let Some(w) = &written {
             println!("wrote {w}");
         }
     }
-    for (m, cfg) in maps.iter().zip(&cfgs) {
-        if let Some(w) = summary(&m.map, m.wall_s, cfg).warning {
+    for m in &maps {
+        if let Some(w) = summary(&m.map, m.wall_s, &m.config).warning {
             eprintln!("warning: {w}");
         }
     }
@@ -329,8 +324,8 @@ pub fn main(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(m: &Computed, name: &str, cfg: &SettleConfig) {
-    let s = summary(&m.map, m.wall_s, cfg);
+fn print_summary(m: &Computed, name: &str) {
+    let s = summary(&m.map, m.wall_s, &m.config);
     if let Some(v) = m.value {
         println!("{name} = {v}:");
     }
