@@ -445,8 +445,7 @@ pub fn write_all(prefix: &Path, param: &str, maps: &[Computed]) -> Result<String
                         .collect()
                 })
                 .collect();
-            let cfg = SettleConfig::for_scene(&m.scene);
-            let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &cfg))?;
+            let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &m.config))?;
             if let Some(obj) = v.as_object_mut() {
                 obj.insert("scene".into(), serde_json::to_value(&m.scene)?);
                 obj.insert("labels".into(), serde_json::to_value(rows)?);

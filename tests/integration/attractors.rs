@@ -235,7 +235,7 @@ fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
 fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
     let dir = TempDir::new("attractors_basins");
     let v = json(&line(
-        "basins --alpha 1.5 --grid 3,2 --periods 40 --json --out",
+        "basins --alpha 1.5 --grid 3,2 --periods 40 --known-tol 2e-4 --json --out",
         &[&dir.arg("b_kp0.05")],
     ));
     let atts = v["attractors"].as_array().unwrap();
@@ -268,4 +268,8 @@ fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
     }
     let png = std::fs::read(dir.file("b_kp0.05.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // the file reports the settings the map ran with, as the printed summary does
+    let file = std::fs::read_to_string(dir.file("b_kp0.05.json")).unwrap();
+    assert!(v.to_string().contains("\"known_tol\":0.0002"), "{v}");
+    assert!(file.contains("\"known_tol\":0.0002"), "{file}");
 }
