@@ -6,7 +6,7 @@
 use crate::attractor::{settle, Catalogue, Outcome, SettleConfig, Stop};
 use crate::schedule::GainSchedule;
 use capsule_plant::scene::Scene;
-use capsule_plant::{State, Work};
+use capsule_plant::{SimError, State, Work};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -505,24 +505,51 @@ impl BasinMap {
     }
 }
 
-/// The scene started from the grid's initial state number `c` (row-major).
-pub(crate) fn scene_at(scene: &Scene, grid: &Grid, c: usize) -> Scene {
-    let (a, b) = grid.point(c % grid.nx, c / grid.nx);
-    let mut s = scene.clone();
-    s.initial = grid.plane.state(scene.initial, a, b);
-    s
+/// What a basin map runs: every initial state of `grid` (the rest of the state from
+/// `scene.initial`) under `schedule`, until it settles by `config`.
+#[derive(Debug, Clone, Copy)]
+pub struct BasinRun<'a> {
+    /// The scene, its initial state completing the grid's.
+    pub scene: &'a Scene,
+    /// The gain in every drive period.
+    pub schedule: GainSchedule,
+    /// When a run has settled.
+    pub config: SettleConfig,
+    /// The initial states.
+    pub grid: Grid,
+}
+
+impl<'a> BasinRun<'a> {
+    /// `scene` from each initial state of `grid` at its own constant `k_p`, settled as
+    /// [`SettleConfig::for_scene`] says.
+    pub fn new(scene: &'a Scene, grid: Grid) -> Self {
+        BasinRun {
+            scene,
+            schedule: GainSchedule::constant(scene.control.kp),
+            config: SettleConfig::for_scene(scene),
+            grid,
+        }
+    }
+
+    /// The scene started from the grid's initial state number `c` (row-major).
+    pub fn scene_at(&self, c: usize) -> Scene {
+        let grid = &self.grid;
+        let (a, b) = grid.point(c % grid.nx, c / grid.nx);
+        let mut s = self.scene.clone();
+        s.initial = grid.plane.state(self.scene.initial, a, b);
+        s
+    }
+
+    /// Initial state `c` run until it settles, against the attractors `known`.
+    pub(crate) fn settle_at(&self, c: usize, known: &Catalogue) -> Result<Outcome, SimError> {
+        settle(&self.scene_at(c), &self.schedule, &self.config, known)
+    }
 }
 
 /// Each initial state on its own ([`Method::PerState`]), in parallel (see
 /// [`crate::basin_cells::basins_by`]).
-pub fn basins(
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
-    grid: &Grid,
-    progress: &(dyn Fn() + Sync),
-    cancel: &AtomicBool,
-) -> BasinMap {
+pub fn basins(run: &BasinRun, progress: &(dyn Fn() + Sync), cancel: &AtomicBool) -> BasinMap {
+    let grid = &run.grid;
     let shared = Mutex::new(Arc::new(Catalogue::default()));
     let snapshot = || shared.lock().unwrap_or_else(|e| e.into_inner()).clone();
     let results: Vec<(Cell, Option<Outcome>)> = (0..grid.nx * grid.ny)
@@ -531,9 +558,7 @@ pub fn basins(
             if cancel.load(Ordering::Relaxed) {
                 return (Cell::Pending, None);
             }
-            let s = scene_at(scene, grid, c);
-            let known = snapshot();
-            let cell = match settle(&s, schedule, config, &known) {
+            let cell = match run.settle_at(c, &snapshot()) {
                 Err(e) => (Cell::Failed(e.to_string()), None),
                 Ok(o) => {
                     let index = match o.stop {

@@ -24,10 +24,8 @@
 //! with a warning when the share of the map that is mislabelled is, with 95 % confidence, above
 //! [`CellCheck::WARN_SHARE`].
 
-use crate::attractor::{settle, settle_watched, Catalogue, Outcome, SettleConfig, Stop};
-use crate::basin::{basins, scene_at, BasinMap, Cell, CellCheck, CellConfig, Grid, Method};
-use crate::schedule::GainSchedule;
-use capsule_plant::scene::Scene;
+use crate::attractor::{settle_watched, Catalogue, Outcome, Stop};
+use crate::basin::{basins, BasinMap, BasinRun, Cell, CellCheck, CellConfig, Method};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -57,39 +55,30 @@ struct Visit {
     cubes: Vec<[i64; 3]>,
 }
 
-/// Label every initial state of `grid` (the rest of the state from `scene.initial`) by the
-/// attractor `scene` under `schedule` ends on, by `method` (a [`CellConfig`] checked with
-/// [`CellConfig::validate`] first). `progress` is called once per cell; once `cancel` is set,
-/// cells not yet started stay [`Cell::Pending`].
+/// Label every initial state of `run` by the attractor it ends on, by `method` (a
+/// [`CellConfig`] checked with [`CellConfig::validate`] first). `progress` is called once per
+/// cell; once `cancel` is set, cells not yet started stay [`Cell::Pending`].
 pub fn basins_by(
     method: &Method,
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
-    grid: &Grid,
+    run: &BasinRun,
     progress: &(dyn Fn() + Sync),
     cancel: &AtomicBool,
 ) -> BasinMap {
     match method {
-        Method::PerState => basins(scene, schedule, config, grid, progress, cancel),
-        Method::KnownCells(cells) => {
-            basins_by_cells(scene, schedule, config, cells, grid, progress, cancel)
-        }
+        Method::PerState => basins(run, progress, cancel),
+        Method::KnownCells(cells) => basins_by_cells(run, cells, progress, cancel),
     }
 }
 
 /// [`basins_by`] by known cells (see the module doc); `cells` checked with
 /// [`CellConfig::validate`] first.
 pub fn basins_by_cells(
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
+    run: &BasinRun,
     cells: &CellConfig,
-    grid: &Grid,
     progress: &(dyn Fn() + Sync),
     cancel: &AtomicBool,
 ) -> BasinMap {
-    let n = grid.nx * grid.ny;
+    let n = run.grid.nx * run.grid.ny;
     let mut labels: HashMap<[i64; 3], usize> = HashMap::new();
     let mut catalogue = Catalogue::default();
     let mut results: Vec<(Cell, Option<Outcome>)> = vec![(Cell::Pending, None); n];
@@ -100,8 +89,7 @@ pub fn basins_by_cells(
         let visits: Vec<Visit> = ord[start..end]
             .par_iter()
             .map(|&c| {
-                let s = scene_at(scene, grid, c);
-                let v = run_one(&s, schedule, config, cells, &labels, &catalogue, cancel);
+                let v = run_one(run, c, cells, &labels, &catalogue, cancel);
                 progress();
                 v
             })
@@ -111,24 +99,20 @@ pub fn basins_by_cells(
         }
         (start, batch) = (end, (2 * batch).min(MAX_BATCH));
     }
-    let check = check(
-        scene,
-        schedule,
-        config,
-        cells,
-        grid,
-        &mut results,
-        &mut catalogue,
-        cancel,
-    );
-    BasinMap::assemble(grid, results, catalogue, Method::KnownCells(*cells), check)
+    let check = check(run, cells, &mut results, &mut catalogue, cancel);
+    BasinMap::assemble(
+        &run.grid,
+        results,
+        catalogue,
+        Method::KnownCells(*cells),
+        check,
+    )
 }
 
-/// Run one initial state against the cubes labelled so far.
+/// Run initial state `c` against the cubes labelled so far.
 fn run_one(
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
+    run: &BasinRun,
+    c: usize,
     cells: &CellConfig,
     labels: &HashMap<[i64; 3], usize>,
     catalogue: &Catalogue,
@@ -156,7 +140,13 @@ fn run_one(
         }
         (streak >= cells.hits).then_some(on)
     };
-    let result = settle_watched(scene, schedule, config, catalogue, &mut watch);
+    let result = settle_watched(
+        &run.scene_at(c),
+        &run.schedule,
+        &run.config,
+        catalogue,
+        &mut watch,
+    );
     Visit {
         result: Some(result.map_err(|e| e.to_string())),
         cubes,
@@ -204,13 +194,9 @@ fn index_of(o: &Outcome, catalogue: &mut Catalogue) -> usize {
 
 /// Rerun up to `cells.check` of the cube-labelled states per state (a fixed sample), keep
 /// their per-state labels, and count those that differ.
-#[allow(clippy::too_many_arguments)]
 fn check(
-    scene: &Scene,
-    schedule: &GainSchedule,
-    config: &SettleConfig,
+    run: &BasinRun,
     cells: &CellConfig,
-    grid: &Grid,
     results: &mut [(Cell, Option<Outcome>)],
     catalogue: &mut Catalogue,
     cancel: &AtomicBool,
@@ -240,9 +226,7 @@ fn check(
     let known = catalogue.clone();
     let reruns: Vec<Result<Outcome, String>> = sample
         .par_iter()
-        .map(|&c| {
-            settle(&scene_at(scene, grid, c), schedule, config, &known).map_err(|e| e.to_string())
-        })
+        .map(|&c| run.settle_at(c, &known).map_err(|e| e.to_string()))
         .collect();
     let mut differ = 0;
     for (&c, r) in sample.iter().zip(reruns) {
@@ -274,7 +258,7 @@ fn check(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basin::spacing;
+    use crate::basin::{spacing, Grid};
 
     #[test]
     fn one_difference_in_a_small_sample_does_not_warn_many_do() {

@@ -7,10 +7,10 @@ use crate::scene_args::SceneArgs;
 use crate::svg;
 use anyhow::{bail, Context, Result};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{BasinMap, Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin::{BasinMap, BasinRun, Cell, CellConfig, Grid, Method, Plane};
 use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
-use capsule_analysis::{GainSchedule, Param};
+use capsule_analysis::Param;
 use capsule_plant::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
@@ -163,6 +163,8 @@ pub struct Computed {
     pub value: Option<f64>,
     /// The scene the map is of.
     pub scene: Scene,
+    /// When its runs counted as settled.
+    pub config: SettleConfig,
     /// The map.
     pub map: BasinMap,
     /// Wall time in seconds.
@@ -202,16 +204,14 @@ pub fn compute_with(
     scenes
         .iter()
         .map(|(value, scene)| {
-            let cfg = SettleConfig {
-                known_tol,
-                ..SettleConfig::for_scene(scene)
-            };
-            let schedule = GainSchedule::constant(scene.control.kp);
+            let mut run = BasinRun::new(scene, *grid);
+            run.config.known_tol = known_tol;
             let t0 = std::time::Instant::now();
-            let map = basins_by(method, scene, &schedule, &cfg, grid, progress, cancel);
+            let map = basins_by(method, &run, progress, cancel);
             Computed {
                 value: *value,
                 scene: scene.clone(),
+                config: run.config,
                 map,
                 wall_s: t0.elapsed().as_secs_f64(),
             }
@@ -286,19 +286,11 @@ pub fn main(args: Args) -> Result<()> {
         Some(prefix) => Some(write_all(prefix, name, &maps)?),
         None => None,
     };
-    let cfgs: Vec<SettleConfig> = maps
-        .iter()
-        .map(|m| SettleConfig {
-            known_tol: args.known_tol,
-            ..SettleConfig::for_scene(&m.scene)
-        })
-        .collect();
     if args.json {
         let out: Vec<serde_json::Value> = maps
             .iter()
-            .zip(&cfgs)
-            .map(|(m, cfg)| {
-                let mut v = serde_json::to_value(summary(&m.map, m.wall_s, cfg))?;
+            .map(|m| {
+                let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &m.config))?;
                 if let (Some(x), Some(obj)) = (m.value, v.as_object_mut()) {
                     obj.insert(name.to_string(), x.into());
                 }
@@ -312,15 +304,15 @@ pub fn main(args: Args) -> Result<()> {
         };
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
-        for (m, cfg) in maps.iter().zip(&cfgs) {
-            print_summary(m, name, cfg);
+        for m in &maps {
+            print_summary(m, name);
         }
         if let Some(w) = &written {
             println!("wrote {w}");
         }
     }
-    for (m, cfg) in maps.iter().zip(&cfgs) {
-        if let Some(w) = summary(&m.map, m.wall_s, cfg).warning {
+    for m in &maps {
+        if let Some(w) = summary(&m.map, m.wall_s, &m.config).warning {
             eprintln!("warning: {w}");
         }
     }
@@ -332,8 +324,8 @@ pub fn main(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(m: &Computed, name: &str, cfg: &SettleConfig) {
-    let s = summary(&m.map, m.wall_s, cfg);
+fn print_summary(m: &Computed, name: &str) {
+    let s = summary(&m.map, m.wall_s, &m.config);
     if let Some(v) = m.value {
         println!("{name} = {v}:");
     }
@@ -453,8 +445,7 @@ pub fn write_all(prefix: &Path, param: &str, maps: &[Computed]) -> Result<String
                         .collect()
                 })
                 .collect();
-            let cfg = SettleConfig::for_scene(&m.scene);
-            let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &cfg))?;
+            let mut v = serde_json::to_value(summary(&m.map, m.wall_s, &m.config))?;
             if let Some(obj) = v.as_object_mut() {
                 obj.insert("scene".into(), serde_json::to_value(&m.scene)?);
                 obj.insert("labels".into(), serde_json::to_value(rows)?);

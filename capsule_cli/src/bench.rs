@@ -520,19 +520,19 @@ fn effects(args: &Args) -> Result<()> {
 /// stop without recognising known attractors, and the cost per event.
 fn basins(args: &Args) -> Result<()> {
     use capsule_analysis::attractor::{settle, Catalogue, SettleConfig};
-    use capsule_analysis::basin::{basins, Grid};
-    use capsule_analysis::{run, GainSchedule};
+    use capsule_analysis::basin::{basins, BasinRun, Grid};
+    use capsule_analysis::run;
     let mut scene = Scene::default();
     scene.drive.alpha = 1.5;
     let n = args.basin_grid.max(2);
     let grid = Grid::paper(n);
     grid.validate()
         .map_err(|(k, r)| anyhow::anyhow!("--basin-grid: {k}: {r}"))?;
-    let cfg = SettleConfig::for_scene(&scene);
-    let schedule = GainSchedule::constant(0.0);
+    let job = BasinRun::new(&scene, grid);
+    let (cfg, schedule) = (job.config, job.schedule);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let (t0, c0) = (Instant::now(), cpu_s(UsageWho::RUSAGE_SELF));
-    let map = basins(&scene, &schedule, &cfg, &grid, &|| {}, &cancel);
+    let map = basins(&job, &|| {}, &cancel);
     let wall = t0.elapsed().as_secs_f64();
     let cpu = cpu_s(UsageWho::RUSAGE_SELF) - c0;
     let w = &map.work;
@@ -551,15 +551,7 @@ fn basins(args: &Args) -> Result<()> {
         map.catalogue.attractors.len()
     );
     // one thread from here on, on every 97th state of the grid
-    let sample: Vec<Scene> = (0..n * n)
-        .step_by(97)
-        .map(|c| {
-            let (a, b) = grid.point(c % n, c / n);
-            let mut s = scene.clone();
-            s.initial = grid.plane.state(scene.initial, a, b);
-            s
-        })
-        .collect();
+    let sample: Vec<Scene> = (0..n * n).step_by(97).map(|c| job.scene_at(c)).collect();
     let per_state = |f: &dyn Fn(&Scene) -> Result<(u64, u64)>| -> Result<(f64, f64, f64)> {
         let c0 = cpu_s(UsageWho::RUSAGE_THREAD);
         let (mut periods, mut events) = (0u64, 0u64);

@@ -247,23 +247,48 @@ pub trait InterfaceVisitor {
     fn visit<T: RosInterface>(&mut self);
 }
 
-/// `impl RosInterface for Type` for every row `Type: "package" / "kind" / "Name" = definition;`,
-/// and [`for_each_interface`] over them all.
+/// `impl RosInterface` for every type of every row, and [`for_each_interface`] over them all,
+/// in the order of the rows. A row is one file: `Type: "package" / "msg" / "Name" = text;`, or
+/// a service's two types (`Request, Response: ... / "srv" / ...`) or an action's three (`Goal,
+/// Result, Feedback: ... / "action" / ...`) named `Name_Request` and so on and cut from the
+/// file's text at its `---` lines.
 macro_rules! interfaces {
-    ($($ty:ty: $package:literal / $kind:literal / $name:literal = $definition:expr;)*) => {
-        $(impl RosInterface for $ty {
+    (@impl $ty:ident, $package:literal, $kind:literal, $name:expr, $definition:expr) => {
+        impl RosInterface for $ty {
             const PACKAGE: &'static str = $package;
             const KIND: &'static str = $kind;
             const NAME: &'static str = $name;
             fn definition() -> &'static str {
                 $definition
             }
-        })*
-
+        }
+    };
+    (@rows [$($done:ident)*]) => {
         /// Hands every interface type of this crate to `visitor`, in the order of the files.
         pub fn for_each_interface(visitor: &mut impl InterfaceVisitor) {
-            $(visitor.visit::<$ty>();)*
+            $(visitor.visit::<$done>();)*
         }
+    };
+    (@rows [$($done:ident)*] $ty:ident: $package:literal / "msg" / $name:literal = $text:expr;
+        $($rest:tt)*) => {
+        interfaces!(@impl $ty, $package, "msg", $name, $text);
+        interfaces!(@rows [$($done)* $ty] $($rest)*);
+    };
+    (@rows [$($done:ident)*] $request:ident, $response:ident:
+        $package:literal / "srv" / $name:literal = $text:expr; $($rest:tt)*) => {
+        interfaces!(@impl $request, $package, "srv", concat!($name, "_Request"), split_service($text).0);
+        interfaces!(@impl $response, $package, "srv", concat!($name, "_Response"), split_service($text).1);
+        interfaces!(@rows [$($done)* $request $response] $($rest)*);
+    };
+    (@rows [$($done:ident)*] $goal:ident, $result:ident, $feedback:ident:
+        $package:literal / "action" / $name:literal = $text:expr; $($rest:tt)*) => {
+        interfaces!(@impl $goal, $package, "action", concat!($name, "_Goal"), split_action($text).0);
+        interfaces!(@impl $result, $package, "action", concat!($name, "_Result"), split_action($text).1);
+        interfaces!(@impl $feedback, $package, "action", concat!($name, "_Feedback"), split_action($text).2);
+        interfaces!(@rows [$($done)* $goal $result $feedback] $($rest)*);
+    };
+    ($($rows:tt)*) => {
+        interfaces!(@rows [] $($rows)*);
     };
 }
 
@@ -274,22 +299,10 @@ interfaces! {
         include_str!("../msg/ActuatorForce.msg");
     ControllerStatus: "capsule_msgs" / "msg" / "ControllerStatus" =
         include_str!("../msg/ControllerStatus.msg");
-    SetModeRequest: "capsule_msgs" / "srv" / "SetMode_Request" =
-        split_service(SET_MODE_SRV).0;
-    SetModeResponse: "capsule_msgs" / "srv" / "SetMode_Response" =
-        split_service(SET_MODE_SRV).1;
-    MoveGoal: "capsule_msgs" / "action" / "Move_Goal" =
-        split_action(MOVE_ACTION).0;
-    MoveResult: "capsule_msgs" / "action" / "Move_Result" =
-        split_action(MOVE_ACTION).1;
-    MoveFeedback: "capsule_msgs" / "action" / "Move_Feedback" =
-        split_action(MOVE_ACTION).2;
-    SwitchAttractorGoal: "capsule_msgs" / "action" / "SwitchAttractor_Goal" =
-        split_action(SWITCH_ATTRACTOR_ACTION).0;
-    SwitchAttractorResult: "capsule_msgs" / "action" / "SwitchAttractor_Result" =
-        split_action(SWITCH_ATTRACTOR_ACTION).1;
-    SwitchAttractorFeedback: "capsule_msgs" / "action" / "SwitchAttractor_Feedback" =
-        split_action(SWITCH_ATTRACTOR_ACTION).2;
+    SetModeRequest, SetModeResponse: "capsule_msgs" / "srv" / "SetMode" = SET_MODE_SRV;
+    MoveGoal, MoveResult, MoveFeedback: "capsule_msgs" / "action" / "Move" = MOVE_ACTION;
+    SwitchAttractorGoal, SwitchAttractorResult, SwitchAttractorFeedback:
+        "capsule_msgs" / "action" / "SwitchAttractor" = SWITCH_ATTRACTOR_ACTION;
     Header: "std_msgs" / "msg" / "Header" = HEADER_MSG;
     Time: "builtin_interfaces" / "msg" / "Time" = TIME_MSG;
 }

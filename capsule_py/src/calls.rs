@@ -7,8 +7,7 @@
 use crate::exceptions::{Interrupted, SimulationError};
 use crate::interrupt;
 use crate::scene::parse;
-use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{Cell, CellConfig, Grid, Method, Plane};
+use capsule_analysis::basin::{BasinRun, Cell, CellConfig, Grid, Method, Plane};
 use capsule_analysis::basin_cells::basins_by;
 use capsule_analysis::basin_summary::summary;
 use capsule_analysis::continuation::{continue_branch_observed, ContinuationConfig};
@@ -287,14 +286,11 @@ pub fn basins<'py>(
             )))
         }
     };
-    let cfg = SettleConfig {
-        known_tol,
-        ..SettleConfig::for_scene(&scene)
-    };
+    let mut run = BasinRun::new(&scene, grid);
+    run.config.known_tol = known_tol;
     let t0 = std::time::Instant::now();
-    let schedule = GainSchedule::constant(scene.control.kp);
     let (map, signal) = interrupt::run(py, |cancel: &AtomicBool| {
-        basins_by(&method, &scene, &schedule, &cfg, &grid, &|| {}, cancel)
+        basins_by(&method, &run, &|| {}, cancel)
     });
     let wall = t0.elapsed().as_secs_f64();
     let order = map.catalogue.ordered();
@@ -311,7 +307,7 @@ pub fn basins<'py>(
         })
         .flat_map(i32::to_le_bytes)
         .collect();
-    let text = to_json(&summary(&map, wall, &cfg))?;
+    let text = to_json(&summary(&map, wall, &run.config))?;
     match signal {
         Some(s) if map.pending() > 0 => Err(interrupted(
             py,

@@ -3,7 +3,7 @@
 
 use crate::common::{assert_refused_at_once, json, line, TempDir};
 use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{basins, BasinMap, Grid};
+use capsule_analysis::basin::{basins, BasinMap, BasinRun, Grid};
 use capsule_analysis::switch::switch_run;
 use capsule_analysis::{GainSchedule, Pulse};
 use capsule_plant::scene::Scene;
@@ -19,16 +19,8 @@ fn coulomb(alpha: f64, kp: f64) -> Scene {
 }
 
 fn map(scene: &Scene, n: usize) -> BasinMap {
-    let cfg = SettleConfig::for_scene(scene);
-    let schedule = GainSchedule::constant(scene.control.kp);
-    basins(
-        scene,
-        &schedule,
-        &cfg,
-        &Grid::paper(n),
-        &|| {},
-        &AtomicBool::new(false),
-    )
+    let run = BasinRun::new(scene, Grid::paper(n));
+    basins(&run, &|| {}, &AtomicBool::new(false))
 }
 
 /// Share of the grid on attractors of period `k`.
@@ -243,7 +235,7 @@ fn cli_refuses_bad_grids_planes_and_schedules_before_any_work() {
 fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
     let dir = TempDir::new("attractors_basins");
     let v = json(&line(
-        "basins --alpha 1.5 --grid 3,2 --periods 40 --json --out",
+        "basins --alpha 1.5 --grid 3,2 --periods 40 --known-tol 2e-4 --json --out",
         &[&dir.arg("b_kp0.05")],
     ));
     let atts = v["attractors"].as_array().unwrap();
@@ -276,4 +268,8 @@ fn cli_basins_json_has_the_issue_shape_and_writes_its_files() {
     }
     let png = std::fs::read(dir.file("b_kp0.05.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // the file reports the settings the map ran with, as the printed summary does
+    let file = std::fs::read_to_string(dir.file("b_kp0.05.json")).unwrap();
+    assert!(v.to_string().contains("\"known_tol\":0.0002"), "{v}");
+    assert!(file.contains("\"known_tol\":0.0002"), "{file}");
 }

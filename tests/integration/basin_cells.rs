@@ -3,10 +3,8 @@
 //! where asked (issue 32).
 
 use crate::common::{assert_refused_at_once, capsule_in, files_in, json_of, line, stderr, TempDir};
-use capsule_analysis::attractor::SettleConfig;
-use capsule_analysis::basin::{BasinMap, CellCheck, CellConfig, Grid, Method};
+use capsule_analysis::basin::{BasinMap, BasinRun, CellCheck, CellConfig, Grid, Method};
 use capsule_analysis::basin_cells::basins_by;
-use capsule_analysis::GainSchedule;
 use capsule_plant::scene::Scene;
 use std::sync::atomic::AtomicBool;
 
@@ -18,10 +16,8 @@ fn fig19a() -> Scene {
 
 fn map(method: &Method, grid: &Grid) -> BasinMap {
     let scene = fig19a();
-    let cfg = SettleConfig::for_scene(&scene);
-    let schedule = GainSchedule::constant(0.0);
     let cancel = AtomicBool::new(false);
-    basins_by(method, &scene, &schedule, &cfg, grid, &|| {}, &cancel)
+    basins_by(method, &BasinRun::new(&scene, *grid), &|| {}, &cancel)
 }
 
 /// Each label's share of the map, in legend order.

@@ -110,8 +110,17 @@ fn two_capsules_off_nominal_by_10_to_30_percent_are_identified_and_predict_backw
 }
 
 /// A recording of `rec` as the plant writes it: states (positions only, NaN velocities) and,
-/// with `forces`, the commands answering them; without `states`, the clock alone.
-fn write_recording(path: &Path, rec: &Recorded, states: bool, forces: bool) {
+/// with `forces`, the commands answering them; without `states`, the clock alone. Written as
+/// `name` in `dir`; returns its path.
+fn write_recording(
+    dir: &TempDir,
+    name: &str,
+    rec: &Recorded,
+    states: bool,
+    forces: bool,
+) -> String {
+    let file = dir.arg(name);
+    let path = Path::new(&file);
     let go = || -> Result<(), capsule_record::RecordError> {
         let mut w = RecordWriter::create(path, WriterOptions::default())?;
         let q = OfferedQos::reliable(10);
@@ -160,7 +169,8 @@ fn write_recording(path: &Path, rec: &Recorded, states: bool, forces: bool) {
         w.finish()?;
         Ok(())
     };
-    go().unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+    go().unwrap_or_else(|e| panic!("writing {file}: {e}"));
+    file
 }
 
 /// A short FORWARD run at 250 Hz (the CLI's tests run the unoptimised debug binary).
@@ -188,8 +198,7 @@ fn identify_writes_a_scene_that_runs_a_report_and_a_picture() {
     let dir = TempDir::new("identify_cli");
     let scene = nominal_file(&dir);
     let truth = off_nominal([1.2, 1.0, 1.0, 1.0]);
-    let rec = dir.arg("run.mcap");
-    write_recording(Path::new(&rec), &short_run(&truth, 12.0), true, true);
+    let rec = write_recording(&dir, "run.mcap", &short_run(&truth, 12.0), true, true);
     let out = dir.arg("fitted.toml");
     let plot = dir.arg("check");
     let o = capsule(&[
@@ -271,96 +280,45 @@ fn bad_input_is_refused_with_a_reason_and_nothing_written() {
     let scene = nominal_file(&dir);
     let truth = off_nominal([1.0; 4]);
     let run = short_run(&truth, 6.0);
-    let good = dir.arg("good.mcap");
-    write_recording(Path::new(&good), &run, true, true);
-    let no_states = dir.arg("no_states.mcap");
-    write_recording(Path::new(&no_states), &run, false, false);
-    let no_forces = dir.arg("no_forces.mcap");
-    write_recording(Path::new(&no_forces), &run, true, false);
-    let short = dir.arg("short.mcap");
-    write_recording(Path::new(&short), &run.segment(0, 250), true, true);
+    let good = write_recording(&dir, "good.mcap", &run, true, true);
+    let no_states = write_recording(&dir, "no_states.mcap", &run, false, false);
+    let no_forces = write_recording(&dir, "no_forces.mcap", &run, true, false);
+    let short = write_recording(&dir, "short.mcap", &run.segment(0, 250), true, true);
     // a capsule five times heavier than the nominal: the fit runs into its bound
-    let heavy = dir.arg("heavy.mcap");
-    write_recording(
-        Path::new(&heavy),
-        &short_run(&off_nominal([5.0, 1.0, 1.0, 1.0]), 6.0),
-        true,
-        true,
-    );
+    let heavy_run = short_run(&off_nominal([5.0, 1.0, 1.0, 1.0]), 6.0);
+    let heavy = write_recording(&dir, "heavy.mcap", &heavy_run, true, true);
     // a capsule off the nominal one, which one evaluation cannot fit (the nominal capsule's own
     // recording converges at once: the fit starts at the answer)
-    let off = dir.arg("off.mcap");
-    write_recording(
-        Path::new(&off),
-        &short_run(&off_nominal([1.2, 0.8, 1.3, 1.15]), 6.0),
-        true,
-        true,
-    );
+    let off_run = short_run(&off_nominal([1.2, 0.8, 1.3, 1.15]), 6.0);
+    let off = write_recording(&dir, "off.mcap", &off_run, true, true);
     let out = dir.arg("fitted.toml");
-    let cases: [(&str, &[&str], i32, &str); 8] = [
-        (
-            "no states",
-            &["--recording", &no_states, "--free", "capsule.gamma"],
-            2,
-            "no states",
-        ),
-        (
-            "no forces",
-            &["--recording", &no_forces, "--free", "capsule.gamma"],
-            2,
-            "no forces",
-        ),
-        (
-            "too short",
-            &["--recording", &short, "--free", "capsule.gamma,capsule.xi"],
-            2,
-            "too short for 3 fitted numbers",
-        ),
-        (
-            "not a number",
-            &["--recording", &good, "--free", "friction.law"],
-            2,
-            "`friction.law` is not a number",
-        ),
-        (
-            "unknown key",
-            &["--recording", &good, "--free", "capsule.mass"],
-            2,
-            "`capsule.mass` is not a scene key",
-        ),
-        (
-            "not the twin's",
-            &["--recording", &good, "--free", "drive.alpha"],
-            2,
-            "does not use it",
-        ),
-        (
-            "pinned",
-            &["--recording", &heavy, "--free", "capsule.gamma"],
-            1,
-            "ended at its bound",
-        ),
-        (
-            "no convergence",
-            &[
-                "--recording",
-                &off,
-                "--free",
-                "capsule.gamma,capsule.xi",
-                "--patience",
-                "1",
-            ],
-            1,
-            "did not converge",
-        ),
-    ];
-    for (what, args, code, words) in cases {
+    // `identify` on `recording` with `flags` exits with `code` and says `words`, writing nothing
+    let refused = |recording: &str, flags: &str, code: i32, words: &str| {
         let mut argv = vec!["identify", "--scene", &scene, "--out", &out];
-        argv.extend_from_slice(args);
-        let o = capsule(&argv);
-        assert_refused(&o, code, words, what);
-        assert!(!Path::new(&out).exists(), "{what}: {out} written");
-    }
+        argv.extend(["--recording", recording]);
+        argv.extend(flags.split_whitespace());
+        assert_refused(&capsule(&argv), code, words, flags);
+        assert!(!Path::new(&out).exists(), "{words}: {out} written");
+    };
+    refused(&no_states, "--free capsule.gamma", 2, "no states");
+    refused(&no_forces, "--free capsule.gamma", 2, "no forces");
+    let two = "--free capsule.gamma,capsule.xi";
+    refused(&short, two, 2, "too short for 3 fitted numbers");
+    refused(
+        &good,
+        "--free friction.law",
+        2,
+        "`friction.law` is not a number",
+    );
+    refused(
+        &good,
+        "--free capsule.mass",
+        2,
+        "`capsule.mass` is not a scene key",
+    );
+    refused(&good, "--free drive.alpha", 2, "does not use it");
+    refused(&heavy, "--free capsule.gamma", 1, "ended at its bound");
+    refused(&off, &format!("{two} --patience 1"), 1, "did not converge");
     let left: Vec<_> = files_in(&dir)
         .into_iter()
         .filter(|f| {
