@@ -116,7 +116,6 @@ impl Forcing {
             Some(_) if lag_s > 0.0 => coil_targets(&finite, rec.h_s, lag_s),
             _ => finite,
         };
-        let lag_s = if target.is_empty() { 0.0 } else { lag_s };
         let decay = if lag_s > 0.0 {
             (-rec.h_s / lag_s).exp()
         } else {
@@ -188,7 +187,8 @@ impl Forcing {
 /// is stable for any lag (each step multiplies an error in the coil's start by -0.52 at the
 /// typical device's `h / lag = 2`, by -1 only as the lag grows without bound).
 pub fn coil_targets(means: &[f64], h_s: f64, lag_s: f64) -> Vec<f64> {
-    if !(lag_s > 0.0 && h_s > 0.0) {
+    let lagging = lag_s > 0.0 && h_s > 0.0;
+    if !lagging {
         return means.to_vec();
     }
     let r = h_s / lag_s;
