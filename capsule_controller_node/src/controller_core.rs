@@ -410,6 +410,9 @@ impl ControllerCore {
         if let Some((seq, t)) = self.last {
             if seq == s.seq && t == stamp {
                 self.staleness.seen(now);
+                // a plant holding its sample (lock-step, inactive or paused) is there: after a
+                // stall of the host went stale, its re-sends alone must bring commanding back
+                self.commanding = true;
                 return self.last_command.clone();
             }
             if stamp < t || (stamp == t && s.seq < seq) {
@@ -743,7 +746,11 @@ mod tests {
         assert!(!c.commanding());
         assert!(!c.status(Time::ZERO).commanding);
         assert!(!c.check_stale(0.8), "reports going stale once");
-        assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 0.9).is_some());
+        // a lock-step plant holding its sample re-sends it: fresh again
+        assert_eq!(c.on_state(&state(3, 0.03, 0.1, 0.0), 0.85), a);
+        assert!(c.commanding());
+        assert!(c.check_stale(1.4));
+        assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 1.5).is_some());
         assert!(c.commanding());
     }
 
