@@ -168,6 +168,14 @@ pub const AUTOSTART: Setting = Setting::new(
 )
 .flag_only()
 .default(1.0);
+/// Lock-step: start paused (`capsule_plant_node::pause`).
+pub const START_PAUSED: Setting = Setting::new(
+    "start_paused",
+    "Lock-step: start paused (active, answered, but no step: sim time stands still) until \
+     `~/pause` (std_srvs/srv/SetBool) is called with false",
+    Kind::Switch,
+)
+.flag_only();
 /// Sample rate ([`ranges::RATE_HZ`]).
 pub const RATE_HZ: Setting = Setting::new(
     "rate_hz",
@@ -240,7 +248,7 @@ pub const USE_SIM_TIME: Setting = Setting::new(
 
 /// The plant's settings, in the order `--help` shows their flags; the physical scale from the
 /// scene only (no flag: the scene's capsule and its scale go together).
-pub const PLANT: [Setting; 32] = [
+pub const PLANT: [Setting; 33] = [
     SCENE,
     SOURCE,
     MAX_TRAVEL_M,
@@ -264,6 +272,7 @@ pub const PLANT: [Setting; 32] = [
     CLOCK_EVERY,
     JOINT_COMMANDS,
     AUTOSTART,
+    START_PAUSED,
     views::JOINT_STATES,
     views::TF,
     views::ROBOT_DESCRIPTION,

@@ -8,7 +8,8 @@
 //! a `set_mode` call, a parameter change or the other action ends it as ABORTED, saying so.
 //! Goals are refused (the reason in the log, as `send_goal` carries none) when the request is
 //! bad, the plant is not under control (no fresh state, or it refuses our commands), is not
-//! active (its samples apply none of our commands) or its emergency stop is engaged. Feedback
+//! active (its lifecycle says so, [`crate::plant_lifecycle`], or its samples apply none of our
+//! commands) or its emergency stop is engaged. Feedback
 //! at 20 Hz. The decisions are the core's, on state samples, so under `/clock` in lock-step the
 //! same goal gives the same result.
 //!
@@ -41,6 +42,7 @@ use ros2_client::dds::{Context, Node, Subscription};
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;
+use crate::plant_lifecycle::PlantLifecycle;
 
 /// What the actions need of the node.
 pub trait CoreAccess: Send + 'static {
@@ -67,13 +69,15 @@ pub struct ControllerActions {
     switches: Action<SwitchAttractorGoal, SwitchAttractorResult, SwitchAttractorFeedback>,
     estop: Subscription<Wire<Bool>>,
     estopped: bool,
+    lifecycle: PlantLifecycle,
     moving: Option<Running>,
     switching: Option<Running>,
 }
 
 impl ControllerActions {
     /// The actions' endpoints on `node` (their services' events as `introspection` says,
-    /// stamped with `clock`), and a reader of the plant's emergency stop.
+    /// stamped with `clock`), a reader of the plant's emergency stop and a follower of its
+    /// lifecycle.
     pub fn build(
         (settings, context): (&RosOptions, &Context),
         node: &mut Node,
@@ -108,6 +112,7 @@ impl ControllerActions {
             )?,
             estop: subscribe(node, &estop_topic, &qos::latched())?,
             estopped: false,
+            lifecycle: PlantLifecycle::new(settings, node)?,
             moving: None,
             switching: None,
         })
@@ -121,6 +126,9 @@ impl ControllerActions {
         loop {
             tick.tick().await;
             self.read_estop(&core);
+            if let Some(id) = self.lifecycle.poll() {
+                core.with_core(|c| c.plant_lifecycle(id));
+            }
             for request in self.moves.poll() {
                 self.on_move_request(&core, request);
             }

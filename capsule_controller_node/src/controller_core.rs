@@ -54,11 +54,19 @@ pub struct ControllerCore {
     switch_event: bool,
     /// The Move action's goal, running or ended and not yet taken ([`crate::controller_actions`]).
     move_run: Option<MoveRun>,
+    /// The plant's lifecycle state id, as last heard (`None`: not heard;
+    /// [`crate::plant_lifecycle`]).
+    plant_lifecycle: Option<u8>,
 }
+
+/// `lifecycle_msgs/msg/State`'s id of the active state.
+pub const LIFECYCLE_ACTIVE: u8 = 3;
 
 /// Why a move goal is refused or ended when the plant applies none of our commands.
 const NOT_ACTIVE: &str =
     "the plant is not active (it applies none of our commands: zero force on a run of samples)";
+/// Why a move goal is refused or ended when the plant's lifecycle says it is not active.
+const NOT_ACTIVE_LIFECYCLE: &str = "the plant is not active (its lifecycle state says so)";
 
 /// Why a state sample was not used.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -127,6 +135,7 @@ impl ControllerCore {
             switch: None,
             switch_event: false,
             move_run: None,
+            plant_lifecycle: None,
         }
     }
 
@@ -171,10 +180,34 @@ impl ControllerCore {
         self.feedback.refused()
     }
 
-    /// True while the plant's state says it applies none of our commands: not active (see
-    /// [`CommandFeedback::applied`]).
+    /// True while the plant's state says it applies none of our commands (see
+    /// [`CommandFeedback::applied`]), or its lifecycle state is known and not active.
     pub fn plant_inactive(&self) -> bool {
-        self.feedback.inactive()
+        self.not_active().is_some()
+    }
+
+    /// Why the plant is taken as not active, if it is.
+    fn not_active(&self) -> Option<&'static str> {
+        if self
+            .plant_lifecycle
+            .is_some_and(|id| id != LIFECYCLE_ACTIVE)
+        {
+            Some(NOT_ACTIVE_LIFECYCLE)
+        } else if self.feedback.inactive() {
+            Some(NOT_ACTIVE)
+        } else {
+            None
+        }
+    }
+
+    /// Notes the plant's lifecycle state `id` (`lifecycle_msgs/msg/State`): a move goal ends
+    /// when it is not active. The only evidence of an inactive plant in lock-step, where an
+    /// inactive plant stands still and its samples say nothing new.
+    pub fn plant_lifecycle(&mut self, id: u8) {
+        self.plant_lifecycle = Some(id);
+        if id != LIFECYCLE_ACTIVE {
+            self.abort_move(NOT_ACTIVE_LIFECYCLE);
+        }
     }
 
     /// Current mode.
@@ -377,6 +410,9 @@ impl ControllerCore {
         if let Some((seq, t)) = self.last {
             if seq == s.seq && t == stamp {
                 self.staleness.seen(now);
+                // a plant holding its sample (lock-step, inactive or paused) is there: after a
+                // stall of the host went stale, its re-sends alone must bring commanding back
+                self.commanding = true;
                 return self.last_command.clone();
             }
             if stamp < t || (stamp == t && s.seq < seq) {
@@ -465,8 +501,8 @@ impl ControllerCore {
         if self.feedback.refused() {
             return Err("the plant refuses our commands".into());
         }
-        if self.feedback.inactive() {
-            return Err(NOT_ACTIVE.into());
+        if let Some(why) = self.not_active() {
+            return Err(why.into());
         }
         let config = MoveConfig {
             cruise_gain: self.config.direction_gain,
@@ -710,7 +746,11 @@ mod tests {
         assert!(!c.commanding());
         assert!(!c.status(Time::ZERO).commanding);
         assert!(!c.check_stale(0.8), "reports going stale once");
-        assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 0.9).is_some());
+        // a lock-step plant holding its sample re-sends it: fresh again
+        assert_eq!(c.on_state(&state(3, 0.03, 0.1, 0.0), 0.85), a);
+        assert!(c.commanding());
+        assert!(c.check_stale(1.4));
+        assert!(c.on_state(&state(4, 0.04, 0.1, 0.0), 1.5).is_some());
         assert!(c.commanding());
     }
 
@@ -953,6 +993,41 @@ mod tests {
             .unwrap_or_default();
         assert!(why.starts_with("aborted: the plant is not active"), "{why}");
         assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
+    }
+
+    #[test]
+    fn move_goals_are_refused_while_the_plant_s_lifecycle_is_not_active() {
+        // lock-step: an inactive plant re-sends one sample, so its samples say nothing new
+        let mut c = core(Mode::Off, 0.0);
+        let goal = MoveRequest {
+            distance_m: 0.01,
+            tolerance_m: 0.0,
+            timeout_s: 0.0,
+        };
+        let s = state(0, 0.0, 0.0, 0.0);
+        for _ in 0..3 * CommandFeedback::INACTIVE_RUN {
+            c.on_state(&s, 0.0);
+        }
+        assert!(c.start_move(goal).is_ok(), "nothing says it is inactive");
+        c.plant_lifecycle(2);
+        assert!(c.plant_inactive());
+        let why = c
+            .take_ended_move()
+            .and_then(|r| r.outcome().cloned())
+            .map(|o| o.message(0.01))
+            .unwrap_or_default();
+        assert!(
+            why.starts_with("aborted: the plant is not active (its lifecycle"),
+            "{why}"
+        );
+        let why = c.start_move(goal).err().unwrap_or_default();
+        assert!(
+            why.starts_with("the plant is not active (its lifecycle"),
+            "{why}"
+        );
+        c.plant_lifecycle(LIFECYCLE_ACTIVE);
+        assert!(!c.plant_inactive());
+        assert!(c.start_move(goal).is_ok());
     }
 
     #[test]

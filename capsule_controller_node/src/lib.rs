@@ -9,6 +9,7 @@
 //! - `controller_zenoh` (feature `zenoh`): its core interface on Zenoh
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
+//! - [`plant_lifecycle`]: the plant's lifecycle state, followed
 
 #![warn(missing_docs)]
 
@@ -24,3 +25,4 @@ pub mod controller_settings;
 #[cfg(feature = "zenoh")]
 mod controller_zenoh;
 pub mod plant_identity;
+pub mod plant_lifecycle;

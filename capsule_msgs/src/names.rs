@@ -66,6 +66,8 @@ pub mod topics {
     pub const EMERGENCY_STOP: &str = "capsule/emergency_stop";
     /// The plant's emergency-stop service (`std_srvs/srv/SetBool`: true engages, false releases).
     pub const EMERGENCY_STOP_SERVICE: &str = "~/emergency_stop";
+    /// A lock-step plant's pause (`std_srvs/srv/SetBool`: true pauses, false resumes).
+    pub const PAUSE_SERVICE: &str = "~/pause";
     /// A managed node's lifecycle (as rclcpp_lifecycle serves it): `(name, type)` of each
     /// service and of the event topic.
     pub mod lifecycle {

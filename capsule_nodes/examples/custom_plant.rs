@@ -220,6 +220,7 @@ fn main() -> std::process::ExitCode {
             params,
             joint_commands: false,
             autostart: true,
+            start_paused: false,
         };
         let started = Instant::now();
         let (stats, last) = node_main::block_on(None, plant::run(settings, core, opts))?;

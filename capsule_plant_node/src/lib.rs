@@ -2,7 +2,8 @@
 //!
 //! - [`plant`]: the plant node (lifecycle, pacing, hold, watchdog) around any
 //!   [`capsule_hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and
-//!   latched state; [`plant_params`]: its ROS parameters
+//!   latched state; [`pause`]: a lock-step plant's pause; [`plant_params`]: its ROS
+//!   parameters
 //! - [`joint_commands`]: JointState commands as topic_based_ros2_control sends them
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
 //! - [`views`]: standard-type views of the plant (joint_states, /tf, robot_description,
@@ -20,6 +21,7 @@ pub mod emergency_stop;
 pub mod intra_process;
 pub mod joint_commands;
 pub mod node_settings;
+pub mod pause;
 pub mod plant;
 pub mod plant_params;
 pub mod recorder;

@@ -12,7 +12,9 @@ Usage (inside a loopback-only network namespace, see tests/peers/netns_run.sh):
         send a Move goal, read its feedback and statuses, cancel it or send a second goal
         after a while if asked, wait for the result(s); with --drift-s, the capsule's travel
         over that long from W s after the end, on the section (drive period T, the control point's by
-        default). One JSON line per goal.
+        default). One JSON line per goal. With --retry-refused S a refused goal is sent again
+        (a new id) every 0.2 s for up to S s; with --resume SERVICE, once the goal is accepted,
+        SERVICE (a lock-step plant's ~/pause, std_srvs/srv/SetBool) is called with false.
   action_peer.py refuse [--estop] DIST...
         send each goal; one JSON line each: accepted or not; with --estop, the plant's
         emergency stop engaged first (std_srvs/srv/SetBool on --estop-service) and released after
@@ -189,9 +191,16 @@ def cmd_move(args):
     goal = dict(distance_m=args.distance, tolerance_m=args.tolerance, timeout_s=args.goal_timeout)
     t0 = time.time()
     gid, accepted = c.send_goal(**goal)
+    while not accepted and time.time() < t0 + args.retry_refused:
+        time.sleep(0.2)
+        gid, accepted = c.send_goal(**goal)
     if not accepted:
         cp.fail(f"goal {goal} refused")
     print("action_peer: goal accepted", file=sys.stderr, flush=True)
+    if args.resume:
+        r = cp.ServiceClient(dp, args.resume, cp.T.SetBool_Request, cp.T.SetBool_Response,
+                             args.timeout).call(data=False)
+        print(f"action_peer: {args.resume}: {r.message}", file=sys.stderr, flush=True)
     boxes = [{}]
     threading.Thread(target=c.result, args=(gid, boxes[0]), daemon=True).start()
     extra = {}
@@ -317,7 +326,8 @@ def main():
     cp.options(a, float, tolerance=0.0, goal_timeout=0.0, drift_s=0.0, drift_after=0.0)
     # the control point's drive period: 2 pi / (1.1 sqrt(200 / 0.05)) s
     cp.options(a, float, period_s=2 * math.pi / (1.1 * math.sqrt(200 / 0.05)))
-    cp.options(a, float, cancel_after=None, preempt=None, preempt_after=0.5)
+    cp.options(a, float, cancel_after=None, preempt=None, preempt_after=0.5, retry_refused=0.0)
+    cp.options(a, str, resume=None)
     a = sub.add_parser("refuse")
     a.add_argument("distances", nargs="+")
     a.add_argument("--estop", action="store_true")

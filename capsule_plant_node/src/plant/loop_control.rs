@@ -37,12 +37,19 @@ pub(super) struct LoopControl {
     pub(super) woken: Arc<Notify>,
     /// The lifecycle's steps.
     pub(super) requests: mpsc::UnboundedReceiver<Request>,
+    /// Lock-step: paused ([`crate::pause`]; `woken` is notified when it changes).
+    pub(super) paused: Arc<AtomicBool>,
 }
 
 impl LoopControl {
     /// Whether the node is ending.
     pub(super) fn halted(&self) -> bool {
         self.halt.load(Ordering::SeqCst)
+    }
+
+    /// Whether the plant is paused.
+    pub(super) fn paused(&self) -> bool {
+        self.paused.load(Ordering::SeqCst)
     }
 
     /// Applies the lifecycle steps waiting, without waiting for any; `Some` when the pacing

@@ -8,7 +8,7 @@
 //! controller: [`run_in`] takes it from outside); the loop takes everything else through
 //! [`LoopControl`] and the hardware through [`PlantCore`].
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
 use capsule_msgs::names::topics;
@@ -145,6 +145,13 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
             || Time::from_nanos(capsule_record::writer::now_ns() as i64),
         )?;
         let (lifecycle, requests) = lifecycle_services::serve(&mut node, &graph, &settings)?;
+        let (woken, paused) = (Arc::new(Notify::new()), Arc::new(AtomicBool::new(false)));
+        if opts.pacing == Pacing::Lockstep {
+            paused.store(opts.start_paused, Ordering::SeqCst);
+            crate::pause::serve(&mut node, &graph, &settings, paused.clone(), woken.clone())?;
+        } else if opts.start_paused {
+            bail!("--start-paused needs lock-step pacing (a real-time plant keeps wall time)");
+        }
         let recording = match (file, &opts.record) {
             (Some(rec), Some(r)) if composed => {
                 Some(InPlantRecording::start_apart(rec, r, &settings)?)
@@ -165,8 +172,9 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
             lifecycle,
             control: LoopControl {
                 halt: Arc::default(),
-                woken: Arc::new(Notify::new()),
+                woken,
                 requests,
+                paused,
             },
             recording,
             _params: params,

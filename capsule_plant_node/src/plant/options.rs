@@ -52,4 +52,6 @@ pub struct PlantOptions {
     /// Configure and activate at once (otherwise unconfigured until the lifecycle's
     /// `change_state` asks).
     pub autostart: bool,
+    /// Lock-step: start paused until `~/pause` resumes ([`crate::pause`]).
+    pub start_paused: bool,
 }

@@ -296,8 +296,9 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
             }
             // only an active plant steps: sim time stands still while inactive (before the
             // activation that follows configure, too), so the run does not depend on how long
-            // the lifecycle took
-            if self.core.answered() && self.core.active() {
+            // the lifecycle took; nor while paused
+            let holding = !self.core.active() || self.control.paused();
+            if self.core.answered() && !holding {
                 self.core.step().context("the plant's hardware")?;
                 need_publish = true;
                 continue;
@@ -317,8 +318,10 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
                     Err(e) => log_undecodable(&mut undecodable, &e),
                 },
                 _ = resend.tick() => {
-                    if !self.core.active() {
-                        // sim time stands still while inactive: the wait counts from activation
+                    let holding = !self.core.active() || self.control.paused();
+                    if holding {
+                        // sim time stands still while inactive or paused: the wait counts from
+                        // activation (or resumption)
                         wait_started = steady();
                     }
                     let waiting = Waiting {
@@ -330,7 +333,7 @@ impl<H: CapsuleHardware> SampleLoop<'_, H> {
                     // a node that is ending (a signal) ends at the next turn, without an error
                     let ending = self.control.halt.load(std::sync::atomic::Ordering::SeqCst);
                     match silence.judge(waiting) {
-                        _ if !self.core.active() || ending => {
+                        _ if holding || ending => {
                             send_again(self.core, self.io, self.rec.as_deref_mut()).await?;
                         }
                         Verdict::Resend => send_again(self.core, self.io, self.rec.as_deref_mut()).await?,

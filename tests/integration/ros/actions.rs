@@ -135,23 +135,34 @@ fn assert_refusals(run: &super::harness::Run) {
 
 #[test]
 fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
-    // the goal is accepted while the plant is configured but inactive (lock-step: sim time
-    // stands still), and the plant activated once the peer saw it accepted, so both runs start
-    // it at the same sample
+    // the plant started paused (lock-step: active, answered, sim time standing still): the goal
+    // is accepted at the held sample, then the peer resumes the plant, so both runs start it at
+    // the same sample. Before that, in the second run, a goal is refused while the plant is
+    // configured but inactive: in lock-step an inactive plant re-sends one sample, so only its
+    // lifecycle says it is inactive (the controller follows it)
     let run = netns_with_peer(
         150,
         r#"
         export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
+        ap() { python3 "$ROOT/tests/peers/action_peer.py" "$@"; }
         for i in 1 2; do
-          start_controller --use-sim-time
+          start_controller --use-sim-time 2> >(tee "$TMP/c$i.log" >&2)
           # the first run recorded in the plant: the goal's feedback and statuses with the rest
           rec=(); [ $i = 1 ] && rec=(--record-output "$TMP/r1.mcap")
-          start_plant --pacing lockstep --autostart false "${rec[@]}"
+          start_plant --pacing lockstep --autostart false --start-paused "${rec[@]}"
           $B/capsule_ros lifecycle-set /capsule_plant configure || exit 1
-          python3 "$ROOT/tests/peers/action_peer.py" move 0.01 > $TMP/r$i.json 2> $TMP/e$i & R=$!
-          for k in $(seq 300); do grep -q "goal accepted" $TMP/e$i && break; sleep 0.1; done
+          if [ $i = 2 ]; then
+            # asked once the controller has the plant's lifecycle state, until it has its
+            # sample too (refused meanwhile for want of a fresh state)
+            for k in $(seq 100); do grep -q "lifecycle: inactive" "$TMP/c2.log" && break; sleep 0.1; done
+            for k in $(seq 50); do
+              ap refuse -- 0.01 > "$TMP/refused.json" || exit 1
+              grep -q "refused: the plant is not active" "$TMP/c2.log" && break; sleep 0.2
+            done
+            echo "REFUSED $(cat "$TMP/refused.json")"
+          fi
           $B/capsule_ros lifecycle-set /capsule_plant activate || exit 1
-          wait $R || exit 1
+          ap move 0.01 --retry-refused 10 --resume /capsule_plant/pause > $TMP/r$i.json || exit 1
           echo "RUN$i $(cat $TMP/r$i.json)"
           stop $P $C
         done
@@ -170,6 +181,9 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     assert!(a.iter().all(Option::is_some), "{}", run.all());
     assert_eq!(a, b, "two lock-step runs differ:\n{}", run.all());
     assert_contains(run.line("RUN1"), &["\"status\": \"SUCCEEDED\""]);
+    // the inactive plant's goal refused, saying why
+    assert_contains(run.line("REFUSED"), &["\"accepted\": false"]);
+    run.assert_stderr(&["goal 0.01 m refused: the plant is not active (its lifecycle"]);
     recorded_goal(&run);
 }
 

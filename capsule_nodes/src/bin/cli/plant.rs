@@ -9,7 +9,7 @@ use anyhow::{bail, Result};
 use capsule_args::plant_settings::{
     AUTOSTART, CHECK, CONTROLLER_NODE, DRY_RUN, FLUSH_MS, LOCKSTEP_ON_SILENCE, MAX_FORCE_N,
     MAX_TRAVEL_M, PACING, RECORD_DIR, RECORD_OUTPUT, RETRANSMIT_MS, SCENE, SOURCE,
-    STARTUP_TIMEOUT_S, SUMMARY_JSON, UNTIL_S, WAIT_SUBSCRIBERS,
+    STARTUP_TIMEOUT_S, START_PAUSED, SUMMARY_JSON, UNTIL_S, WAIT_SUBSCRIBERS,
 };
 use capsule_args::{scene_file::SceneFile, settings::Setting, storage::StorageArgs};
 use capsule_hardware::{
@@ -175,6 +175,7 @@ pub fn build(
         params,
         joint_commands: run.joint_commands,
         autostart: flags.switch(&AUTOSTART),
+        start_paused: flags.switch(&START_PAUSED),
     };
     Ok((settings, core, opts))
 }

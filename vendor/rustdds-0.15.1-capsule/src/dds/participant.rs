@@ -1147,6 +1147,14 @@ impl Drop for DomainParticipantDisc {
 
     debug!("Waiting for Discovery join.");
     if let Ok(handle) = self.discovery_join_handle.try_recv() {
+      // capsule patch (docs/upstream/rustdds-drop-joins-itself.md): the last strong reference
+      // can be the discovery thread's own (it upgrades its weak one to publish), and a thread
+      // joining itself panics ("failed to join thread: Resource deadlock avoided"). It has
+      // been told to stop and ends when this returns.
+      if handle.thread().id() == std::thread::current().id() {
+        debug!("Dropped in the discovery thread: not joining itself.");
+        return;
+      }
       handle
         .join()
         .unwrap_or_else(|e| warn!("Failed to join discovery thread: {e:?}"));
@@ -1207,6 +1215,10 @@ impl Drop for DomainParticipantInner {
 
     debug!("Waiting for dp_event_loop join");
     match self.ev_loop_handle.take() {
+      // capsule patch (docs/upstream/rustdds-drop-joins-itself.md): never join oneself
+      Some(join_handle) if join_handle.thread().id() == std::thread::current().id() => {
+        debug!("Dropped in the dp_event_loop thread: not joining itself.");
+      }
       Some(join_handle) => {
         join_handle
           .join()
