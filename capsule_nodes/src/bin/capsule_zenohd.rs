@@ -4,7 +4,7 @@
 //! unless `--listen` says otherwise; `ZENOH_ROUTER_CONFIG_URI` and `ZENOH_CONFIG_OVERRIDE` as
 //! rmw_zenohd reads them. Runs until SIGINT/SIGTERM.
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{Context as _, Result};
 use capsule_ros_base::node_main;
 use clap::Parser;
 
@@ -49,18 +49,7 @@ fn config(cli: &Cli) -> Result<zenoh::Config> {
         }
     };
     if let Some(overrides) = get("ZENOH_CONFIG_OVERRIDE") {
-        for entry in overrides
-            .split(';')
-            .map(str::trim)
-            .filter(|e| !e.is_empty())
-        {
-            let Some((key, value)) = entry.split_once('=') else {
-                bail!("ZENOH_CONFIG_OVERRIDE: {entry:?} is not key=value");
-            };
-            config
-                .insert_json5(key.trim(), value.trim())
-                .map_err(|e| anyhow::anyhow!("ZENOH_CONFIG_OVERRIDE: {entry:?}: {e}"))?;
-        }
+        capsule_ros_base::zenoh_session::apply_overrides(&mut config, &overrides)?;
     }
     Ok(config)
 }
