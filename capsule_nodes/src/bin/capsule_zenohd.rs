@@ -55,11 +55,20 @@ fn config(cli: &Cli) -> Result<zenoh::Config> {
 }
 
 async fn run(config: zenoh::Config) -> Result<()> {
+    // the signal handlers first (polling the future once installs them): zenoh::open blocks
+    // this thread while it opens (its port already listening), and a router stopped meanwhile
+    // must stop cleanly instead of dying of the signal
+    let sig = capsule_ros_base::signals::shutdown_signal();
+    tokio::pin!(sig);
+    if let std::task::Poll::Ready(sig) = futures::poll!(&mut sig) {
+        tracing::info!("{}: stopped while starting", sig?);
+        return Ok(());
+    }
     let session = zenoh::open(config)
         .await
         .map_err(|e| anyhow::anyhow!("cannot start the router: {e}"))?;
     tracing::info!("router {} up", session.zid());
-    let sig = capsule_ros_base::signals::shutdown_signal().await?;
+    let sig = sig.await?;
     tracing::info!("{sig}: shutting down");
     session
         .close()

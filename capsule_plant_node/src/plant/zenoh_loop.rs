@@ -148,8 +148,15 @@ pub(super) async fn run<H: CapsuleHardware>(
     stopped.map(|()| (core.stats.clone(), core.state()))
 }
 
-/// Whether the current sample is the last one (`--until-s`), said in the log.
-fn at_the_end<H: CapsuleHardware>(core: &PlantCore<H>, opts: &PlantOptions) -> bool {
+/// Sends the current sample; true when it was the last one (`--until-s`), said in the log.
+async fn publish<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Io,
+    opts: &PlantOptions,
+    wall: Wall,
+) -> bool {
+    io.send(core.state()).await;
+    core.published(wall.now());
     let stamp = core.stamp();
     let over = opts
         .until_s
@@ -170,9 +177,7 @@ async fn realtime<H: CapsuleHardware>(
     let (start, wall) = (Instant::now(), Wall::start());
     let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
     loop {
-        io.send(core.state()).await;
-        core.published(wall.now());
-        if at_the_end(core, opts) {
+        if publish(core, io, opts, wall).await {
             return Ok(());
         }
         let due = start + period.mul_f64(core.stats.published as f64);
@@ -216,9 +221,7 @@ async fn lockstep<H: CapsuleHardware>(
     let mut ever_commanded = false;
     let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
     loop {
-        io.send(core.state()).await;
-        core.published(wall.now());
-        if at_the_end(core, opts) {
+        if publish(core, io, opts, wall).await {
             return Ok(());
         }
         let sent = wall.now();
