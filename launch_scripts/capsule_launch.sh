@@ -11,6 +11,7 @@
 #       --until-s 30 --mode forward [--with "CMD ..."]... [--plant-arg ARG]... [--controller-arg ARG]...
 #       [--record-dir DIR | --no-record] [--separate [--record-in-plant] [--recorder-arg ARG]...]
 #       [--cpu-affinity LIST] [--foxglove-port PORT] [--secure KEYSTORE] [--managed]
+#       [--rmw dds|zenoh]
 #
 # Every run is recorded to DIR/capsule_<scene>_<UTC time>.mcap, DIR default ./runs: composed, by
 # the plant in-process (every sample); with --separate by capsule_recorder, or with
@@ -28,6 +29,13 @@
 # Each node gets its enclave /capsule/{plant,controller,recorder,foxglove}, the --with commands
 # /capsule/operator (ROS_SECURITY_ENCLAVE_OVERRIDE, unless set). docs/ros.md, Security.
 #
+# --rmw zenoh: the nodes on Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp; binaries built with
+# `cargo build -p capsule_nodes --features zenoh`), plant and controller as separate processes;
+# a router (capsule_zenohd on 127.0.0.1:7447) is started first unless one answers there or
+# ZENOH_SESSION_CONFIG_URI / ZENOH_CONFIG_OVERRIDE name the user's own. Not on Zenoh yet:
+# recording (give --no-record), the container, Foxglove, --secure, --managed (refused).
+# Also when RMW_IMPLEMENTATION=rmw_zenoh* is set already. docs/ros.md, Zenoh.
+#
 # --managed: the plant starts unconfigured and waits for its lifecycle (`ros2 lifecycle set
 # /capsule_plant configure`, then `activate`; or `capsule_ros lifecycle-set`), as a managed node.
 #
@@ -41,8 +49,10 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 
 scene="" pacing="realtime" until_s="" mode="" extra_wait=600
 plant_args=() ctl_args=() withs=()
-usage() { sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,42p' "$0" | sed 's/^# \{0,1\}//'; }
 record=1 record_dir="./runs" rec_args=() in_plant=0 cpus= fox_port= fox_args=() autostart=true separate=0
+rmw=dds
+case "${RMW_IMPLEMENTATION:-}" in rmw_zenoh*) rmw=zenoh ;; esac
 die() { echo "capsule_launch: $*" >&2; usage >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # every option but the flags takes a value
@@ -64,6 +74,7 @@ while [ $# -gt 0 ]; do
     --record-in-plant) in_plant=1; shift ;;
     --separate) separate=1; shift ;;
     --managed) autostart=false; shift ;;
+    --rmw) rmw="$2"; shift 2 ;;
     --recorder-arg) rec_args+=("$2"); shift 2 ;;
     --cpu-affinity) cpus="$2"; shift 2 ;;
     --foxglove-port) fox_port="$2"; shift 2 ;;
@@ -77,6 +88,19 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -n "$scene" ] || die "--scene is required"
+case "$rmw" in dds|zenoh) ;; *) die "--rmw '$rmw': dds or zenoh" ;; esac
+if [ "$rmw" = zenoh ]; then
+  [ "$record" = 0 ] || die "--rmw zenoh: recording is not on Zenoh yet; give --no-record"
+  [ -z "$fox_port" ] || die "--rmw zenoh: the Foxglove bridge is not on Zenoh yet"
+  [ "$autostart" = true ] || die "--rmw zenoh: the lifecycle (--managed) is not on Zenoh yet"
+  [ -x "$bin/capsule_zenohd" ] || { echo "capsule_launch: --rmw zenoh: $bin/capsule_zenohd not built: the nodes need Zenoh, cargo build -p capsule_nodes --features zenoh" >&2; exit 2; }
+  export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_zenoh_cpp}"
+  case "$RMW_IMPLEMENTATION" in rmw_zenoh*) ;; *) die "--rmw zenoh with RMW_IMPLEMENTATION=$RMW_IMPLEMENTATION" ;; esac
+  if [ "$separate" = 0 ]; then
+    echo "capsule_launch: on Zenoh, plant and controller run as separate processes (the container is not on Zenoh yet)" >&2
+    separate=1
+  fi
+fi
 [ -r "$scene" ] && [ -f "$scene" ] || die "cannot read scene file '$scene'"
 case "$pacing" in realtime|lockstep) ;; *) die "--pacing '$pacing': realtime or lockstep" ;; esac
 [ -z "$until_s" ] || [[ "$until_s" =~ ^[0-9]+(\.[0-9]*)?([eE][-+]?[0-9]+)?$ ]] || die "--until-s '$until_s': a positive number of seconds"
@@ -177,6 +201,13 @@ start() { # name cmd...
   pids+=("$!"); names+=("$name")
 }
 
+# Zenoh: a router on 127.0.0.1:7447 unless one answers there or the user configured the session
+if [ "$rmw" = zenoh ] && [ -z "${ZENOH_SESSION_CONFIG_URI:-}${ZENOH_CONFIG_OVERRIDE:-}" ] \
+  && ! (echo > /dev/tcp/127.0.0.1/7447) 2>/dev/null; then
+  start router "$bin/capsule_zenohd"
+  for _ in $(seq 100); do (echo > /dev/tcp/127.0.0.1/7447) 2>/dev/null && break; sleep 0.05; done
+  (echo > /dev/tcp/127.0.0.1/7447) 2>/dev/null || { echo "capsule_launch: the Zenoh router did not answer on 127.0.0.1:7447 within 5 s" >&2; stop_all; exit 1; }
+fi
 [ "$separate" = 1 ] && start controller "$bin/capsule_controller" --scene "$scene" ${ctl_args[@]+"${ctl_args[@]}"}
 [ "$separate" = 1 ] && [ "$record" = 1 ] && [ "$in_plant" = 0 ] && start recorder "${rec[@]}"
 [ -n "$fox_port" ] && [ "$separate" = 1 ] && start foxglove "${fox[@]}"

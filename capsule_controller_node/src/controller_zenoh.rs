@@ -1,13 +1,14 @@
 //! The controller on Zenoh (rmw_zenoh_cpp's protocol, through ros2-client's Zenoh backend), its
 //! core interface first: the state in, the force command out, `~/set_mode` served, `~/status`
-//! on every change and every status period; the same [`ControllerCore`] as on DDS. What is not
-//! ported yet is refused by name before any work (`/diagnostics`, `--use-sim-time`); the
-//! parameters, the actions and the set_mode service events are not served on Zenoh yet, which
-//! the log says at start.
+//! on every change and every status period, `/diagnostics` at 1 Hz (unless `--no-diagnostics`);
+//! the same [`ControllerCore`] as on DDS. What is not ported yet is refused by name before any
+//! work (`--use-sim-time`); the parameters, the actions and the set_mode service events are not
+//! served on Zenoh yet, which the log says at start.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use capsule_msgs::names::topics;
+use capsule_msgs::names::topics::{self, views};
+use capsule_msgs::std_types::DiagnosticArray;
 use capsule_msgs::{
     ActuatorForce, CapsuleState, ControllerStatus, SetModeRequest, SetModeResponse,
 };
@@ -19,6 +20,7 @@ use ros2_client::RmwRequestId;
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;
+use crate::controller_diagnostics::ControllerDiag;
 
 /// The wall clock as ROS time (no `/clock` on Zenoh yet).
 fn now() -> capsule_msgs::Time {
@@ -31,12 +33,14 @@ struct Endpoints {
     force: Publisher<ActuatorForce>,
     status: Publisher<ControllerStatus>,
     server: Server<Wire<SetModeRequest>, Wire<SetModeResponse>>,
+    /// `/diagnostics` (`None`: `--no-diagnostics`), its counters and when it is next due.
+    diagnostics: Option<(Publisher<DiagnosticArray>, ControllerDiag, Instant)>,
 }
 
 impl Endpoints {
     /// The state subscription, the force and status publishers and the set_mode server of
     /// `node`, named as on DDS.
-    fn create(settings: &RosOptions, node: &Node) -> Result<Endpoints> {
+    fn create(settings: &RosOptions, node: &Node, diagnostics: bool) -> Result<Endpoints> {
         let topic = |name: &str, type_name| -> Result<_> {
             Ok(node.create_topic(&settings.ros_name(name)?, type_name, &qos::data()))
         };
@@ -56,7 +60,37 @@ impl Endpoints {
             server: node
                 .create_server(&settings.ros_name(topics::SET_MODE)?, &types::set_mode())
                 .context("set_mode service on Zenoh")?,
+            diagnostics: match diagnostics {
+                true => Some((
+                    node.create_publisher(&topic(views::DIAGNOSTICS, types::diagnostics())?, None)
+                        .context("/diagnostics publisher on Zenoh")?,
+                    ControllerDiag::default(),
+                    Instant::now(),
+                )),
+                false => None,
+            },
         })
+    }
+
+    /// `/diagnostics` when due (every second): the core's status as a one-status array.
+    async fn diagnose(&mut self, settings: &RosOptions, core: &ControllerCore) {
+        let Some((publisher, diag, next)) = self.diagnostics.as_mut() else {
+            return;
+        };
+        if Instant::now() < *next {
+            return;
+        }
+        *next = Instant::now() + Duration::from_secs(1);
+        let array = DiagnosticArray {
+            header: capsule_msgs::Header {
+                stamp: now(),
+                frame_id: String::new(),
+            },
+            status: vec![diag.status(&settings.node_name, core)],
+        };
+        if let Err(e) = publisher.async_publish(array).await {
+            warn!("/diagnostics not sent: {e:?}");
+        }
     }
 
     /// A state sample: the command sent; whether an attractor-switch event asks for a status.
@@ -84,23 +118,20 @@ impl Endpoints {
 }
 
 /// Runs the controller on Zenoh until SIGINT/SIGTERM: `core` answers, its status every
-/// `status_period`; `diagnostics` (asked for) is refused.
+/// `status_period`, `/diagnostics` every second if `diagnostics`.
 pub(crate) async fn run(
     settings: RosOptions,
     mut core: ControllerCore,
     status_period: std::time::Duration,
     diagnostics: bool,
 ) -> Result<()> {
-    let mw = &settings.middleware;
-    if diagnostics {
-        mw.refuse_on_zenoh("the controller's /diagnostics")?;
-    }
     if settings.use_sim_time {
+        let mw = &settings.middleware;
         mw.refuse_on_zenoh("the controller's --use-sim-time")?;
     }
     let context = settings.zenoh_context()?;
     let node = settings.zenoh_node(&context)?;
-    let io = Endpoints::create(&settings, &node)?;
+    let mut io = Endpoints::create(&settings, &node, diagnostics)?;
     info!(
         "{}: state {} -> force {}, status {}, service {}; {} k_p = {}; not on Zenoh yet: \
          parameters, actions, set_mode service events",
@@ -142,6 +173,7 @@ pub(crate) async fn run(
                 if core.check_stale(steady()) {
                     warn!("state stale (no sample for the timeout; plant gone?): stopped commanding");
                 }
+                io.diagnose(&settings, &core).await;
                 true
             }
         };

@@ -163,8 +163,8 @@ impl EventReaders {
     /// with the QoS the controller offers them (transient local: the events of goals sent
     /// before the recorder matched come in too).
     fn subscribe(
-        context: &ros2_client::Context,
-        node: &mut ros2_client::Node,
+        context: &ros2_client::dds::Context,
+        node: &mut ros2_client::dds::Node,
         settings: &RosOptions,
         [m, s]: [&str; 2],
     ) -> Result<Self> {

@@ -85,7 +85,7 @@ pub fn status_qos() -> ros2_client::QosProfile {
 /// A topic `<full>/_action/<suffix>` of DDS type `dds_type`, made on the participant
 /// (ros2-client names an action's DDS types only inside its own action client and server).
 fn action_topic(
-    context: &ros2_client::Context,
+    context: &ros2_client::dds::Context,
     full: &str,
     suffix: &str,
     dds_type: String,
@@ -140,7 +140,7 @@ pub fn feedback_and_status_topics(
 /// (`pkg::action::dds_::Name_SendGoal_Event_`, `pkg::action::dds_::Name_GetResult_Event_`,
 /// `action_msgs::srv::dds_::CancelGoal_Event_`), with [`qos::service_events`].
 pub fn service_event_topics(
-    context: &ros2_client::Context,
+    context: &ros2_client::dds::Context,
     settings: &RosOptions,
     name: &str,
     type_name: &str,
@@ -327,7 +327,7 @@ where
     /// action of type `type_name` on `node`, stamped with `clock`.
     pub fn introspect(
         mut self,
-        context: &ros2_client::Context,
+        context: &ros2_client::dds::Context,
         settings: &RosOptions,
         node: &mut Node,
         type_name: &str,

@@ -44,20 +44,28 @@ pub fn session_config(env: &ZenohEnv) -> Result<zenoh::Config> {
         }
     };
     if let Some(overrides) = &env.config_override {
-        for entry in overrides
-            .split(';')
-            .map(str::trim)
-            .filter(|e| !e.is_empty())
-        {
-            let Some((key, value)) = entry.split_once('=') else {
-                bail!("ZENOH_CONFIG_OVERRIDE: {entry:?} is not key=value");
-            };
-            config
-                .insert_json5(key.trim(), value.trim())
-                .map_err(|e| invalid!("ZENOH_CONFIG_OVERRIDE: {entry:?}: {e}"))?;
-        }
+        apply_overrides(&mut config, overrides)?;
     }
     Ok(config)
+}
+
+/// Applies `ZENOH_CONFIG_OVERRIDE`'s `key=value;...` (values JSON5) to `config`, as rmw_zenoh
+/// reads it for its sessions and its router; an entry that is not `key=value` or does not
+/// apply is an error naming it.
+pub fn apply_overrides(config: &mut zenoh::Config, overrides: &str) -> Result<()> {
+    for entry in overrides
+        .split(';')
+        .map(str::trim)
+        .filter(|e| !e.is_empty())
+    {
+        let Some((key, value)) = entry.split_once('=') else {
+            bail!("ZENOH_CONFIG_OVERRIDE: {entry:?} is not key=value");
+        };
+        config
+            .insert_json5(key.trim(), value.trim())
+            .map_err(|e| invalid!("ZENOH_CONFIG_OVERRIDE: {entry:?}: {e}"))?;
+    }
+    Ok(())
 }
 
 /// Makes ros2-client announce capsule_msgs' hashes (computed from the interface files at

@@ -870,6 +870,17 @@ fn the_launch_scripts_check_their_arguments_and_print_usage() {
         ),
         ("demo.sh", &["no/such.toml"], "cannot read scene file"),
         ("demo.sh", &["a", "b", "c"], "at most two arguments"),
+        ("demo.sh", &["--rmw", "udp"], "--rmw 'udp': dds or zenoh"),
+        (
+            "capsule_launch.sh",
+            &["--scene", "scenes/control_point.toml", "--rmw", "udp"],
+            "--rmw 'udp': dds or zenoh",
+        ),
+        (
+            "capsule_launch.sh",
+            &["--scene", "scenes/control_point.toml", "--rmw", "zenoh"],
+            "recording is not on Zenoh yet; give --no-record",
+        ),
         ("capsule_launch.sh", &["--scene"], "--scene needs a value"),
         ("capsule_launch.sh", &[], "--scene is required"),
         (

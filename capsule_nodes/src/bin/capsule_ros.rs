@@ -168,8 +168,7 @@ fn parse_mode(s: &str) -> Result<u8> {
         .with_context(|| format!("unknown mode {s:?}"))
 }
 
-async fn run(cli: Cli) -> Result<()> {
-    let settings = RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros")?;
+async fn run(cli: Cli, settings: RosOptions) -> Result<()> {
     match cli.cmd {
         Cmd::LifecycleSet {
             node,
@@ -394,28 +393,106 @@ impl DemoPlan {
         })
     }
 
-    /// Schedules the segments, measures them on the state topic, prints the table.
-    async fn run(&self, settings: &RosOptions, service: &str, timeout_s: f64) -> Result<()> {
-        let context = settings.context()?;
-        let mut node = settings.node(&context)?;
-        let client = ModeClient::new(&mut node, settings, service)?;
-        let timeout = Duration::from_secs_f64(timeout_s);
-        for (mode, from, _) in self.segments.iter().skip(1) {
+    /// The set_mode requests that schedule every segment after the first, at its start.
+    fn requests(&self) -> impl Iterator<Item = (Mode, f64, SetModeRequest)> + '_ {
+        self.segments.iter().skip(1).map(|(mode, from, _)| {
             let req = SetModeRequest {
                 mode: mode.code(),
                 gain: 0.0,
                 effective_from: Time::from_secs_f64(*from),
                 ..SetModeRequest::default()
             };
-            let resp = client.call(&node, req, timeout).await?;
-            if !resp.accepted {
-                bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
-            }
-            println!(
-                "scheduled {mode} from t = {from:.3} s (k_p = {})",
-                resp.gain
-            );
+            (*mode, *from, req)
+        })
+    }
+
+    /// Says a segment is scheduled, or fails with the controller's reason.
+    fn scheduled(mode: Mode, from: f64, resp: &capsule_msgs::SetModeResponse) -> Result<()> {
+        if !resp.accepted {
+            bail!("controller refused {mode} at {from:.3} s: {}", resp.reason);
         }
+        println!(
+            "scheduled {mode} from t = {from:.3} s (k_p = {})",
+            resp.gain
+        );
+        Ok(())
+    }
+
+    /// Schedules the segments, measures them on the state topic, prints the table.
+    async fn run(&self, settings: &RosOptions, service: &str, timeout_s: f64) -> Result<()> {
+        #[cfg(feature = "zenoh")]
+        if settings.middleware.is_zenoh() {
+            return self.run_on_zenoh(settings, service, timeout_s).await;
+        }
+        let context = settings.context()?;
+        let mut node = settings.node(&context)?;
+        let client = ModeClient::new(&mut node, settings, service)?;
+        let timeout = Duration::from_secs_f64(timeout_s);
+        for (mode, from, req) in self.requests() {
+            Self::scheduled(mode, from, &client.call(&node, req, timeout).await?)?;
+        }
+        let sub = state_subscription(&mut node, settings)?;
+        let states = sub
+            .async_stream()
+            .map(|s| s.map(|(s, _)| s).map_err(|e| format!("{e:?}")));
+        self.measure(settings, states, timeout_s).await
+    }
+
+    /// [`DemoPlan::run`] on Zenoh: the same requests and measurement, through a Zenoh node.
+    #[cfg(feature = "zenoh")]
+    async fn run_on_zenoh(
+        &self,
+        settings: &RosOptions,
+        service: &str,
+        timeout_s: f64,
+    ) -> Result<()> {
+        use capsule_msgs::SetModeResponse;
+        use capsule_ros_base::{endpoints::Wire, qos, types};
+        let context = settings.zenoh_context()?;
+        let node = settings.zenoh_node(&context)?;
+        let client = node
+            .create_client::<Wire<SetModeRequest>, Wire<SetModeResponse>>(
+                &settings.ros_name(service)?,
+                &types::set_mode(),
+            )
+            .context("set_mode client on Zenoh")?;
+        let started = Instant::now();
+        for (mode, from, req) in self.requests() {
+            // no reply while the controller's service is not there yet: asked again
+            let resp = loop {
+                match client.async_call(Wire(req.clone())).await {
+                    Ok(Wire(resp)) => break resp,
+                    Err(e) if started.elapsed().as_secs_f64() > timeout_s => {
+                        bail!("{service} on Zenoh: no answer within {timeout_s} s: {e:?}")
+                    }
+                    Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+                }
+            };
+            Self::scheduled(mode, from, &resp)?;
+        }
+        let topic = node.create_topic(
+            &settings.ros_name(capsule_msgs::names::topics::STATE)?,
+            types::state(),
+            &qos::data(),
+        );
+        let sub = node
+            .create_subscription::<capsule_msgs::CapsuleState>(&topic, Some(qos::data_reader()))
+            .context("state subscription on Zenoh")?;
+        let states = sub
+            .async_stream()
+            .map(|s| s.map(|(s, _)| s).map_err(|e| format!("{e:?}")));
+        self.measure(settings, states, timeout_s).await
+    }
+
+    /// Measures the segments on `states` (until every segment is over, or `timeout_s`),
+    /// prints the table.
+    async fn measure(
+        &self,
+        settings: &RosOptions,
+        states: impl futures::Stream<Item = std::result::Result<capsule_msgs::CapsuleState, String>>,
+        timeout_s: f64,
+    ) -> Result<()> {
+        let timeout = Duration::from_secs_f64(timeout_s);
         let windows = self
             .segments
             .iter()
@@ -425,8 +502,6 @@ impl DemoPlan {
             })
             .collect();
         let mut meter = SegmentMeter::new(windows, self.period_s, self.length_m);
-        let sub = state_subscription(&mut node, settings)?;
-        let states = sub.async_stream();
         tokio::pin!(states);
         let started = Instant::now();
         let (mut first_seq, mut last_seq) = (None, 0);
@@ -438,8 +513,8 @@ impl DemoPlan {
                     settings.resolve_name(capsule_msgs::names::topics::STATE)
                 ),
                 Ok(None) => bail!("state stream ended"),
-                Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e:?}"),
-                Ok(Some(Ok((s, _)))) => {
+                Ok(Some(Err(e))) => tracing::warn!("bad state sample: {e}"),
+                Ok(Some(Ok(s))) => {
                     first_seq.get_or_insert(s.seq);
                     last_seq = last_seq.max(s.seq);
                     meter.sample(&s);
@@ -740,8 +815,15 @@ fn main() -> std::process::ExitCode {
         Ok(cli) => cli,
         Err(e) => return node_main::exit_code("capsule_ros", Err(e)),
     };
+    let settings = match RosOptions::resolve(&cli.ros, &RosEnv::from_process(), "capsule_ros") {
+        Ok(settings) => settings,
+        Err(e) => return node_main::exit_code("capsule_ros", Err(e)),
+    };
+    // Zenoh wants a multi-threaded runtime (Middleware::runtime)
+    let middleware = settings.middleware.clone();
+    let cpus = cli.ros.cpu_affinity.clone();
     node_main::exit_code(
         "capsule_ros",
-        node_main::block_on(cli.ros.cpu_affinity.clone().as_ref(), run(cli)),
+        node_main::block_on_with(cpus.as_ref(), &middleware, run(cli, settings)),
     )
 }

@@ -4,7 +4,7 @@
 //! unless `--listen` says otherwise; `ZENOH_ROUTER_CONFIG_URI` and `ZENOH_CONFIG_OVERRIDE` as
 //! rmw_zenohd reads them. Runs until SIGINT/SIGTERM.
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{Context as _, Result};
 use capsule_ros_base::node_main;
 use clap::Parser;
 
@@ -49,28 +49,26 @@ fn config(cli: &Cli) -> Result<zenoh::Config> {
         }
     };
     if let Some(overrides) = get("ZENOH_CONFIG_OVERRIDE") {
-        for entry in overrides
-            .split(';')
-            .map(str::trim)
-            .filter(|e| !e.is_empty())
-        {
-            let Some((key, value)) = entry.split_once('=') else {
-                bail!("ZENOH_CONFIG_OVERRIDE: {entry:?} is not key=value");
-            };
-            config
-                .insert_json5(key.trim(), value.trim())
-                .map_err(|e| anyhow::anyhow!("ZENOH_CONFIG_OVERRIDE: {entry:?}: {e}"))?;
-        }
+        capsule_ros_base::zenoh_session::apply_overrides(&mut config, &overrides)?;
     }
     Ok(config)
 }
 
 async fn run(config: zenoh::Config) -> Result<()> {
+    // the signal handlers first (polling the future once installs them): zenoh::open blocks
+    // this thread while it opens (its port already listening), and a router stopped meanwhile
+    // must stop cleanly instead of dying of the signal
+    let sig = capsule_ros_base::signals::shutdown_signal();
+    tokio::pin!(sig);
+    if let std::task::Poll::Ready(sig) = futures::poll!(&mut sig) {
+        tracing::info!("{}: stopped while starting", sig?);
+        return Ok(());
+    }
     let session = zenoh::open(config)
         .await
         .map_err(|e| anyhow::anyhow!("cannot start the router: {e}"))?;
     tracing::info!("router {} up", session.zid());
-    let sig = capsule_ros_base::signals::shutdown_signal().await?;
+    let sig = sig.await?;
     tracing::info!("{sig}: shutting down");
     session
         .close()

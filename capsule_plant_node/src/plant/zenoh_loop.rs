@@ -1,19 +1,23 @@
 //! The plant on Zenoh (rmw_zenoh_cpp's protocol, through ros2-client's Zenoh backend), its core
-//! interface first: the state out on `/capsule/state` at the scene's rate in real time, the
-//! force command in, the same [`PlantCore`] as on DDS. What is not ported yet is refused by name
-//! before any work ([`refuse_unported`]); the parameters, `/clock`, the views, the emergency
-//! stop and the lifecycle services are not served on Zenoh yet, which the log says at start.
+//! interface: the state out on `/capsule/state`, the force command in, the same [`PlantCore`]
+//! as on DDS, in real time or in lock-step (each step waits for the command answering the last
+//! sample, re-sending it, as on DDS: [`super::silence`]). What is not ported yet is refused by
+//! name before any work ([`refuse_unported`]); the parameters, `/clock`, the views, the
+//! emergency stop and the lifecycle services are not served on Zenoh yet, which the log says at
+//! start.
 
 use std::time::{Duration, Instant};
 
 use capsule_hardware::throttle::Throttle;
 use capsule_msgs::names::topics;
 use capsule_msgs::{ActuatorForce, CapsuleState};
-use capsule_ros_base::error::{Context as _, Result};
+use capsule_ros_base::error::{bail, Context as _, Result};
 use capsule_ros_base::{qos, ros_options::RosOptions, types};
+use ros2_client::zenoh::{Node, Publisher, Subscription};
 use tracing::{info, warn};
 
-use super::endpoints::{log_refused, log_undecodable};
+use super::endpoints::{log_refused, log_undecodable, MATCH_GRACE};
+use super::silence::{Silence, Verdict, Waiting};
 use super::simulator_loop::Wall;
 use super::{CommandOutcome, LoopStats, Pacing, PlantCore, PlantOptions};
 use crate::hardware::CapsuleHardware;
@@ -22,10 +26,8 @@ use crate::hardware::CapsuleHardware;
 fn refuse_unported(settings: &RosOptions, opts: &PlantOptions) -> Result<()> {
     let mw = &settings.middleware;
     let asked = [
-        (opts.pacing == Pacing::Lockstep, "--pacing lockstep"),
         (opts.record.is_some(), "--record"),
         (opts.joint_commands, "--joint-commands"),
-        (opts.wait_subscribers > 0, "--wait-subscribers"),
         (!opts.autostart, "the lifecycle (a plant not autostarted)"),
         (settings.use_sim_time, "--use-sim-time"),
     ];
@@ -35,7 +37,75 @@ fn refuse_unported(settings: &RosOptions, opts: &PlantOptions) -> Result<()> {
     Ok(())
 }
 
-/// Runs the plant on Zenoh in real time until `until_s` or SIGINT/SIGTERM.
+/// The plant's endpoints on Zenoh, and its node (the graph it asks for subscribers and
+/// publishers).
+struct Io {
+    node: Node,
+    states: Publisher<CapsuleState>,
+    forces: Subscription<ActuatorForce>,
+}
+
+impl Io {
+    /// The state publisher and the force subscription of a new node, named as on DDS.
+    fn create(settings: &RosOptions, context: &ros2_client::zenoh::Context) -> Result<Io> {
+        let node = settings.zenoh_node(context)?;
+        let topic = |name: &str, type_name| -> Result<_> {
+            Ok(node.create_topic(&settings.ros_name(name)?, type_name, &qos::data()))
+        };
+        let states = node
+            .create_publisher::<CapsuleState>(&topic(topics::STATE, types::state())?, None)
+            .context("state publisher on Zenoh")?;
+        let forces = node
+            .create_subscription::<ActuatorForce>(
+                &topic(topics::FORCE, types::force())?,
+                Some(qos::data_reader()),
+            )
+            .context("force subscription on Zenoh")?;
+        Ok(Io {
+            node,
+            states,
+            forces,
+        })
+    }
+
+    /// Sends `state` (a failure is logged: the next sample, or lock-step's re-send, follows).
+    async fn send(&self, state: CapsuleState) {
+        if let Err(e) = self.states.async_publish(state).await {
+            warn!("state not sent: {e:?}");
+        }
+    }
+
+    /// `--wait-subscribers`: until `n` subscriptions of the state are announced in the graph
+    /// (liveliness), at most `timeout`.
+    async fn wait_subscribers(
+        &self,
+        settings: &RosOptions,
+        n: usize,
+        timeout: Duration,
+    ) -> Result<()> {
+        if n == 0 {
+            return Ok(());
+        }
+        let started = Instant::now();
+        while self.states.get_subscription_count(&self.node) < n {
+            if started.elapsed() > timeout {
+                bail!(
+                    "only {} of {n} subscribers announced {} within {timeout:?}",
+                    self.states.get_subscription_count(&self.node),
+                    settings.resolve_name(topics::STATE),
+                );
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        // a token announces a subscriber declared a moment before; the router may pass the
+        // declaration on a moment after
+        tokio::time::sleep(MATCH_GRACE).await;
+        info!("{n} subscribers announced: starting");
+        Ok(())
+    }
+}
+
+/// Runs the plant on Zenoh until `until_s` or SIGINT/SIGTERM.
 pub(super) async fn run<H: CapsuleHardware>(
     settings: RosOptions,
     mut core: PlantCore<H>,
@@ -43,23 +113,12 @@ pub(super) async fn run<H: CapsuleHardware>(
 ) -> Result<(LoopStats, CapsuleState)> {
     refuse_unported(&settings, &opts)?;
     let context = settings.zenoh_context()?;
-    let node = settings.zenoh_node(&context)?;
-    let topic = |name: &str, type_name| -> Result<_> {
-        Ok(node.create_topic(&settings.ros_name(name)?, type_name, &qos::data()))
-    };
-    let states = node
-        .create_publisher::<CapsuleState>(&topic(topics::STATE, types::state())?, None)
-        .context("state publisher on Zenoh")?;
-    let forces = node
-        .create_subscription::<ActuatorForce>(
-            &topic(topics::FORCE, types::force())?,
-            Some(qos::data_reader()),
-        )
-        .context("force subscription on Zenoh")?;
+    let io = Io::create(&settings, &context)?;
     info!(
-        "{}: real time at {} Hz, state {} <- force {}; not on Zenoh yet: parameters, /clock, \
-         views, emergency stop, lifecycle services",
+        "{}: {:?} at {} Hz, state {} <- force {}; not on Zenoh yet: parameters, /clock, \
+         views, emergency stop, lifecycle services, recording",
         settings.describe(),
+        opts.pacing,
         core.rate_hz,
         settings.resolve_name(topics::STATE),
         settings.resolve_name(topics::FORCE),
@@ -68,27 +127,63 @@ pub(super) async fn run<H: CapsuleHardware>(
     core.activate().context("the plant's hardware")?;
     let end = capsule_ros_base::signals::shutdown();
     tokio::pin!(end);
+    let stopped = tokio::select! {
+        stopped = &mut end => stopped,
+        waited = io.wait_subscribers(&settings, opts.wait_subscribers, opts.startup_timeout) => {
+            waited?;
+            let paced = async {
+                match opts.pacing {
+                    Pacing::Realtime => realtime(&mut core, &io, &opts).await,
+                    Pacing::Lockstep => lockstep(&mut core, &io, &opts).await,
+                }
+            };
+            tokio::select! {
+                stopped = &mut end => stopped,
+                over = paced => over,
+            }
+        }
+    };
+    core.stats.finish();
+    info!("loop: {} samples on Zenoh", core.stats.published);
+    stopped.map(|()| (core.stats.clone(), core.state()))
+}
+
+/// Sends the current sample; true when it was the last one (`--until-s`), said in the log.
+async fn publish<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Io,
+    opts: &PlantOptions,
+    wall: Wall,
+) -> bool {
+    io.send(core.state()).await;
+    core.published(wall.now());
+    let stamp = core.stamp();
+    let over = opts
+        .until_s
+        .is_some_and(|s| stamp.to_nanos() >= (s * 1e9).round() as i64);
+    if over {
+        info!("reached the end time {:.3} s", stamp.as_secs_f64());
+    }
+    over
+}
+
+/// Real time: sample `k` out at `start + k / rate`, the commands received meanwhile taken, step.
+async fn realtime<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Io,
+    opts: &PlantOptions,
+) -> Result<()> {
     let period = Duration::from_secs_f64(1.0 / core.rate_hz);
     let (start, wall) = (Instant::now(), Wall::start());
     let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
-    let until = opts.until_s.map(|s| (s * 1e9).round() as i64);
-    let stopped = loop {
-        let stamp = core.stamp();
-        if let Err(e) = states.async_publish(core.state()).await {
-            warn!("state not sent: {e:?}");
-        }
-        core.published(wall.now());
-        if until.is_some_and(|u| stamp.to_nanos() >= u) {
-            info!("reached the end time {:.3} s", stamp.as_secs_f64());
-            break Ok(());
+    loop {
+        if publish(core, io, opts, wall).await {
+            return Ok(());
         }
         let due = start + period.mul_f64(core.stats.published as f64);
-        tokio::select! {
-            stopped = &mut end => break stopped,
-            () = tokio::time::sleep_until(due.into()) => {}
-        }
+        tokio::time::sleep_until(due.into()).await;
         loop {
-            match forces.try_take() {
+            match io.forces.try_take() {
                 Ok(Some((cmd, _))) => match core.on_command(&cmd, wall.now(), false) {
                     CommandOutcome::Accepted | CommandOutcome::Duplicate => {}
                     outcome => log_refused(outcome, &cmd, &mut refused, core.rejected()),
@@ -107,8 +202,64 @@ pub(super) async fn run<H: CapsuleHardware>(
             );
         }
         core.step().context("the plant's hardware")?;
-    };
-    core.stats.finish();
-    info!("loop: {} samples on Zenoh", core.stats.published);
-    stopped.map(|()| (core.stats.clone(), core.state()))
+    }
+}
+
+/// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
+/// every `retransmit`), step with it; never a step without its answer unless
+/// `--lockstep-on-silence zero-force` asks; the controller gone (its force publisher's token
+/// withdrawn, or silent for `lockstep_give_up_s`) ends the run with an error.
+async fn lockstep<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Io,
+    opts: &PlantOptions,
+) -> Result<()> {
+    let wall = Wall::start();
+    let silence = Silence::of(opts, core.command_timeout);
+    let mut resend = tokio::time::interval(opts.retransmit);
+    resend.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut ever_commanded = false;
+    let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
+    loop {
+        if publish(core, io, opts, wall).await {
+            return Ok(());
+        }
+        let sent = wall.now();
+        resend.reset();
+        while !core.answered() {
+            tokio::select! {
+                msg = io.forces.async_take() => match msg {
+                    Ok((cmd, _)) => match core.on_command(&cmd, wall.now(), true) {
+                        CommandOutcome::Accepted => ever_commanded = true,
+                        CommandOutcome::Duplicate => {}
+                        outcome => log_refused(outcome, &cmd, &mut refused, core.rejected()),
+                    },
+                    Err(e) => log_undecodable(&mut undecodable, &e),
+                },
+                _ = resend.tick() => {
+                    let waiting = Waiting {
+                        seq: core.seq(),
+                        waited_s: wall.now() - sent,
+                        ever_commanded,
+                        publishers: Some(io.forces.get_publisher_count(&io.node)),
+                    };
+                    match silence.judge(waiting) {
+                        Verdict::Resend => {
+                            core.stats.resent += 1;
+                            io.send(core.state()).await;
+                        }
+                        Verdict::ZeroForce => {
+                            if core.force_stale() || !ever_commanded {
+                                warn!("no command for seq {} within {:.3} s: applying zero force (--lockstep-on-silence zero-force)", core.seq(), waiting.waited_s);
+                            }
+                            ever_commanded = true;
+                            break;
+                        }
+                        Verdict::GiveUp(e) => bail!("{e}"),
+                    }
+                }
+            }
+        }
+        core.step().context("the plant's hardware")?;
+    }
 }

@@ -131,20 +131,60 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_and_switches_the_mode() {
     assert_eq!(status["mode_name"], "FORWARD", "{status}");
 }
 
+/// The demo's figures (the three segment lines of its table), from its output.
+fn figures(out: &str) -> Vec<&str> {
+    out.lines()
+        .filter(|l| {
+            ["FORWARD ", "BACKWARD ", "OFF "]
+                .iter()
+                .any(|m| l.starts_with(m))
+        })
+        .collect()
+}
+
+#[test]
+fn the_lockstep_demo_on_zenoh_prints_the_figures_of_dds() {
+    // 9 drive periods a segment (3 settling): the same lock-step run on both middlewares, each
+    // step taken with the answer to its own sample, so the same figures to the last digit
+    let run = netns(
+        240,
+        r#"export CAPSULE_RECORD_DIR="$TMP"
+        echo "== dds"; "$ROOT/launch_scripts/demo.sh" "$SCENE" 9 || exit 1
+        echo "== zenoh"; "$ROOT/launch_scripts/demo.sh" --rmw zenoh "$SCENE" 9 || exit 1"#,
+    );
+    run.assert_ok();
+    let (dds, zenoh) = run
+        .stdout
+        .split_once("== zenoh")
+        .unwrap_or_else(|| panic!("no Zenoh run\n{}", run.all()));
+    let on_dds = figures(dds);
+    assert_eq!(on_dds.len(), 3, "{}", run.all());
+    assert_eq!(figures(zenoh), on_dds, "{}", run.all());
+    for line in [
+        "on Zenoh, lock-step, separate processes",
+        "scheduled BACKWARD",
+        "scheduled OFF",
+        "forward > 0: yes, backward < 0: yes",
+        "not recorded: recording is not on Zenoh yet",
+    ] {
+        assert!(zenoh.contains(line), "{line:?} missing\n{}", run.all());
+    }
+}
+
 #[test]
 fn on_zenoh_security_and_the_unported_nodes_are_refused_by_name() {
     let run = with_router(
         30,
         "ROS_SECURITY_ENABLE=true \"$B/capsule_plant\" --scene \"$SCENE\" --check; echo \"secured=$?\"
         \"$B/capsule_recorder\" --output \"$TMP/r.mcap\" --idle-stop-s 1; echo \"recorder=$?\"
-        \"$B/capsule_plant\" --scene \"$SCENE\" --pacing lockstep --until-s 1; echo \"lockstep=$?\"",
+        \"$B/capsule_plant\" --scene \"$SCENE\" --record-dir \"$TMP\" --until-s 1; echo \"record=$?\"",
     );
     run.assert_ok();
-    run.assert_stdout(&["secured=2", "recorder=2", "lockstep=2"]);
+    run.assert_stdout(&["secured=2", "recorder=2", "record=2"]);
     run.assert_stderr(&[
         "ROS_SECURITY_ENABLE=true with RMW_IMPLEMENTATION=rmw_zenoh_cpp",
         "refusing to run unsecured",
         "capsule_recorder is not available on Zenoh yet",
-        "--pacing lockstep is not available on Zenoh yet",
+        "the plant's --record is not available on Zenoh yet",
     ]);
 }
