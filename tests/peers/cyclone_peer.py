@@ -928,7 +928,9 @@ def cmd_lifecycle(args):
             now = time.time()
             seen.extend((now, abs(st.actuator_force)) for st in valid(states.take(N=256)))
             time.sleep(0.005)
-        late = [f for t, f in seen if t >= t0 + args.settle]
+        # NaN: a sample without a new measurement from the device (nobody measured what acted);
+        # max() would keep a NaN that comes first
+        late = [f for t, f in seen if t >= t0 + args.settle and not math.isnan(f)]
         steps.append({"transition": label, "success": r.success, "before": before,
                       "after": after, "answered_s": answered_s, "samples": len(late),
                       "max_force": max(late, default=None)})
