@@ -171,8 +171,8 @@ pub const AUTOSTART: Setting = Setting::new(
 /// Lock-step: start paused (`capsule_plant_node::pause`).
 pub const START_PAUSED: Setting = Setting::new(
     "start_paused",
-    "Lock-step: start paused (active, answered, but no step: sim time stands still) until \
-     `~/pause` (std_srvs/srv/SetBool) is called with false",
+    "Lock-step, simulated plant: start paused (active, answered, but no step: sim time stands \
+     still) until `~/pause` (std_srvs/srv/SetBool) is called with false",
     Kind::Switch,
 )
 .flag_only();

@@ -87,6 +87,21 @@ fn device_flags_are_refused_with_the_reason_before_any_line_opens() {
         "--dry-run and --max-travel-m are for --source serial",
         "dry sim",
     );
+    // the pause holds a simulated plant's loop only: a device keeps its own time
+    for extra in [
+        &["--source", "serial:/dev/null/none", "--pacing", "lockstep"][..],
+        &["--pacing", "realtime"][..],
+    ] {
+        let mut args = vec!["--scene", scene, "--start-paused", "--check"];
+        args.extend_from_slice(extra);
+        let o = run("capsule_plant", &args);
+        assert_refused(
+            &o,
+            2,
+            "--start-paused holds a simulated plant in lock-step",
+            "start paused",
+        );
+    }
     // the emulator never replaces a file that is not its own link
     let file = tmp.arg("not_a_link");
     std::fs::write(&file, "keep").unwrap_or_else(|e| panic!("{e}"));

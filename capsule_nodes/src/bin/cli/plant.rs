@@ -151,6 +151,10 @@ pub fn build(
     if run.joint_commands && pacing == Pacing::Lockstep {
         bail!("--joint-commands (or -p joint_commands:=true) with --pacing lockstep: a JointState command answers no particular sample (topic_based_ros2_control sends at its own rate); use --pacing realtime");
     }
+    let start_paused = flags.switch(&START_PAUSED);
+    if start_paused && (pacing != Pacing::Lockstep || source != Source::Sim) {
+        bail!("--start-paused holds a simulated plant in lock-step (--source sim --pacing lockstep): a real-time plant keeps wall time, and a device its own");
+    }
     check_fixed_steps(cli, scene, run.rate_hz)?;
     let max_force_n = flags.number(&MAX_FORCE_N).unwrap_or(
         capsule_plant_node::command_gate::DEFAULT_MAX_FORCE_PF * scene.physical.force_n(),
@@ -175,7 +179,7 @@ pub fn build(
         params,
         joint_commands: run.joint_commands,
         autostart: flags.switch(&AUTOSTART),
-        start_paused: flags.switch(&START_PAUSED),
+        start_paused,
     };
     Ok((settings, core, opts))
 }
