@@ -2,7 +2,8 @@
 //!
 //! - [`plant`]: the plant node (lifecycle, pacing, hold, watchdog) around any
 //!   [`capsule_hardware::CapsuleHardware`]; [`emergency_stop`]: its emergency-stop service and
-//!   latched state; [`pause`]: a lock-step plant's pause; [`plant_params`]: its ROS
+//!   latched state; [`pause`]: a lock-step plant's pause; [`flag_service`]: the `SetBool`
+//!   service both are; [`plant_params`]: its ROS
 //!   parameters
 //! - [`joint_commands`]: JointState commands as topic_based_ros2_control sends them
 //! - [`command_gate`]: the plant's force limit and stamp horizon for commands
@@ -18,6 +19,7 @@
 pub mod action_readers;
 pub mod command_gate;
 pub mod emergency_stop;
+pub mod flag_service;
 pub mod intra_process;
 pub mod joint_commands;
 pub mod node_settings;
