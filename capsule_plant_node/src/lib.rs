@@ -12,7 +12,7 @@
 //! - [`node_settings`]: a node's settings table as its flags and ROS parameters (both nodes)
 //! - [`intra_process`]: state and force between nodes composed in one process
 //! - [`recorder`]: the recorder node (every topic to one MCAP file; the plant's in-plant
-//!   recording writes through it)
+//!   recording writes through it); [`take_each`]: taking every sample a reader holds
 
 #![warn(missing_docs)]
 
@@ -27,6 +27,7 @@ pub mod pause;
 pub mod plant;
 pub mod plant_params;
 pub mod recorder;
+pub mod take_each;
 pub mod views;
 
 // the plant's hardware interface, in a crate of its own (no DDS, no runtime); named here so
