@@ -302,46 +302,25 @@ fn print_validation(v: &Validation, on: &str) {
 
 /// Recorded against predicted: the capsule over the whole run, `x1 - x2` over the first periods.
 fn plot(prefix: &Path, v: &Validation, on: &str) -> Result<()> {
-    let col = |t: &[[f64; 3]], i: usize, scale: f64| -> Vec<(f64, f64)> {
-        t.iter().map(|r| (r[0], r[i] * scale)).collect()
+    // a trace's rows are (time [s], recorded [m], twin [m]); drawn in mm
+    let curves = |t: &[[f64; 3]], recorded: Style, twin: Style| -> Vec<Curve> {
+        let col = |i: usize| t.iter().map(|r| (r[0], r[i] * 1e3)).collect();
+        vec![
+            Curve::new("recorded", "black", recorded, col(1)),
+            Curve::new("twin", "#d62728", twin, col(2)),
+        ]
     };
     let capsule = Panel::new(
         "capsule position, predicted from the first period's state",
         "time [s]",
         "x2 [mm]",
-        vec![
-            Curve::new(
-                "recorded",
-                "black",
-                Style::Line,
-                col(&v.trace_capsule, 1, 1e3),
-            ),
-            Curve::new(
-                "twin",
-                "#d62728",
-                Style::Dashed,
-                col(&v.trace_capsule, 2, 1e3),
-            ),
-        ],
+        curves(&v.trace_capsule, Style::Line, Style::Dashed),
     );
     let displacement = Panel::new(
         "x1 - x2, each period predicted from the one before",
         "time [s]",
         "x1 - x2 [mm]",
-        vec![
-            Curve::new(
-                "recorded",
-                "black",
-                Style::Dots,
-                col(&v.trace_displacement, 1, 1e3),
-            ),
-            Curve::new(
-                "twin",
-                "#d62728",
-                Style::Line,
-                col(&v.trace_displacement, 2, 1e3),
-            ),
-        ],
+        curves(&v.trace_displacement, Style::Dots, Style::Line),
     );
     let caption: Vec<String> = std::iter::once(format!("validated on {on}"))
         .chain(v.findings.iter().cloned())

@@ -665,6 +665,28 @@ mod tests {
         }
     }
 
+    /// A Move goal of 1 cm, with no tolerance and no timeout.
+    fn move_1cm() -> MoveRequest {
+        MoveRequest {
+            distance_m: 0.01,
+            tolerance_m: 0.0,
+            timeout_s: 0.0,
+        }
+    }
+
+    /// Why the 1 cm goal `ended` ended ("" when it did not).
+    fn why_ended(ended: Option<MoveRun>) -> String {
+        ended
+            .and_then(|r| r.outcome().cloned())
+            .map(|o| o.message(0.01))
+            .unwrap_or_default()
+    }
+
+    /// Why the 1 cm goal that `c` ended last ended ("" when none did).
+    fn ended_why(c: &mut ControllerCore) -> String {
+        why_ended(c.take_ended_move())
+    }
+
     #[test]
     fn command_is_the_papers_law_in_si() {
         let mut c = core(Mode::Forward, 0.2);
@@ -895,11 +917,7 @@ mod tests {
     #[test]
     fn move_goals_are_refused_without_the_plant_and_ended_by_a_mode_or_a_new_goal() {
         let mut c = core(Mode::Forward, 0.2);
-        let goal = MoveRequest {
-            distance_m: 0.01,
-            tolerance_m: 0.0,
-            timeout_s: 0.0,
-        };
+        let goal = move_1cm();
         assert!(c
             .start_move(goal)
             .is_err_and(|e| e.starts_with("no fresh state")));
@@ -928,10 +946,7 @@ mod tests {
         assert!(c.move_progress().is_some());
         // a new goal preempts the running one, which ends aborted saying why
         let old = c.start_move(goal).ok().flatten();
-        let why = old
-            .and_then(|r| r.outcome().cloned())
-            .map(|o| o.message(0.01))
-            .unwrap_or_default();
+        let why = why_ended(old);
         assert!(why.starts_with("aborted: a new goal preempted it"), "{why}");
         let r = c.set_mode(&SetModeRequest {
             mode: SetModeRequest::BACKWARD,
@@ -939,11 +954,7 @@ mod tests {
         });
         assert!(r.accepted);
         assert!(c.move_progress().is_none());
-        let why = c
-            .take_ended_move()
-            .and_then(|r| r.outcome().cloned())
-            .map(|o| o.message(0.01))
-            .unwrap_or_default();
+        let why = ended_why(&mut c);
         assert!(
             why.starts_with("aborted: set_mode BACKWARD during the goal ended it"),
             "{why}"
@@ -960,11 +971,7 @@ mod tests {
     #[test]
     fn move_goals_are_refused_while_the_plant_applies_none_of_our_commands() {
         let mut c = core(Mode::Off, 0.0);
-        let goal = MoveRequest {
-            distance_m: 0.01,
-            tolerance_m: 0.0,
-            timeout_s: 0.0,
-        };
+        let goal = move_1cm();
         let run = u64::from(CommandFeedback::INACTIVE_RUN);
         // configured, not active: every sample applied zero force while we drive
         let sample = |c: &mut ControllerCore, k: u64, applied: f64| {
@@ -986,11 +993,7 @@ mod tests {
         for k in run + 2..2 * run + 3 {
             sample(&mut c, k, 0.0);
         }
-        let why = c
-            .take_ended_move()
-            .and_then(|r| r.outcome().cloned())
-            .map(|o| o.message(0.01))
-            .unwrap_or_default();
+        let why = ended_why(&mut c);
         assert!(why.starts_with("aborted: the plant is not active"), "{why}");
         assert_eq!((c.mode(), c.law().kp), (Mode::Off, 0.0));
     }
@@ -999,11 +1002,7 @@ mod tests {
     fn move_goals_are_refused_while_the_plant_s_lifecycle_is_not_active() {
         // lock-step: an inactive plant re-sends one sample, so its samples say nothing new
         let mut c = core(Mode::Off, 0.0);
-        let goal = MoveRequest {
-            distance_m: 0.01,
-            tolerance_m: 0.0,
-            timeout_s: 0.0,
-        };
+        let goal = move_1cm();
         let s = state(0, 0.0, 0.0, 0.0);
         for _ in 0..3 * CommandFeedback::INACTIVE_RUN {
             c.on_state(&s, 0.0);
@@ -1011,11 +1010,7 @@ mod tests {
         assert!(c.start_move(goal).is_ok(), "nothing says it is inactive");
         c.plant_lifecycle(2);
         assert!(c.plant_inactive());
-        let why = c
-            .take_ended_move()
-            .and_then(|r| r.outcome().cloned())
-            .map(|o| o.message(0.01))
-            .unwrap_or_default();
+        let why = ended_why(&mut c);
         assert!(
             why.starts_with("aborted: the plant is not active (its lifecycle"),
             "{why}"

@@ -19,7 +19,6 @@ use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions};
 use ros2_client::dds::Subscription;
 use ros2_client::qos::History;
 use ros2_client::MessageInfo;
-use tracing::warn;
 
 /// One sample of an action's topics.
 #[derive(Debug, Clone)]
@@ -83,20 +82,7 @@ fn take_all<M: serde::de::DeserializeOwned + 'static, S>(
     wrap: fn(M) -> S,
     f: &mut impl FnMut(S, &MessageInfo) -> Result<()>,
 ) -> Result<usize> {
-    let mut n = 0;
-    loop {
-        match sub.take() {
-            Ok(Some((msg, info))) => {
-                f(wrap(msg), &info)?;
-                n += 1;
-            }
-            Ok(None) => return Ok(n),
-            Err(e) => {
-                warn!("bad action sample: {e:?}");
-                return Ok(n);
-            }
-        }
-    }
+    crate::take_each::take_each(sub, "action", |msg, info| f(wrap(msg), info).map(|()| true))
 }
 
 impl ActionReaders {

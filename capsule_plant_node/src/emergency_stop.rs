@@ -7,33 +7,27 @@
 //! and a device is sent a zero-force frame the moment the stop engages (whatever its loop is
 //! doing: waiting for a hello, for a silent device, for a lock-step answer).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use capsule_msgs::names::topics;
-use capsule_msgs::std_types::{Bool, SetBoolRequest, SetBoolResponse};
+use capsule_msgs::std_types::Bool;
 use capsule_ros_base::error::{Context as _, Result};
 use capsule_ros_base::graph::Graph;
-use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions, types};
-use futures::StreamExt;
+use capsule_ros_base::{qos, ros_options::RosOptions, types};
 use ros2_client::dds::Node;
 use tracing::{info, warn};
 
+use crate::flag_service::{serve_flag, FlagAnswers};
 use capsule_hardware::Stopper;
 
-/// The answer to a request to set the stop to `engage` when it was `was`.
-pub fn answer(engage: bool, was: bool) -> SetBoolResponse {
-    let message = match (engage, was) {
-        (true, false) => "emergency stop engaged: zero force until released",
-        (true, true) => "emergency stop already engaged",
-        (false, true) => "emergency stop released: commands apply again",
-        (false, false) => "emergency stop was not engaged",
-    };
-    SetBoolResponse {
-        success: true,
-        message: message.to_string(),
-    }
-}
+/// What the stop answers, by what was asked and what it was.
+pub const ANSWERS: FlagAnswers = FlagAnswers {
+    set: "emergency stop engaged: zero force until released",
+    already_set: "emergency stop already engaged",
+    cleared: "emergency stop released: commands apply again",
+    already_clear: "emergency stop was not engaged",
+};
 
 /// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads, and
 /// `stopper` (a device's) sends a zero-force frame at once, from a thread of the blocking pool,
@@ -45,12 +39,6 @@ pub fn serve(
     engaged: Arc<AtomicBool>,
     stopper: Option<Stopper>,
 ) -> Result<()> {
-    let server = settings.server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
-        node,
-        graph,
-        topics::EMERGENCY_STOP_SERVICE,
-        &types::set_bool(),
-    )?;
     let topic = settings.topic(node, topics::EMERGENCY_STOP, types::bool(), &qos::latched())?;
     let state = node
         .create_publisher::<Bool>(&topic, None)
@@ -59,45 +47,29 @@ pub fn serve(
     if let Err(e) = state.publish(Bool { data: false }) {
         warn!("emergency stop state not sent: {e:?}");
     }
-    tokio::spawn(async move {
-        let mut requests = server.requests();
-        while let Some(rq) = requests.next().await {
-            let (id, Wire(req)) = match rq {
-                Ok(r) => r,
-                Err(e) => {
-                    warn!("undecodable emergency_stop request: {e:?}");
-                    continue;
-                }
-            };
-            let was = engaged.swap(req.data, Ordering::SeqCst);
-            if let Some(zero) = stopper.clone().filter(|_| req.data) {
+    let state = Arc::new(state);
+    serve_flag(
+        node,
+        graph,
+        settings,
+        topics::EMERGENCY_STOP_SERVICE,
+        ANSWERS,
+        engaged,
+        move |engage, resp| {
+            if let Some(zero) = stopper.clone().filter(|_| engage) {
                 tokio::task::spawn_blocking(move || zero());
             }
-            let resp = answer(req.data, was);
-            if req.data {
+            if engage {
                 warn!("{}", resp.message);
             } else {
                 info!("{}", resp.message);
             }
-            if let Err(e) = state.async_publish(Bool { data: req.data }).await {
-                warn!("emergency stop state not sent: {e:?}");
+            let state = state.clone();
+            async move {
+                if let Err(e) = state.async_publish(Bool { data: engage }).await {
+                    warn!("emergency stop state not sent: {e:?}");
+                }
             }
-            server.answer(id, Wire(resp));
-        }
-    });
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn answers_say_what_changed() {
-        assert!(answer(true, false).message.contains("engaged: zero force"));
-        assert!(answer(true, true).message.contains("already engaged"));
-        assert!(answer(false, true).message.contains("released"));
-        assert!(answer(false, false).message.contains("was not engaged"));
-        assert!(answer(false, false).success);
-    }
+        },
+    )
 }

@@ -41,6 +41,7 @@ use capsule_ros_base::graph::Graph;
 use capsule_ros_base::{endpoints::subscribe, qos, ros_options::RosOptions, types};
 
 use crate::action_readers::{ActionEvent, ActionReaders, ActionSample};
+use crate::take_each::take_each;
 
 /// Relative name of the `set_mode` service-event topic (ROS 2 service introspection).
 pub fn service_event_topic(controller_node: &str) -> String {
@@ -495,20 +496,9 @@ pub fn drain_into<M: Serialize + serde::de::DeserializeOwned + 'static>(
     rec: &mut GraphRecording,
     channel: Channel,
 ) -> Result<usize> {
-    let mut n = 0;
-    loop {
-        match sub.take() {
-            Ok(Some((msg, mi))) => {
-                rec.write_received(channel, &msg, &mi)?;
-                n += 1;
-            }
-            Ok(None) => return Ok(n),
-            Err(e) => {
-                warn!("bad {channel:?} sample: {e:?}");
-                return Ok(n);
-            }
-        }
-    }
+    take_each(sub, format_args!("{channel:?}"), |msg, mi| {
+        rec.write_received(channel, &msg, mi).map(|()| true)
+    })
 }
 
 /// What tells a re-send from a new sample: the writer, the seq and the stamp, and for a
@@ -526,25 +516,14 @@ fn drain_once<M: Serialize + serde::de::DeserializeOwned + 'static>(
     last: &std::cell::Cell<Option<SampleKey>>,
     key: impl Fn(&M, &ros2_client::MessageInfo) -> SampleKey,
 ) -> Result<usize> {
-    let mut n = 0;
-    loop {
-        match sub.take() {
-            Ok(Some((msg, mi))) => {
-                let k = Some(key(&msg, &mi));
-                if last.get() == k {
-                    continue;
-                }
-                last.set(k);
-                rec.write_received(channel, &msg, &mi)?;
-                n += 1;
-            }
-            Ok(None) => return Ok(n),
-            Err(e) => {
-                warn!("bad {channel:?} sample: {e:?}");
-                return Ok(n);
-            }
+    take_each(sub, format_args!("{channel:?}"), |msg, mi| {
+        let k = Some(key(&msg, mi));
+        if last.get() == k {
+            return Ok(false);
         }
-    }
+        last.set(k);
+        rec.write_received(channel, &msg, mi).map(|()| true)
+    })
 }
 
 /// The recorder's readers, one per topic of the graph.

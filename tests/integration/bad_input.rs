@@ -886,33 +886,28 @@ fn the_launch_scripts_check_their_arguments_and_print_usage() {
         ("demo.sh", &["no/such.toml"], "cannot read scene file"),
         ("demo.sh", &["a", "b", "c"], "at most two arguments"),
         ("demo.sh", &["--rmw", "udp"], "--rmw 'udp': dds or zenoh"),
-        (
-            "capsule_launch.sh",
-            &["--scene", "scenes/control_point.toml", "--rmw", "udp"],
-            "--rmw 'udp': dds or zenoh",
-        ),
-        (
-            "capsule_launch.sh",
-            &["--scene", "scenes/control_point.toml", "--rmw", "zenoh"],
-            "recording is not on Zenoh yet; give --no-record",
-        ),
         ("capsule_launch.sh", &["--scene"], "--scene needs a value"),
         ("capsule_launch.sh", &[], "--scene is required"),
-        (
-            "capsule_launch.sh",
-            &["--scene", "scenes/control_point.toml", "--pacing", "fast"],
-            "realtime or lockstep",
-        ),
-        (
-            "capsule_launch.sh",
-            &["--scene", "scenes/control_point.toml", "--until-s", "-5"],
-            "--until-s '-5'",
-        ),
     ];
-    for (script, args, words) in cases {
+    // the launcher with a scene and one bad flag
+    let launch_flags: &[([&str; 2], &str)] = &[
+        (["--rmw", "udp"], "--rmw 'udp': dds or zenoh"),
+        (
+            ["--rmw", "zenoh"],
+            "recording is not on Zenoh yet; give --no-record",
+        ),
+        (["--pacing", "fast"], "realtime or lockstep"),
+        (["--until-s", "-5"], "--until-s '-5'"),
+    ];
+    let with_scene = launch_flags.iter().map(|(flag, words)| {
+        let args = ["--scene", "scenes/control_point.toml"].iter().chain(flag);
+        ("capsule_launch.sh", args.copied().collect(), *words)
+    });
+    let cases = cases.iter().map(|(s, a, w)| (*s, a.to_vec(), *w));
+    for (script, args, words) in cases.chain(with_scene) {
         let o = Command::new("bash")
             .arg(root().join("launch_scripts").join(script))
-            .args(*args)
+            .args(&args)
             .current_dir(root())
             .stdin(Stdio::null())
             .output()

@@ -9,9 +9,9 @@
 //! (`twin::emulated_run`, what the plant records in front of `capsule emulate-device`; the
 //! path through the ROS graph is tests/integration/ros/identify.rs).
 
-use crate::common::{assert_refused, capsule, files_in, json_of, TempDir};
+use crate::common::{assert_refused, capsule, files_in, json_of, line, TempDir};
 use crate::root;
-use capsule_analysis::identify::{identify, Settings};
+use capsule_analysis::identify::{identify, Estimate, Settings};
 use capsule_analysis::twin::{emulated_run, Recorded};
 use capsule_analysis::twin_validation::validate;
 use capsule_msgs::names::{default_topics, type_names};
@@ -50,6 +50,20 @@ fn keys() -> Vec<String> {
     KEYS.iter().map(|k| k.to_string()).collect()
 }
 
+/// A fitted parameter beside its value in `truth`: the truth, the fit and its standard error
+/// (NaN where missing), and a line that says them with the error in % and in standard errors.
+pub fn beside_truth(e: &Estimate, truth: &Scene) -> (f64, f64, f64, String) {
+    let t = truth.number(&e.key).unwrap_or(f64::NAN);
+    let (v, sd) = (e.value.unwrap_or(f64::NAN), e.std_error.unwrap_or(f64::NAN));
+    let line = format!(
+        "{} true {t:.5} fitted {v:.5} +- {sd:.5} ({:+.2} %, {:.2} s.e.)",
+        e.key,
+        100.0 * (v / t - 1.0),
+        (v - t) / sd
+    );
+    (t, v, sd, line)
+}
+
 /// Identifies the four keys of `truth` from 30 s FORWARD, checks them against the truth, and
 /// the twin against 30 s BACKWARD (another noise seed); returns a line for the message.
 fn check_capsule(factors: [f64; 4]) -> String {
@@ -60,17 +74,9 @@ fn check_capsule(factors: [f64; 4]) -> String {
         .unwrap_or_else(|e| panic!("{factors:?}: {e}"));
     let mut lines = vec![format!("capsule {factors:?}")];
     for e in &fit.report.parameters {
-        let t = truth.number(&e.key).unwrap_or(f64::NAN);
-        let v = e
-            .value
-            .unwrap_or_else(|| panic!("{}: {:?}", e.key, e.statement));
-        let sd = e.std_error.unwrap_or(f64::NAN);
-        lines.push(format!(
-            "{} true {t:.5} fitted {v:.5} +- {sd:.5} ({:+.2} %, {:.2} s.e.)",
-            e.key,
-            100.0 * (v / t - 1.0),
-            (v - t) / sd
-        ));
+        assert!(e.value.is_some(), "{}: {:?}", e.key, e.statement);
+        let (t, v, sd, line) = beside_truth(e, &truth);
+        lines.push(line);
         assert!(
             (v / t - 1.0).abs() < 0.05,
             "{} off by over 5 %:\n{}",
@@ -201,22 +207,19 @@ fn identify_writes_a_scene_that_runs_a_report_and_a_picture() {
     let rec = write_recording(&dir, "run.mcap", &short_run(&truth, 12.0), true, true);
     let out = dir.arg("fitted.toml");
     let plot = dir.arg("check");
-    let o = capsule(&[
-        "identify",
-        "--recording",
-        &rec,
-        "--scene",
-        &scene,
-        "--free",
-        "capsule.gamma",
-        "--segment",
-        "0:8",
-        "--out",
-        &out,
-        "--plot",
-        &plot,
-        "--json",
-    ]);
+    let o = capsule(&line(
+        "identify --free capsule.gamma --segment 0:8 --json",
+        &[
+            "--recording",
+            &rec,
+            "--scene",
+            &scene,
+            "--out",
+            &out,
+            "--plot",
+            &plot,
+        ],
+    ));
     let j = json_of(&o);
     let p = &j["report"]["parameters"][0];
     let v = p["value"].as_f64().unwrap_or(f64::NAN);
@@ -258,15 +261,10 @@ fn identify_writes_a_scene_that_runs_a_report_and_a_picture() {
     assert!(plant.status.success(), "{}", crate::common::stderr(&plant));
     // the emulator serves it: 50 samples on a pseudo-terminal nobody reads, then its summary
     let link = dir.arg("device");
-    let emulator = capsule(&[
-        "emulate-device",
-        "--scene",
-        &out,
-        "--link",
-        &link,
-        "--until-s",
-        "0.05",
-    ]);
+    let emulator = capsule(&line(
+        "emulate-device --until-s 0.05",
+        &["--scene", &out, "--link", &link],
+    ));
     let said = crate::common::stderr(&emulator);
     assert!(
         emulator.status.success() && said.contains("50 samples"),

@@ -413,12 +413,12 @@ impl Simulator {
                 LawShape::PiecewiseAffine(drive) => self.advance_exact(&drive, tau_end, on_event),
                 LawShape::General => Err(SimError::ExactNeedsAffineLaw),
             },
-            Method::Adaptive => crate::friction::with_friction!(self.model.friction, f => {
-                self.advance_adaptive(law, f, tau_end, on_event)
-            }),
-            Method::Fixed => crate::friction::with_friction!(self.model.friction, f => {
-                self.advance_fixed(law, f, tau_end, on_event)
-            }),
+            Method::Adaptive | Method::Fixed => {
+                let located = self.config.method == Method::Adaptive;
+                crate::friction::with_friction!(self.model.friction, f => {
+                    self.advance_rk(law, f, located, tau_end, on_event)
+                })
+            }
         };
         self.last_force = law.force(self.tau, &self.state());
         result

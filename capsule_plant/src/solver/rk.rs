@@ -116,6 +116,31 @@ struct Rhs<'a, L, F> {
     x2_base: f64,
 }
 
+/// One Runge-Kutta leg to `tau_end`: what its right-hand side is made of, whether the feedback's
+/// kink is an event, and the event functions' buffer.
+struct Leg<'a, L, F> {
+    law: &'a L,
+    friction: F,
+    shape: LawShape,
+    located: bool,
+    kink: bool,
+    events: Vec<EventFn>,
+    tau_end: f64,
+}
+
+impl<'a, L, F: Copy> Leg<'a, L, F> {
+    /// The right-hand side for a step from a capsule at `x2_base`.
+    fn rhs(&self, x2_base: f64) -> Rhs<'a, L, F> {
+        Rhs {
+            law: self.law,
+            friction: self.friction,
+            shape: self.shape,
+            located: self.located,
+            x2_base,
+        }
+    }
+}
+
 /// Continuous extension at `theta` in `[0, 1]` and its derivative with respect to `theta`.
 #[inline]
 fn dense(c: &[V; 5], i: usize, th: f64) -> (f64, f64) {
@@ -262,16 +287,38 @@ impl Simulator {
         [z, y1, y2, p, 0.0, 0.0]
     }
 
-    pub(super) fn advance_adaptive<L: ActuatorLaw, F: FrictionLaw>(
+    /// Runge-Kutta to `tau_end`: adaptive Dormand-Prince with located events (`located`), or
+    /// fixed-step RK4 with the events noticed at step ends.
+    pub(super) fn advance_rk<L: ActuatorLaw, F: FrictionLaw>(
         &mut self,
         law: &L,
         friction: F,
+        located: bool,
         tau_end: f64,
         on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
     ) -> Result<Stop, SimError> {
-        let shape = law.shape();
-        let kink = Self::kink_gain(law) != 0.0;
-        let mut events: Vec<EventFn> = Vec::with_capacity(5);
+        let mut leg = Leg {
+            law,
+            friction,
+            shape: law.shape(),
+            located,
+            kink: Self::kink_gain(law) != 0.0,
+            events: Vec::with_capacity(5),
+            tau_end,
+        };
+        if located {
+            self.advance_adaptive(&mut leg, on_event)
+        } else {
+            self.advance_fixed(&mut leg, on_event)
+        }
+    }
+
+    fn advance_adaptive<L: ActuatorLaw, F: FrictionLaw>(
+        &mut self,
+        leg: &mut Leg<'_, L, F>,
+        on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
+    ) -> Result<Stop, SimError> {
+        let tau_end = leg.tau_end;
         let h_cap = self.history.as_ref().map_or(f64::INFINITY, |h| h.delay());
         // first-same-as-last: the last stage of a step is the first of the next, unless a
         // switch changed the right-hand side in between
@@ -287,13 +334,7 @@ impl Simulator {
                     steps: tried,
                 });
             }
-            let ctx = Rhs {
-                law,
-                friction,
-                shape,
-                located: true,
-                x2_base: self.x2.value(),
-            };
+            let ctx = leg.rhs(self.x2.value());
             let y0 = self.start_vector();
             let k1 = match fsal.take() {
                 Some(k) => k,
@@ -316,8 +357,8 @@ impl Simulator {
             // one accepted step
             let (mut h, mut step) = self.accepted_step(&ctx, &y0, &k1, h_cap, stop)?;
             // first event in the step, on the dense output
-            self.event_functions(kink, &mut events);
-            let hit = first_event(&events, &step);
+            self.event_functions(leg.kink, &mut leg.events);
+            let hit = first_event(&leg.events, &step);
             if let Some((th, ev)) = hit {
                 if th == 0.0 {
                     let e = self.cross(ev.kind)?;
@@ -425,35 +466,29 @@ impl Simulator {
             hist.push(t0, h, Piece::Dopri(c));
         }
         let [z, y1, y2, p, dx2, dw] = s.y;
-        let y2 = if self.regime.phase == Phase::Stick && self.model.friction.presliding().is_none()
-        {
-            0.0
-        } else {
-            y2
-        };
+        let y2 = self.rigid_stick(y2);
         self.work.steps += 1;
         self.commit(h, [z, y1, y2, p], dx2, dw)
     }
 
-    pub(super) fn advance_fixed<L: ActuatorLaw, F: FrictionLaw>(
+    /// The capsule's velocity `y2` at a step's end: exactly 0 while it sticks without
+    /// presliding (rigid stick).
+    fn rigid_stick(&self, y2: f64) -> f64 {
+        if self.regime.phase == Phase::Stick && self.model.friction.presliding().is_none() {
+            0.0
+        } else {
+            y2
+        }
+    }
+
+    fn advance_fixed<L: ActuatorLaw, F: FrictionLaw>(
         &mut self,
-        law: &L,
-        friction: F,
-        tau_end: f64,
+        leg: &mut Leg<'_, L, F>,
         on_event: &mut impl FnMut(&Transition) -> ControlFlow<()>,
     ) -> Result<Stop, SimError> {
-        let shape = law.shape();
-        let kink = Self::kink_gain(law) != 0.0;
-        let mut events: Vec<EventFn> = Vec::with_capacity(5);
-        while self.tau < tau_end {
-            let h = self.config.step.min(tau_end - self.tau);
-            let ctx = Rhs {
-                law,
-                friction,
-                shape,
-                located: false,
-                x2_base: self.x2.value(),
-            };
+        while self.tau < leg.tau_end {
+            let h = self.config.step.min(leg.tau_end - self.tau);
+            let ctx = leg.rhs(self.x2.value());
             let t = self.tau;
             let y = self.start_vector();
             let k1 = self.rk_rhs(&ctx, t, &y);
@@ -473,17 +508,16 @@ impl Simulator {
             );
             let y2_start = y[2];
             let [z, y1, y2, p, dx2, dw] = yn;
-            let stuck_rigid =
-                self.regime.phase == Phase::Stick && self.model.friction.presliding().is_none();
-            let y2 = if stuck_rigid { 0.0 } else { y2 };
+            let y2 = self.rigid_stick(y2);
             if let Some(hist) = self.history.as_mut() {
                 hist.push(t, h, Piece::Line(y2_start, y2));
             }
             self.work.steps += 1;
             self.commit(h, [z, y1, y2, p], dx2, dw)?;
             // switches noticed at the step end only, not located
-            self.event_functions(kink, &mut events);
-            let pending: Vec<EventKind> = events
+            self.event_functions(leg.kink, &mut leg.events);
+            let pending: Vec<EventKind> = leg
+                .events
                 .iter()
                 .filter(|ev| ev.eval(&self.core) > 0.0)
                 .map(|ev| ev.kind)

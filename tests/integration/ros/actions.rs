@@ -187,6 +187,18 @@ fn a_lockstep_goal_gives_the_same_result_bit_for_bit() {
     recorded_goal(&run);
 }
 
+/// The topics rosbags read in the recording, checked to hold each `(topic, type)` of `types`.
+fn recorded_types<'a>(
+    readers: &'a serde_json::Value,
+    types: &[(&str, &str)],
+) -> &'a serde_json::Value {
+    let rosbags = &readers["rosbags"]["topics"];
+    for (topic, type_name) in types {
+        assert_eq!(rosbags[topic]["type"], *type_name, "{topic}: {readers}");
+    }
+    rosbags
+}
+
 /// The first lock-step run's recording: the goal's feedback and statuses, as rosbag2 records an
 /// action's topics, read by rosbags, mcap-ros2-support and Foxglove's readers alike; and the
 /// goal and its result.
@@ -198,12 +210,13 @@ fn recorded_goal(run: &super::harness::Run) {
     let (readers, fox) = (parse("READERS "), parse("FOXGLOVE "));
     let feedback = "/capsule_controller/move/_action/feedback";
     let status = "/capsule_controller/move/_action/status";
-    let rosbags = &readers["rosbags"]["topics"];
-    assert_eq!(
-        rosbags[feedback]["type"], "capsule_msgs/action/Move_FeedbackMessage",
-        "{readers}"
+    let rosbags = recorded_types(
+        &readers,
+        &[
+            (feedback, "capsule_msgs/action/Move_FeedbackMessage"),
+            (status, "action_msgs/msg/GoalStatusArray"),
+        ],
     );
-    assert_eq!(rosbags[status]["type"], "action_msgs/msg/GoalStatusArray");
     // feedback at 20 Hz over the goal's seconds, all of the one goal
     let rows = rosbags[feedback]["rows"]
         .as_array()
@@ -259,14 +272,12 @@ fn recorded_goal_and_result(
 ) {
     let send_goal = "/capsule_controller/move/_action/send_goal/_service_event";
     let get_result = "/capsule_controller/move/_action/get_result/_service_event";
-    let rosbags = &readers["rosbags"]["topics"];
-    assert_eq!(
-        rosbags[send_goal]["type"], "capsule_msgs/action/Move_SendGoal_Event",
-        "{readers}"
-    );
-    assert_eq!(
-        rosbags[get_result]["type"],
-        "capsule_msgs/action/Move_GetResult_Event"
+    let rosbags = recorded_types(
+        readers,
+        &[
+            (send_goal, "capsule_msgs/action/Move_SendGoal_Event"),
+            (get_result, "capsule_msgs/action/Move_GetResult_Event"),
+        ],
     );
     let rows = |topic: &str| {
         rosbags[topic]["rows"]

@@ -12,6 +12,7 @@
 
 use super::harness::netns;
 use crate::common::TempDir;
+use crate::identify::beside_truth;
 use capsule_analysis::identify::{identify, Settings};
 use capsule_analysis::twin::Recorded;
 use capsule_record::series::{series, ForceSource};
@@ -105,22 +106,16 @@ fn a_recording_of_the_plant_in_front_of_the_emulated_device_identifies_its_capsu
         "{samples} device samples ({} repeated dropped)\n{}",
         s.repeated, graph.stderr
     )];
-    for e in &fit.report.parameters {
-        let t = truth.number(&e.key).unwrap_or(f64::NAN);
-        let v = e.value.unwrap_or(f64::NAN);
-        let sd = e.std_error.unwrap_or(f64::NAN);
-        lines.push(format!(
-            "{} true {t:.5} fitted {v:.5} +- {sd:.5} ({:+.2} %, {:.2} s.e.)",
-            e.key,
-            100.0 * (v / t - 1.0),
-            (v - t) / sd
-        ));
-    }
+    lines.extend(
+        fit.report
+            .parameters
+            .iter()
+            .map(|e| beside_truth(e, &truth).3),
+    );
     let said = lines.join("\n");
     println!("{said}");
     for e in &fit.report.parameters {
-        let t = truth.number(&e.key).unwrap_or(f64::NAN);
-        let (v, sd) = (e.value.unwrap_or(f64::NAN), e.std_error.unwrap_or(f64::NAN));
+        let (t, v, sd, _) = beside_truth(e, &truth);
         // covered by the reported uncertainty (three standard errors), and within 5 % where
         // SECONDS of data hold that much (delta's standard error at 10 s is about 5 %)
         assert!((v - t).abs() <= 3.0 * sd, "{} not covered:\n{said}", e.key);
