@@ -16,10 +16,10 @@
 //! The node's hook is [`CoreAccess`] (its core and its ROS time) and [`ControllerActions::run`],
 //! a task of its own that polls the action servers every 10 ms.
 //!
-//! On Zenoh ([`ControllerActions::on_zenoh`]) the same goal handling serves the actions through
-//! ros2-client's Zenoh backend ([`capsule_ros_base::action_zenoh`]); the plant's emergency stop
-//! and lifecycle are not followed there (neither is on Zenoh yet): a goal is refused only by the
-//! core's own checks (fresh states, commands applied).
+//! On Zenoh (`ControllerActions::on_zenoh`, feature `zenoh`) the same goal handling serves the
+//! actions through ros2-client's Zenoh backend (`capsule_ros_base::action_zenoh`); the plant's
+//! emergency stop and lifecycle are not followed there (neither is on Zenoh yet): a goal is
+//! refused only by the core's own checks (fresh states, commands applied).
 
 use std::time::Duration;
 

@@ -22,7 +22,7 @@
 //! contents.
 //!
 //! The bookkeeping does not depend on the transport: [`Action`] drives its endpoints through
-//! [`Endpoints`], which ros2-client's DDS `ActionServer` implements here and its Zenoh one in
+//! `Endpoints`, which ros2-client's DDS `ActionServer` implements here and its Zenoh one in
 //! `action_zenoh` (feature `zenoh`; there without the answers' wait for a reply reader, which
 //! Zenoh's queries do not need, and without service introspection).
 

@@ -1,7 +1,7 @@
 //! An action server on Zenoh ([`Action::on_zenoh`]): ros2-client's Zenoh `ActionServer` (the
 //! `send_goal`, `get_result` and `cancel_goal` services and the `feedback` and `status` topics
 //! under `<action>/_action/`, as rmw_zenoh_cpp names them, announced with our types' hashes)
-//! behind [`Endpoints`], so the goals are kept by the same [`Action`] as on DDS.
+//! behind `Endpoints`, so the goals are kept by the same [`Action`] as on DDS.
 //!
 //! What ros2-client's Zenoh server does not carry, and so neither do we on Zenoh: the stamp of
 //! an accepted goal in its `send_goal` answer (zero; the status topic has it) and the stamp of a

@@ -9,7 +9,7 @@
 //! likes (the controller's loop: one cheap channel branch), and its own changes (a mode switch
 //! by service) come back through [`ParamHandle::put`] to be published as events.
 //!
-//! On Zenoh ([`serve_on_zenoh`], feature `zenoh`) the same table, rules and answers, through
+//! On Zenoh (`serve_on_zenoh`, feature `zenoh`) the same table, rules and answers, through
 //! ros2-client's Zenoh servers (the services and `/parameter_events` as rmw_zenoh_cpp names
 //! them), not ros2-client's own Zenoh parameter server (a store without our ranges and rules).
 
@@ -96,7 +96,7 @@ pub fn serve(
     let node_name = node.fully_qualified_name();
     Ok(start(
         servers,
-        Events::Dds(events),
+        Events::Dds(Box::new(events)),
         node_name,
         table,
         rules,
@@ -164,7 +164,7 @@ fn start(
 
 /// The `/parameter_events` publisher, on DDS or on Zenoh.
 enum Events {
-    Dds(Publisher<raw::ParameterEvent>),
+    Dds(Box<Publisher<raw::ParameterEvent>>),
     #[cfg(feature = "zenoh")]
     Zenoh(ros2_client::zenoh::Publisher<raw::ParameterEvent>),
 }

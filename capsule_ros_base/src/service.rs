@@ -17,7 +17,7 @@
 //! old client's reader matched, and 1 in 20 answers went to it (measured with
 //! `cyclone_peer.py first-answers`).
 //!
-//! On Zenoh ([`Service::on_zenoh`], feature `zenoh`) a request is a query and its answer the
+//! On Zenoh (`Service::on_zenoh`, feature `zenoh`) a request is a query and its answer the
 //! query's reply: nothing to wait for, the answer goes at once.
 
 use std::{pin::Pin, sync::Arc, time::Duration};
