@@ -22,6 +22,9 @@
 # BENCH_CASES="lock lock-cpu1" runs only the cases named (default: all, in the order above).
 # BENCH_RT="chrt -f 50" runs every node with that prefix (real-time scheduling: a host busy with
 # other work then delays the loop by microseconds, not milliseconds; docs/perf/composition.md).
+# BENCH_RMW=zenoh runs the separate-process cases over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp, a
+# capsule_zenohd router on 127.0.0.1:7447 in each case's namespace; binaries built with
+# --features zenoh; docs/perf/zenoh.md); the composed cases are refused there (no container on Zenoh).
 # BENCH_SECURE=KEYSTORE runs every case secured (SROS2, Enforce; plant and controller with their
 # enclaves of launch_scripts/capsule_keystore.sh create KEYSTORE): docs/perf/security.md.
 set -u
@@ -40,6 +43,12 @@ if [ -n "${BENCH_SECURE:-}" ]; then
   export ROS_SECURITY_KEYSTORE="$BENCH_SECURE" ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce
 fi
 rm -f /tmp/bench_rec.mcap
+Z=
+if [ "${BENCH_RMW:-}" = zenoh ]; then
+  export RMW_IMPLEMENTATION=rmw_zenoh_cpp
+  $B/capsule_zenohd 2>/dev/null & Z=$!
+  for i in $(seq 50); do (echo > /dev/tcp/127.0.0.1/7447) 2>/dev/null && break; sleep 0.1; done
+fi
 ${BENCH_RT:-} $B/capsule_controller --scene "$SCENE" --mode forward $NODE_ARGS --enclave /capsule/controller 2>/dev/null &
 C=$!
 sleep 0.5
@@ -52,6 +61,7 @@ sleep $(awk "BEGIN{print $SECS - 2.5}")
 p1=$(cpu $P); c1=$(cpu $C); t1=$(date +%s.%N); s1=$(steal)
 wait $P
 kill -TERM $C; wait $C
+[ -z "$Z" ] || { kill -TERM $Z; wait $Z; }
 hz=$(getconf CLK_TCK)
 echo "SUMMARY $(cat /tmp/bench_$$.json)"
 # datagrams the kernel dropped in this namespace (full receive buffers, errors)
@@ -120,6 +130,7 @@ run_case() { # name seconds plant-args [node-args]
 run_composed() { # name seconds container-args [pin]
   local out client=
   case " ${BENCH_CASES:-$1} " in *" $1 "*) ;; *) return 0 ;; esac
+  [ "${BENCH_RMW:-}" = zenoh ] && { echo "$1: not on Zenoh (the container is DDS only)"; return 0; }
   case "$1" in *-fox*) client="$root/tests/peers/foxglove_ws_client.py" ;; esac
   out=$(SECS="$2" PLANT_ARGS="$3" PIN="${4:-}" FOX_CLIENT="$client" "$root/tests/peers/netns_run.sh" $(( ${2%.*} + 60 )) bash -c "$composed_script")
   report "$1" "$out"
@@ -133,11 +144,16 @@ for c in ${BENCH_CASES:-}; do
     *) echo "bench_ros: BENCH_CASES: unknown case '$c' (rt1k rt10k lock lock-rec, each also -cpu1 and c-)" >&2; exit 2 ;;
   esac
 done
+case "${BENCH_RMW:-dds}" in dds|zenoh) ;; *) echo "bench_ros: BENCH_RMW: '$BENCH_RMW' is neither dds nor zenoh" >&2; exit 2 ;; esac
+if [ "${BENCH_RMW:-}" = zenoh ]; then
+  [ -x "$CAPSULE_BIN/capsule_zenohd" ] || { echo "bench_ros: BENCH_RMW=zenoh: $CAPSULE_BIN/capsule_zenohd missing (cargo build -p capsule_nodes --features zenoh)" >&2; exit 2; }
+  [ -z "${BENCH_SECURE:-}" ] || { echo "bench_ros: BENCH_SECURE with BENCH_RMW=zenoh: SROS2 secures DDS only" >&2; exit 2; }
+fi
 if [ -n "${BENCH_SECURE:-}" ]; then
   [ -d "$BENCH_SECURE/enclaves" ] || { echo "bench_ros: BENCH_SECURE '$BENCH_SECURE': not a keystore (launch_scripts/capsule_keystore.sh create DIR)" >&2; exit 2; }
   BENCH_SECURE="$(cd "$BENCH_SECURE" && pwd)"; export BENCH_SECURE
 fi
-echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)${BENCH_RT:+, nodes run with $BENCH_RT}, load average $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "bench_ros: scene $scene, binaries $CAPSULE_BIN, ${BENCH_RMW:-dds}, $(nproc) cores, $([ -n "${BENCH_SECURE:-}" ] && echo "SECURED with $BENCH_SECURE" || echo unsecured)${BENCH_RT:+, nodes run with $BENCH_RT}, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 run_case rt1k ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}"
 run_case rt1k-cpu1 ${RT1K_S:-60} "--pacing realtime --until-s ${RT1K_S:-60}" "--cpu-affinity $cpu"
 run_case rt10k ${RT10K_S:-5} "--pacing realtime --rate-hz 10000 --until-s ${RT10K_S:-5}"

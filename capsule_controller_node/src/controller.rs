@@ -58,8 +58,7 @@ pub struct ControllerOptions {
 pub async fn run(settings: RosOptions, opts: ControllerOptions) -> Result<()> {
     #[cfg(feature = "zenoh")]
     if settings.middleware.is_zenoh() {
-        let (core, period, diagnostics) = (opts.core, opts.status_period, opts.diagnostics);
-        return crate::controller_zenoh::run(settings, core, period, diagnostics).await;
+        return crate::controller_zenoh::run(settings, opts).await;
     }
     let end = capsule_ros_base::signals::shutdown();
     let node = ControllerNode {

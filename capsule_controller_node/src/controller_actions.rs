@@ -1,4 +1,4 @@
-//! The controller's actions on DDS, beside its loop: `~/move` (`capsule_msgs/action/Move`: travel a
+//! The controller's actions, beside its loop: `~/move` (`capsule_msgs/action/Move`: travel a
 //! distance and stop, [`capsule_controller::move_goal`]) and `~/switch_attractor`
 //! (`capsule_msgs/action/SwitchAttractor`: `set_mode`'s SWITCH_ATTRACTOR with feedback and a
 //! result). Served as rcl_action serves actions ([`capsule_ros_base::action`]).
@@ -15,6 +15,11 @@
 //!
 //! The node's hook is [`CoreAccess`] (its core and its ROS time) and [`ControllerActions::run`],
 //! a task of its own that polls the action servers every 10 ms.
+//!
+//! On Zenoh (`ControllerActions::on_zenoh`, feature `zenoh`) the same goal handling serves the
+//! actions through ros2-client's Zenoh backend (`capsule_ros_base::action_zenoh`); the plant's
+//! emergency stop and lifecycle are not followed there (neither is on Zenoh yet): a goal is
+//! refused only by the core's own checks (fresh states, commands applied).
 
 use std::time::Duration;
 
@@ -67,9 +72,11 @@ struct Running {
 pub struct ControllerActions {
     moves: Action<MoveGoal, MoveResult, MoveFeedback>,
     switches: Action<SwitchAttractorGoal, SwitchAttractorResult, SwitchAttractorFeedback>,
-    estop: Subscription<Wire<Bool>>,
+    /// The plant's emergency stop (`None` on Zenoh).
+    estop: Option<Subscription<Wire<Bool>>>,
     estopped: bool,
-    lifecycle: PlantLifecycle,
+    /// The plant's lifecycle (`None` on Zenoh).
+    lifecycle: Option<PlantLifecycle>,
     moving: Option<Running>,
     switching: Option<Running>,
 }
@@ -110,9 +117,28 @@ impl ControllerActions {
                 type_names::SWITCH_ATTRACTOR,
                 events,
             )?,
-            estop: subscribe(node, &estop_topic, &qos::latched())?,
+            estop: Some(subscribe(node, &estop_topic, &qos::latched())?),
             estopped: false,
-            lifecycle: PlantLifecycle::new(settings, node)?,
+            lifecycle: Some(PlantLifecycle::new(settings, node)?),
+            moving: None,
+            switching: None,
+        })
+    }
+
+    /// The actions' endpoints on the Zenoh `node`.
+    #[cfg(feature = "zenoh")]
+    pub fn on_zenoh(settings: &RosOptions, node: &ros2_client::zenoh::Node) -> Result<Self> {
+        Ok(ControllerActions {
+            moves: Action::on_zenoh(settings, node, topics::MOVE, type_names::MOVE)?,
+            switches: Action::on_zenoh(
+                settings,
+                node,
+                topics::SWITCH_ATTRACTOR,
+                type_names::SWITCH_ATTRACTOR,
+            )?,
+            estop: None,
+            estopped: false,
+            lifecycle: None,
             moving: None,
             switching: None,
         })
@@ -126,7 +152,7 @@ impl ControllerActions {
         loop {
             tick.tick().await;
             self.read_estop(&core);
-            if let Some(id) = self.lifecycle.poll() {
+            if let Some(id) = self.lifecycle.as_mut().and_then(|l| l.poll()) {
                 core.with_core(|c| c.plant_lifecycle(id));
             }
             for request in self.moves.poll() {
@@ -146,7 +172,8 @@ impl ControllerActions {
     }
 
     fn read_estop(&mut self, core: &impl CoreAccess) {
-        while let Ok(Some(sample)) = self.estop.take() {
+        let Some(estop) = &self.estop else { return };
+        while let Ok(Some(sample)) = estop.take() {
             let engaged = sample.0 .0.data;
             if engaged && !self.estopped {
                 core.with_core(|c| c.abort_move("the plant's emergency stop was engaged"));

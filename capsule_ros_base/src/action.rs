@@ -20,6 +20,11 @@
 //! and a RESPONSE_SENT event per answer sent, with the client's gid and the request's sequence
 //! number, stamped with the node's ROS time; [`Introspection`] chooses off, metadata or
 //! contents.
+//!
+//! The bookkeeping does not depend on the transport: [`Action`] drives its endpoints through
+//! `Endpoints`, which ros2-client's DDS `ActionServer` implements here and its Zenoh one in
+//! `action_zenoh` (feature `zenoh`; there without the answers' wait for a reply reader, which
+//! Zenoh's queries do not need, and without service introspection).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -35,7 +40,7 @@ use ros2_client::action::{
     GoalStatusEnum,
 };
 use ros2_client::action::{GetResultResponse, SendGoalResponse};
-use ros2_client::action_msgs::{self, CancelGoalResponseEnum};
+use ros2_client::action_msgs::{self, CancelGoalResponseEnum, GoalStatusArray};
 use ros2_client::dds::Node;
 use ros2_client::dds::Publisher;
 use ros2_client::qos::{Durability, History};
@@ -73,7 +78,78 @@ pub enum Request<G> {
     },
 }
 
-type Endpoints<G, R, F> = ActionServer<Wire<G>, Wire<R>, Wire<F>>;
+/// A request taken, if one was waiting, or why it could not be read.
+pub(crate) type Received<T> = std::result::Result<Option<T>, String>;
+
+/// An action server's endpoints as [`Action`] drives them, whatever the transport: each
+/// `receive_*` takes one request (`Ok(None)`: none waiting), each `send_*` says whether it went.
+pub(crate) trait Endpoints<G, R, F>: Send + Sync {
+    /// A goal request: its request id, goal id and goal.
+    fn receive_goal(&self) -> Received<(RmwRequestId, GoalId, G)>;
+    /// A cancel request: its request id, the goal named and the stamp.
+    fn receive_cancel(&self) -> Received<(RmwRequestId, GoalId, Time)>;
+    /// A get_result request: its request id and the goal named.
+    fn receive_result_request(&self) -> Received<(RmwRequestId, GoalId)>;
+    /// Answers a goal request.
+    fn send_goal_response(&self, req: RmwRequestId, response: SendGoalResponse) -> bool;
+    /// Answers a cancel request.
+    fn send_cancel_response(&self, req: RmwRequestId, response: CancelGoalResponse) -> bool;
+    /// Answers a get_result request with a terminal status and the result.
+    fn send_result(&self, req: RmwRequestId, status: i8, result: R) -> bool;
+    /// Publishes feedback of goal `id`.
+    fn send_feedback(&self, id: GoalId, feedback: F) -> bool;
+    /// Publishes the goals' statuses.
+    fn send_statuses(&self, list: GoalStatusArray) -> std::result::Result<(), String>;
+}
+
+impl<G, R, F> Endpoints<G, R, F> for ActionServer<Wire<G>, Wire<R>, Wire<F>>
+where
+    G: Clone + Serialize + DeserializeOwned + Send + Sync + 'static,
+    R: Clone + Serialize + DeserializeOwned + Send + Sync + 'static,
+    F: Serialize + DeserializeOwned + Send + Sync + 'static,
+{
+    fn receive_goal(&self) -> Received<(RmwRequestId, GoalId, G)> {
+        match self.receive_goal() {
+            Ok(got) => Ok(got.map(|(req, goal)| (req, goal.goal_id, goal.goal.0))),
+            Err(e) => Err(format!("{e:?}")),
+        }
+    }
+    fn receive_cancel(&self) -> Received<(RmwRequestId, GoalId, Time)> {
+        match self.receive_cancel_request() {
+            Ok(Some((req, cancel))) => match read_cancel(&cancel) {
+                Some((id, stamp)) => Ok(Some((req, id, stamp))),
+                None => Err("cancel request not readable".into()),
+            },
+            Ok(None) => Ok(None),
+            Err(e) => Err(format!("{e:?}")),
+        }
+    }
+    fn receive_result_request(&self) -> Received<(RmwRequestId, GoalId)> {
+        match self.receive_result_request() {
+            Ok(got) => Ok(got.map(|(req, r)| (req, r.goal_id))),
+            Err(e) => Err(format!("{e:?}")),
+        }
+    }
+    fn send_goal_response(&self, req: RmwRequestId, response: SendGoalResponse) -> bool {
+        ActionServer::send_goal_response(self, req, response).is_ok()
+    }
+    fn send_cancel_response(&self, req: RmwRequestId, response: CancelGoalResponse) -> bool {
+        ActionServer::send_cancel_response(self, req, response).is_ok()
+    }
+    fn send_result(&self, req: RmwRequestId, status: i8, result: R) -> bool {
+        let response = GetResultResponse {
+            status: status_enum(status),
+            result: Wire(result),
+        };
+        ActionServer::send_result(self, req, response).is_ok()
+    }
+    fn send_feedback(&self, id: GoalId, feedback: F) -> bool {
+        ActionServer::send_feedback(self, id, Wire(feedback)).is_ok()
+    }
+    fn send_statuses(&self, list: GoalStatusArray) -> std::result::Result<(), String> {
+        self.send_goal_statuses(list).map_err(|e| format!("{e:?}"))
+    }
+}
 
 /// The status topic's QoS (rcl_action's): reliable, transient local, keep last 1.
 pub fn status_qos() -> ros2_client::QosProfile {
@@ -250,9 +326,11 @@ where
     R: Serialize + DeserializeOwned + Clone,
     F: Serialize + DeserializeOwned,
 {
-    server: Arc<Endpoints<G, R, F>>,
+    server: Arc<dyn Endpoints<G, R, F>>,
     goals: GoalTable<GoalId, R, RmwRequestId>,
-    graph: Graph,
+    /// On DDS, the graph an answer waits in for the client's reply reader (`None`: Zenoh, whose
+    /// replies go to the query itself).
+    graph: Option<Graph>,
     /// The action's resolved name (`/capsule_controller/move`).
     name: Arc<str>,
     start: Instant,
@@ -313,14 +391,27 @@ where
                 policies,
             )
             .with_context(|| format!("action {name}"))?;
-        Ok(Action {
-            server: Arc::new(server),
+        Ok(Action::with_endpoints(
+            Arc::new(server),
+            Some(graph.clone()),
+            settings.resolve_name(name).into(),
+        ))
+    }
+
+    /// The action served on `server`, its answers waiting in `graph` if any.
+    pub(crate) fn with_endpoints(
+        server: Arc<dyn Endpoints<G, R, F>>,
+        graph: Option<Graph>,
+        name: Arc<str>,
+    ) -> Self {
+        Action {
+            server,
             goals: GoalTable::new(RESULT_TIMEOUT_S),
-            graph: graph.clone(),
-            name: settings.resolve_name(name).into(),
+            graph,
+            name,
             start: Instant::now(),
             events: None,
-        })
+        }
     }
 
     /// Publishes the services' events (rcl's service introspection, [`Introspection`]) of the
@@ -372,53 +463,46 @@ where
         let mut out = Vec::new();
         loop {
             match self.server.receive_goal() {
-                Ok(Some((req, goal))) => {
+                Ok(Some((req, id, goal))) => {
                     if let Some(ev) = &self.events {
                         let request = msgs::SendGoalRequest {
-                            goal_id: goal_id_bytes(&goal.goal_id),
-                            goal: goal.goal.0.clone(),
+                            goal_id: goal_id_bytes(&id),
+                            goal: goal.clone(),
                         };
                         ev.publish(&ev.send_goal, req, Some(request), None);
                     }
-                    out.push(Request::Goal {
-                        id: goal.goal_id,
-                        req,
-                        goal: goal.goal.0,
-                    })
+                    out.push(Request::Goal { id, req, goal })
                 }
                 Ok(None) => break,
                 Err(e) => {
-                    warn!("{}: bad goal request: {e:?}", self.name);
+                    warn!("{}: bad goal request: {e}", self.name);
                     break;
                 }
             }
         }
         loop {
-            match self.server.receive_cancel_request() {
-                Ok(Some((req, cancel))) => match read_cancel(&cancel) {
-                    Some((id, stamp)) => {
-                        if let Some(ev) = &self.events {
-                            let goal_info = msgs::GoalInfo {
-                                goal_id: goal_id_bytes(&id),
-                                stamp,
-                            };
-                            let request = msgs::CancelGoalRequest { goal_info };
-                            ev.publish(&ev.cancel_goal, req, Some(request), None);
-                        }
-                        out.push(Request::Cancel { req, id, stamp })
+            match self.server.receive_cancel() {
+                Ok(Some((req, id, stamp))) => {
+                    if let Some(ev) = &self.events {
+                        let goal_info = msgs::GoalInfo {
+                            goal_id: goal_id_bytes(&id),
+                            stamp,
+                        };
+                        let request = msgs::CancelGoalRequest { goal_info };
+                        ev.publish(&ev.cancel_goal, req, Some(request), None);
                     }
-                    None => warn!("{}: cancel request not readable", self.name),
-                },
+                    out.push(Request::Cancel { req, id, stamp })
+                }
                 Ok(None) => break,
                 Err(e) => {
-                    warn!("{}: bad cancel request: {e:?}", self.name);
+                    warn!("{}: bad cancel request: {e}", self.name);
                     break;
                 }
             }
         }
         loop {
             match self.server.receive_result_request() {
-                Ok(Some((req, r))) => match self.result_request(req, r.goal_id) {
+                Ok(Some((req, goal_id))) => match self.result_request(req, goal_id) {
                     ResultAnswer::Now(status, result) => {
                         self.answer_result(req, status, result.unwrap_or_default())
                     }
@@ -426,7 +510,7 @@ where
                 },
                 Ok(None) => break,
                 Err(e) => {
-                    warn!("{}: bad get_result request: {e:?}", self.name);
+                    warn!("{}: bad get_result request: {e}", self.name);
                     break;
                 }
             }
@@ -501,7 +585,7 @@ where
         };
         let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "cancel_goal", move |req| {
-            let sent = server.send_cancel_response(req, response).is_ok();
+            let sent = server.send_cancel_response(req, response);
             if let Some(ev) = events.filter(|_| sent) {
                 ev.publish(&ev.cancel_goal, req, None, Some(event));
             }
@@ -512,7 +596,7 @@ where
 
     /// Publishes feedback of goal `id`.
     pub fn feedback(&self, id: GoalId, feedback: F) {
-        if self.server.send_feedback(id, Wire(feedback)).is_err() {
+        if !self.server.send_feedback(id, feedback) {
             warn!("{}: feedback not sent", self.name);
         }
     }
@@ -546,7 +630,7 @@ where
         let event = msgs::SendGoalResponse { accepted, stamp };
         let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "send_goal", move |req| {
-            let sent = server.send_goal_response(req, response).is_ok();
+            let sent = server.send_goal_response(req, response);
             if let Some(ev) = events.filter(|_| sent) {
                 ev.publish(&ev.send_goal, req, None, Some(event));
             }
@@ -559,13 +643,9 @@ where
             status,
             result: result.clone(),
         };
-        let response = GetResultResponse {
-            status: status_enum(status),
-            result: Wire(result),
-        };
         let (server, events) = (Arc::clone(&self.server), self.events.clone());
         self.answer(req, "get_result", move |req| {
-            let sent = server.send_result(req, response).is_ok();
+            let sent = server.send_result(req, status, result);
             if let Some(ev) = events.filter(|_| sent) {
                 ev.publish(&ev.get_result, req, None, Some(event));
             }
@@ -573,16 +653,22 @@ where
         });
     }
 
-    /// Sends an answer on a task of its own once the client's reply reader has matched ours
-    /// (or after [`MATCH_WAIT`]), as [`crate::service::Service::answer`] does.
+    /// Sends an answer: on DDS on a task of its own once the client's reply reader has matched
+    /// ours (or after [`MATCH_WAIT`]), as [`crate::service::Service::answer`] does; on Zenoh
+    /// now.
     fn answer(
         &self,
         req: RmwRequestId,
         service: &'static str,
         send: impl FnOnce(RmwRequestId) -> bool + Send + 'static,
     ) {
-        let graph = self.graph.clone();
         let name = Arc::clone(&self.name);
+        let Some(graph) = self.graph.clone() else {
+            if !send(req) {
+                warn!("{name}: {service} answer not sent");
+            }
+            return;
+        };
         tokio::spawn(async move {
             let client = req.writer_gid.to_bytes16();
             let requests = format!("rq{name}/_action/{service}Request");
@@ -610,8 +696,8 @@ where
                 })
                 .collect(),
         };
-        if let Err(e) = self.server.send_goal_statuses(list) {
-            warn!("{}: status not sent: {e:?}", self.name);
+        if let Err(e) = self.server.send_statuses(list) {
+            warn!("{}: status not sent: {e}", self.name);
         }
     }
 }

@@ -19,7 +19,7 @@
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
 //! - [`service`]: service servers whose answers wait for the client's reply reader
 //! - [`action`], [`action_goals`]: action servers as rcl_action serves them (status topic,
-//!   `get_result`, cancel policy)
+//!   `get_result`, cancel policy); `action_zenoh` (feature `zenoh`): the same on Zenoh
 //! - [`middleware`]: DDS or Zenoh, as `RMW_IMPLEMENTATION` chooses; `zenoh_session` (feature
 //!   `zenoh`): the Zenoh session as rmw_zenoh_cpp opens its own, and the type hashes it announces
 //! - [`error`]: the nodes' error, [`error::NodeError`]
@@ -28,6 +28,8 @@
 
 pub mod action;
 pub mod action_goals;
+#[cfg(feature = "zenoh")]
+pub mod action_zenoh;
 pub mod affinity;
 pub mod clock;
 pub mod conflicts;

@@ -8,6 +8,10 @@
 //! loop pays nothing for it. Accepted changes go to the node through a channel it polls when it
 //! likes (the controller's loop: one cheap channel branch), and its own changes (a mode switch
 //! by service) come back through [`ParamHandle::put`] to be published as events.
+//!
+//! On Zenoh (`serve_on_zenoh`, feature `zenoh`) the same table, rules and answers, through
+//! ros2-client's Zenoh servers (the services and `/parameter_events` as rmw_zenoh_cpp names
+//! them), not ros2-client's own Zenoh parameter server (a store without our ranges and rules).
 
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -89,6 +93,56 @@ pub fn serve(
             Some(events_qos()),
         )
         .context("/parameter_events publisher")?;
+    let node_name = node.fully_qualified_name();
+    Ok(start(
+        servers,
+        Events::Dds(Box::new(events)),
+        node_name,
+        table,
+        rules,
+        now,
+    ))
+}
+
+/// [`serve`] on the Zenoh `node`.
+#[cfg(feature = "zenoh")]
+pub fn serve_on_zenoh(
+    node: &ros2_client::zenoh::Node,
+    settings: &RosOptions,
+    table: ParamTable,
+    rules: Rules,
+    now: impl Fn() -> Time + Send + Sync + 'static,
+) -> Result<(ParamHandle, mpsc::UnboundedReceiver<ParamTable>)> {
+    let servers = Servers::on_zenoh(node, settings)?;
+    let name = ros2_client::Name::new("/", "parameter_events").context("/parameter_events")?;
+    let topic = node.create_topic(
+        &name,
+        ros2_client::MessageTypeName::new("rcl_interfaces", "ParameterEvent"),
+        &events_qos(),
+    );
+    let events = node
+        .create_publisher::<raw::ParameterEvent>(&topic, None)
+        .context("/parameter_events publisher on Zenoh")?;
+    let node_name = node.fully_qualified_name();
+    Ok(start(
+        servers,
+        Events::Zenoh(events),
+        node_name,
+        table,
+        rules,
+        now,
+    ))
+}
+
+/// Starts the task that answers `servers` on `table`, publishing the changes on `events`.
+fn start(
+    servers: Servers,
+    events: Events,
+    node_name: String,
+    table: ParamTable,
+    rules: Rules,
+    now: impl Fn() -> Time + Send + Sync + 'static,
+) -> (ParamHandle, mpsc::UnboundedReceiver<ParamTable>) {
     let table = Arc::new(Mutex::new(table));
     let (own_tx, own_rx) = mpsc::unbounded_channel::<Vec<Param>>();
     let (applied_tx, applied_rx) = mpsc::unbounded_channel();
@@ -100,12 +154,19 @@ pub fn serve(
         table,
         rules,
         events,
-        node_name: node.fully_qualified_name(),
+        node_name,
         now,
         applied: applied_tx,
     };
     tokio::spawn(answering.run(servers, own_rx));
-    Ok((handle, applied_rx))
+    (handle, applied_rx)
+}
+
+/// The `/parameter_events` publisher, on DDS or on Zenoh.
+enum Events {
+    Dds(Box<Publisher<raw::ParameterEvent>>),
+    #[cfg(feature = "zenoh")]
+    Zenoh(ros2_client::zenoh::Publisher<raw::ParameterEvent>),
 }
 
 /// The six rcl_interfaces services of a node.
@@ -146,13 +207,53 @@ impl Servers {
             )?,
         })
     }
+
+    /// The node's services `~/NAME` of type `rcl_interfaces/srv/TYPE` on the Zenoh `node`.
+    #[cfg(feature = "zenoh")]
+    fn on_zenoh(node: &ros2_client::zenoh::Node, settings: &RosOptions) -> Result<Servers> {
+        fn server<
+            Q: ros2_client::Message + Send + Sync + 'static,
+            R: ros2_client::Message + Send + Sync + 'static,
+        >(
+            node: &ros2_client::zenoh::Node,
+            settings: &RosOptions,
+            name: &str,
+            ty: &str,
+        ) -> Result<Service<Q, R>> {
+            let server = node
+                .create_server(
+                    &settings.ros_name(name)?,
+                    &ServiceTypeName::new("rcl_interfaces", ty),
+                )
+                .with_context(|| format!("service {name} on Zenoh"))?;
+            Ok(Service::on_zenoh(server, &settings.resolve_name(name)))
+        }
+        Ok(Servers {
+            list: server(node, settings, "~/list_parameters", "ListParameters")?,
+            describe: server(
+                node,
+                settings,
+                "~/describe_parameters",
+                "DescribeParameters",
+            )?,
+            get: server(node, settings, "~/get_parameters", "GetParameters")?,
+            types: server(node, settings, "~/get_parameter_types", "GetParameterTypes")?,
+            set: server(node, settings, "~/set_parameters", "SetParameters")?,
+            set_atomic: server(
+                node,
+                settings,
+                "~/set_parameters_atomically",
+                "SetParametersAtomically",
+            )?,
+        })
+    }
 }
 
 /// What the serving task holds besides the servers.
 struct Answering<N> {
     table: Arc<Mutex<ParamTable>>,
     rules: Rules,
-    events: Publisher<raw::ParameterEvent>,
+    events: Events,
     node_name: String,
     now: N,
     /// The tables remote sets produced, to the node.
@@ -163,8 +264,13 @@ impl<N: Fn() -> Time> Answering<N> {
     /// Publishes `changed` on `/parameter_events`.
     async fn publish(&self, changed: &[Param]) {
         let ev = event(&self.node_name, changed, (self.now)());
-        if let Err(e) = self.events.async_publish(ev).await {
-            warn!("parameter event not sent: {e:?}");
+        let sent = match &self.events {
+            Events::Dds(p) => p.async_publish(ev).await.map_err(|e| format!("{e:?}")),
+            #[cfg(feature = "zenoh")]
+            Events::Zenoh(p) => p.async_publish(ev).await.map_err(|e| format!("{e:?}")),
+        };
+        if let Err(e) = sent {
+            warn!("parameter event not sent: {e}");
         }
     }
 

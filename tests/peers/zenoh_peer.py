@@ -20,18 +20,33 @@ rmw_zenoh_cpp node sees the capsule graph:
   attachment; the reply carries the response.
 
 Usage (inside a loopback-only network namespace, with a Zenoh router on 127.0.0.1:7447):
-  zenoh_peer.py graph --node NAME... [--timeout S]   wait until these nodes are announced,
-                                                     print every entity as a JSON line
+  zenoh_peer.py graph --node NAME... [--topic T...] [--timeout S]
+                                                     wait until these nodes and topics are
+                                                     announced, print every entity as a JSON
+                                                     line
   zenoh_peer.py state --hash H [--samples N]         read /capsule/state, print JSON
   zenoh_peer.py set-mode MODE GAIN --hash H --status-hash S
                                                      call /capsule_controller/set_mode, print
                                                      the answer, then wait for the status to
                                                      show the mode
+  zenoh_peer.py move DISTANCE --send-goal-hash H --get-result-hash H --feedback-hash H
+                --status-hash H --cancel-hash H [--cancel-after S]
+                                                     send a goal to /capsule_controller/move
+                                                     (an action is the services
+                                                     _action/send_goal, get_result, cancel_goal
+                                                     and the topics _action/feedback, status),
+                                                     print its end, feedback and statuses
+  zenoh_peer.py params --node /NS/NAME [--get NAME...] [--set NAME=JSON...]
+                                                     call the node's get_parameters with the
+                                                     names, then set_parameters once per --set;
+                                                     the services' hashes are the ones their
+                                                     liveliness tokens announce; print JSON
 """
 
 import argparse
 import json
 import math
+import os
 import struct
 import sys
 import time
@@ -43,6 +58,10 @@ DOMAIN = 0
 STATE_TYPE = "capsule_msgs::msg::dds_::CapsuleState_"
 STATUS_TYPE = "capsule_msgs::msg::dds_::ControllerStatus_"
 SET_MODE_TYPE = "capsule_msgs::srv::dds_::SetMode_"
+MOVE = "capsule_controller/move/_action"
+MOVE_TYPE = "capsule_msgs::action::dds_::Move"
+STATUS_NAMES = {0: "UNKNOWN", 1: "ACCEPTED", 2: "EXECUTING", 3: "CANCELING", 4: "SUCCEEDED",
+                5: "CANCELED", 6: "ABORTED"}
 
 
 def fail(why):
@@ -78,7 +97,7 @@ def parse_token(key):
     return entity
 
 
-def graph(session, nodes, timeout):
+def graph(session, nodes, topics, timeout):
     deadline = time.monotonic() + timeout
     while True:
         entities = []
@@ -88,14 +107,17 @@ def graph(session, nodes, timeout):
                 if e is not None:
                     entities.append(e)
         seen = {e["node"] for e in entities if e["kind"] == "NN"}
-        if all(n in seen for n in nodes) or time.monotonic() > deadline:
+        seen_topics = {e.get("topic") for e in entities}
+        if all(n in seen for n in nodes) and all(t in seen_topics for t in topics):
+            break
+        if time.monotonic() > deadline:
             break
         time.sleep(0.2)
     for e in sorted(entities, key=lambda e: json.dumps(e, sort_keys=True)):
         print(json.dumps(e, sort_keys=True))
-    missing = [n for n in nodes if n not in seen]
+    missing = [n for n in nodes if n not in seen] + [t for t in topics if t not in seen_topics]
     if missing:
-        fail(f"nodes not announced within {timeout} s: {missing}")
+        fail(f"nodes or topics not announced within {timeout} s: {missing}")
 
 
 class Cdr:
@@ -217,11 +239,198 @@ def set_mode(session, mode, gain, type_hash, status_hash, timeout):
     fail(f"no status on {status_key} showing mode {mode} within {timeout} s")
 
 
+def call(session, key, payload, seq, timeout):
+    """A service call: the reply's payload as a CDR reader (fails on none or an error)."""
+    got = None
+    for reply in session.get(key, payload=b"\x00\x01\x00\x00" + payload,
+                             attachment=request_attachment(seq), timeout=timeout):
+        if reply.ok is None:
+            fail(f"{key}: error reply {reply.err.payload.to_bytes()!r}")
+        got = Cdr(reply.ok.payload.to_bytes())
+    if got is None:
+        fail(f"{key}: no reply within {timeout} s (no server with this hash?)")
+    return got
+
+
+def goal_statuses(payload):
+    """action_msgs/GoalStatusArray: [(goal id, status)]."""
+    r = Cdr(payload)
+    out = []
+    for _ in range(r.take("I", 4)):
+        goal_id = bytes(r.data[r.pos : r.pos + 16])
+        r.pos += 16
+        r.take("i", 4), r.take("I", 4)
+        out.append((goal_id, r.take("b", 1)))
+    return out
+
+
+def move(session, distance, a):
+    """A Move goal over the action's services and topics, as rmw_zenoh_cpp's client sends it."""
+    goal_id = os.urandom(16)
+    feedback, statuses = [], []
+
+    def on_feedback(sample):
+        r = Cdr(sample.payload.to_bytes())
+        if bytes(r.data[:16]) == goal_id:
+            r.pos = 16
+            fb = [r.take("d", 8) for _ in range(3)] + [r.take("B", 1)]
+            feedback.append((time.monotonic(), fb))
+
+    def on_status(sample):
+        for gid, st in goal_statuses(sample.payload.to_bytes()):
+            if gid == goal_id and (not statuses or statuses[-1] != st):
+                statuses.append(st)
+
+    subs = [
+        session.declare_subscriber(
+            f"{DOMAIN}/{MOVE}/feedback/{MOVE_TYPE}_FeedbackMessage_/{a.feedback_hash}", on_feedback),
+        session.declare_subscriber(
+            f"{DOMAIN}/{MOVE}/status/action_msgs::msg::dds_::GoalStatusArray_/{a.status_hash}",
+            on_status),
+    ]
+    time.sleep(0.3)  # the subscriptions reach the router before the goal
+    r = call(session, f"{DOMAIN}/{MOVE}/send_goal/{MOVE_TYPE}_SendGoal_/{a.send_goal_hash}",
+             goal_id + struct.pack("<ddd", distance, 0.0, 0.0), 1, a.timeout)
+    accepted = bool(r.take("B", 1))
+    if not accepted:
+        print(json.dumps({"distance": distance, "accepted": False}))
+        return
+    out = {"distance": distance, "accepted": True}
+    if a.cancel_after is not None:
+        time.sleep(a.cancel_after)
+        r = call(session, f"{DOMAIN}/{MOVE}/cancel_goal/action_msgs::srv::dds_::CancelGoal_/"
+                 f"{a.cancel_hash}", goal_id + struct.pack("<iI", 0, 0), 2, a.timeout)
+        out["cancel_code"] = r.take("b", 1)
+        canceling = []
+        for _ in range(r.take("I", 4)):
+            canceling.append(bytes(r.data[r.pos : r.pos + 16]))
+            r.pos += 16
+            r.take("i", 4), r.take("I", 4)
+        out["canceling_ours"] = canceling == [goal_id]
+    r = call(session, f"{DOMAIN}/{MOVE}/get_result/{MOVE_TYPE}_GetResult_/{a.get_result_hash}",
+             goal_id, 3, 120.0)
+    status = r.take("b", 1)
+    out.update(status=STATUS_NAMES.get(status, status), reached=bool(r.take("B", 1)),
+               travelled_m=r.take("d", 8), error_m=r.take("d", 8), elapsed_s=r.take("d", 8),
+               message=r.string())
+    time.sleep(0.3)  # the last status
+    times = [t for t, _ in feedback]
+    out.update(feedback=len(feedback),
+               feedback_hz=(len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0,
+               last_feedback=feedback[-1][1] if feedback else None,
+               statuses=[STATUS_NAMES.get(s, s) for s in statuses])
+    del subs
+    print(json.dumps(out))
+
+
+class CdrOut:
+    """Little-endian XCDR1 writer (alignment counted after the encapsulation header)."""
+
+    def __init__(self):
+        self.data = bytearray()
+
+    def put(self, fmt, size, value):
+        self.data += b"\x00" * ((-len(self.data)) % size)
+        self.data += struct.pack("<" + fmt, value)
+
+    def string(self, text):
+        raw = text.encode() + b"\x00"
+        self.put("I", 4, len(raw))
+        self.data += raw
+
+
+# rcl_interfaces/msg/ParameterType
+PARAM_TYPES = {0: "NOT_SET", 1: "bool", 2: "integer", 3: "double", 4: "string"}
+
+
+def put_value(w, value):
+    """rcl_interfaces/msg/ParameterValue of a JSON value (bool, integer, double or string)."""
+    kind = (1 if isinstance(value, bool) else 2 if isinstance(value, int)
+            else 3 if isinstance(value, float) else 4)
+    w.put("B", 1, kind)
+    w.put("B", 1, value if kind == 1 else False)
+    w.put("q", 8, value if kind == 2 else 0)
+    w.put("d", 8, value if kind == 3 else 0.0)
+    w.string(value if kind == 4 else "")
+    for _ in range(5):  # byte, bool, integer, double and string arrays: empty
+        w.put("I", 4, 0)
+
+
+def take_value(r):
+    """rcl_interfaces/msg/ParameterValue: its value (None for NOT_SET or an array)."""
+    kind, b, i, d, text = r.take("B", 1), r.take("B", 1), r.take("q", 8), r.take("d", 8), r.string()
+    arrays = []
+    for size, fmt in [(1, "B"), (1, "B"), (8, "q"), (8, "d")]:
+        n = r.take("I", 4)
+        arrays.append([r.take(fmt, size) for _ in range(n)])
+    for _ in range(r.take("I", 4)):
+        r.string()
+    return {1: bool(b), 2: i, 3: d, 4: text}.get(kind)
+
+
+def service_hash(session, service, dds_type, timeout):
+    """The hash the server of `service` announces in its liveliness token."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for reply in session.liveliness().get(f"@ros2_lv/{DOMAIN}/**", timeout=2.0):
+            if reply.ok is not None:
+                e = parse_token(str(reply.ok.key_expr))
+                if e and e["kind"] == "SS" and e.get("topic") == service and e["type"] == dds_type:
+                    return e["hash"]
+        time.sleep(0.2)
+    fail(f"no server of {service} ({dds_type}) announced within {timeout} s")
+
+
+def params(session, a):
+    node = a.node.strip("/")
+    out = {"node": a.node, "hashes": {}}
+    seq = 10
+
+    def key(service, ty):
+        dds_type = f"rcl_interfaces::srv::dds_::{ty}_"
+        h = service_hash(session, f"/{node}/{service}", dds_type, a.timeout)
+        out["hashes"][ty] = h
+        return f"{DOMAIN}/{node}/{service}/{dds_type}/{h}"
+
+    get_key = key("get_parameters", "GetParameters")
+    w = CdrOut()
+    w.put("I", 4, len(a.get))
+    for name in a.get:
+        w.string(name)
+    seq += 1
+    r = call(session, get_key, bytes(w.data), seq, a.timeout)
+    values = [take_value(r) for _ in range(r.take("I", 4))]
+    out["values"] = dict(zip(a.get, values))
+    set_key = key("set_parameters", "SetParameters")
+    out["set"] = []
+    for item in a.set:
+        name, value = item.split("=", 1)
+        value = json.loads(value)
+        w = CdrOut()
+        w.put("I", 4, 1)
+        w.string(name)
+        put_value(w, value)
+        seq += 1
+        r = call(session, set_key, bytes(w.data), seq, a.timeout)
+        results = [(bool(r.take("B", 1)), r.string()) for _ in range(r.take("I", 4))]
+        w = CdrOut()
+        w.put("I", 4, 1)
+        w.string(name)
+        seq += 1
+        r = call(session, get_key, bytes(w.data), seq, a.timeout)
+        now = take_value(r) if r.take("I", 4) == 1 else None
+        for ok, reason in results:
+            out["set"].append({"name": name, "value": value, "successful": ok, "reason": reason,
+                               "now": now})
+    print(json.dumps(out))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
     g = sub.add_parser("graph")
     g.add_argument("--node", action="append", default=[])
+    g.add_argument("--topic", action="append", default=[])
     g.add_argument("--timeout", type=float, default=15.0)
     s = sub.add_parser("state")
     s.add_argument("--hash", required=True)
@@ -233,12 +442,27 @@ def main():
     m.add_argument("--hash", required=True)
     m.add_argument("--status-hash", required=True)
     m.add_argument("--timeout", type=float, default=10.0)
+    mv = sub.add_parser("move")
+    mv.add_argument("distance", type=float)
+    for h in ["send-goal", "get-result", "feedback", "status", "cancel"]:
+        mv.add_argument(f"--{h}-hash", required=True)
+    mv.add_argument("--cancel-after", type=float)
+    mv.add_argument("--timeout", type=float, default=10.0)
+    pa = sub.add_parser("params")
+    pa.add_argument("--node", required=True)
+    pa.add_argument("--get", action="append", default=[])
+    pa.add_argument("--set", action="append", default=[])
+    pa.add_argument("--timeout", type=float, default=10.0)
     a = p.parse_args()
     with open_session() as session:
         if a.cmd == "graph":
-            graph(session, a.node, a.timeout)
+            graph(session, a.node, a.topic, a.timeout)
         elif a.cmd == "state":
             state(session, a.hash, a.samples, a.timeout)
+        elif a.cmd == "params":
+            params(session, a)
+        elif a.cmd == "move":
+            move(session, a.distance, a)
         else:
             set_mode(session, a.mode, a.gain, a.hash, a.status_hash, a.timeout)
 

@@ -1,10 +1,10 @@
 //! The plant on Zenoh (rmw_zenoh_cpp's protocol, through ros2-client's Zenoh backend), its core
 //! interface: the state out on `/capsule/state`, the force command in, the same [`PlantCore`]
 //! as on DDS, in real time or in lock-step (each step waits for the command answering the last
-//! sample, re-sending it, as on DDS: [`super::silence`]). What is not ported yet is refused by
-//! name before any work ([`refuse_unported`]); the parameters, `/clock`, the views, the
-//! emergency stop and the lifecycle services are not served on Zenoh yet, which the log says at
-//! start.
+//! sample, re-sending it, as on DDS: [`super::silence`]), its parameters served read-only as on
+//! DDS. What is not ported yet is refused by name before any work ([`refuse_unported`]);
+//! `/clock`, the views, the emergency stop and the lifecycle services are not served on Zenoh
+//! yet, which the log says at start.
 
 use std::time::{Duration, Instant};
 
@@ -114,8 +114,16 @@ pub(super) async fn run<H: CapsuleHardware>(
     refuse_unported(&settings, &opts)?;
     let context = settings.zenoh_context()?;
     let io = Io::create(&settings, &context)?;
+    // ROS parameters (read-only here): served by their own task, as on DDS
+    let _params = capsule_ros_base::param_services::serve_on_zenoh(
+        &io.node,
+        &settings,
+        opts.params.clone(),
+        capsule_ros_base::params::no_rules,
+        || capsule_msgs::Time::from_nanos(capsule_record::writer::now_ns() as i64),
+    )?;
     info!(
-        "{}: {:?} at {} Hz, state {} <- force {}; not on Zenoh yet: parameters, /clock, \
+        "{}: {:?} at {} Hz, state {} <- force {}, parameters; not on Zenoh yet: /clock, \
          views, emergency stop, lifecycle services, recording",
         settings.describe(),
         opts.pacing,

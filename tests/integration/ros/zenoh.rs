@@ -55,21 +55,41 @@ fn json_lines(run: &Run) -> Vec<Value> {
         .collect()
 }
 
+/// The peer's `move` flags: the hashes of the Move action's services and topics.
+fn move_hashes() -> String {
+    format!(
+        "--send-goal-hash {} --get-result-hash {} --feedback-hash {} --status-hash {} \
+         --cancel-hash {}",
+        hash("capsule_msgs/action/Move_SendGoal"),
+        hash("capsule_msgs/action/Move_GetResult"),
+        hash("capsule_msgs/action/Move_FeedbackMessage"),
+        hash("action_msgs/msg/GoalStatusArray"),
+        hash("action_msgs/srv/CancelGoal"),
+    )
+}
+
 #[test]
-fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_and_switches_the_mode() {
+fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_sets_parameters() {
     let run = with_router(
-        90,
+        120,
         &format!(
-            "start_plant --until-s 40 2> \"$TMP/plant.log\"
+            "start_plant --until-s 60 2> \"$TMP/plant.log\"
             start_controller 2> \"$TMP/controller.log\"
-            zpeer graph --node capsule_plant --node capsule_controller || exit 1
+            zpeer graph --node capsule_plant --node capsule_controller \
+                --topic /capsule_controller/move/_action/send_goal || exit 1
             zpeer state --hash {state} --samples 300 || exit 1
             zpeer set-mode 1 0 --hash {set_mode} --status-hash {status} || exit 1
+            zpeer move 0.01 {moves} || exit 1
+            zpeer move 1.0 --cancel-after 0.5 {moves} || exit 1
+            zpeer params --node /capsule_controller --get gain --get mode --get alpha \
+                --set 'mode=\"forward\"' --set gain=0.5 --set gain=5.0 --set alpha=150.0 || exit 1
+            zpeer params --node /capsule_plant --get rate_hz --set rate_hz=10.0 || exit 1
             stop $C $P
             cat \"$TMP/plant.log\" \"$TMP/controller.log\" >&2",
             state = hash("capsule_msgs/msg/CapsuleState"),
             set_mode = hash("capsule_msgs/srv/SetMode"),
             status = hash("capsule_msgs/msg/ControllerStatus"),
+            moves = move_hashes(),
         ),
     );
     run.assert_ok();
@@ -102,6 +122,34 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_and_switches_the_mode() {
             "capsule_msgs/msg/ActuatorForce",
             "capsule_msgs::msg::dds_::ActuatorForce_",
         ),
+        (
+            "capsule_controller",
+            "SS",
+            "/capsule_controller/move/_action/send_goal",
+            "capsule_msgs/action/Move_SendGoal",
+            "capsule_msgs::action::dds_::Move_SendGoal_",
+        ),
+        (
+            "capsule_controller",
+            "SS",
+            "/capsule_controller/move/_action/get_result",
+            "capsule_msgs/action/Move_GetResult",
+            "capsule_msgs::action::dds_::Move_GetResult_",
+        ),
+        (
+            "capsule_controller",
+            "MP",
+            "/capsule_controller/move/_action/feedback",
+            "capsule_msgs/action/Move_FeedbackMessage",
+            "capsule_msgs::action::dds_::Move_FeedbackMessage_",
+        ),
+        (
+            "capsule_controller",
+            "SS",
+            "/capsule_controller/switch_attractor/_action/send_goal",
+            "capsule_msgs/action/SwitchAttractor_SendGoal",
+            "capsule_msgs::action::dds_::SwitchAttractor_SendGoal_",
+        ),
     ] {
         let e = entity(node, kind, topic);
         assert_eq!(e["type"], dds, "{e}");
@@ -129,6 +177,82 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_and_switches_the_mode() {
         .find(|l| l.get("status_mode").is_some())
         .unwrap_or_else(|| panic!("no status\n{}", run.all()));
     assert_eq!(status["mode_name"], "FORWARD", "{status}");
+    // the Move goals, as on DDS (ros::actions): +10 mm SUCCEEDED within the default tolerance
+    // (1 mm), feedback at 20 Hz, the status topic EXECUTING then SUCCEEDED; 1 m cancelled
+    let goals: Vec<&Value> = lines
+        .iter()
+        .filter(|l| l.get("distance").is_some())
+        .collect();
+    assert_eq!(goals.len(), 2, "{}", run.all());
+    let g = goals[0];
+    assert_eq!(g["accepted"], true, "{g}");
+    assert_eq!(g["status"], "SUCCEEDED", "{g}");
+    assert_eq!(g["reached"], true, "{g}");
+    assert_eq!(
+        g["statuses"],
+        serde_json::json!(["EXECUTING", "SUCCEEDED"]),
+        "{g}"
+    );
+    let (travelled, err) = (g["travelled_m"].as_f64(), g["error_m"].as_f64());
+    let (travelled, err) = (travelled.unwrap_or(f64::NAN), err.unwrap_or(f64::NAN));
+    assert!(err.abs() <= 1e-3, "{g}");
+    assert!((travelled - 0.01 - err).abs() < 1e-12, "{g}");
+    assert!(g["feedback_hz"].as_f64().unwrap_or(0.0) >= 10.0, "{g}");
+    let g = goals[1];
+    assert_eq!(g["status"], "CANCELED", "{g}");
+    assert_eq!(g["cancel_code"], 0, "{g}");
+    assert_eq!(g["canceling_ours"], true, "{g}");
+    assert_eq!(
+        g["statuses"],
+        serde_json::json!(["EXECUTING", "CANCELING", "CANCELED"]),
+        "{g}"
+    );
+    assert!(g["feedback"].as_u64().unwrap_or(0) > 0, "{g}");
+    // the parameters, served with the table and the rules of DDS (ros::params)
+    let params: Vec<&Value> = lines.iter().filter(|l| l.get("hashes").is_some()).collect();
+    assert_eq!(params.len(), 2, "{}", run.all());
+    for p in &params {
+        for (ty, h) in p["hashes"].as_object().into_iter().flatten() {
+            let h = h.as_str().unwrap_or_default();
+            assert!(
+                h.starts_with("RIHS01_") && !h.ends_with("0000000000"),
+                "{ty}: {p}"
+            );
+        }
+    }
+    let (controller, plant) = (params[0], params[1]);
+    assert!(controller["values"]["gain"].is_f64(), "{controller}");
+    assert!(controller["values"]["alpha"].is_f64(), "{controller}");
+    let set = |p: &Value, i: usize| p["set"][i].clone();
+    let mode = set(controller, 0);
+    assert_eq!(mode["successful"], true, "{mode}");
+    assert_eq!(mode["now"], "FORWARD", "{mode}");
+    let gain = set(controller, 1);
+    assert_eq!(gain["successful"], true, "{gain}");
+    assert_eq!(gain["now"], 0.5, "{gain}");
+    let refused = set(controller, 2);
+    assert_eq!(refused["successful"], false, "{refused}");
+    let why = refused["reason"].as_str().unwrap_or_default();
+    assert!(
+        why.contains("gain 5 is beyond the configured limit |k_p| <= 2"),
+        "{refused}"
+    );
+    assert_eq!(refused["now"], 0.5, "unchanged: {refused}");
+    let alpha = set(controller, 3);
+    assert_eq!(alpha["successful"], false, "{alpha}");
+    let why = alpha["reason"].as_str().unwrap_or_default();
+    assert!(
+        why.contains("parameter 'alpha': must be in [0, 100] (got 150)"),
+        "{alpha}"
+    );
+    assert_eq!(plant["values"]["rate_hz"], 1000.0, "{plant}");
+    let read_only = set(plant, 0);
+    assert_eq!(read_only["successful"], false, "{read_only}");
+    let why = read_only["reason"].as_str().unwrap_or_default();
+    assert!(
+        why.contains("parameter 'rate_hz' is read-only"),
+        "{read_only}"
+    );
 }
 
 /// The demo's figures (the three segment lines of its table), from its output.
