@@ -25,33 +25,19 @@ use capsule_msgs::names::topics;
 use capsule_plant_node::intra_process::{CopyCounts, Transport};
 use capsule_ros_base::error::Result;
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
-use capsule_ros_base::{clock::RosClock, params::ParamTable, ros_options::RosOptions};
+use capsule_ros_base::{clock::RosClock, ros_options::RosOptions};
 use futures::StreamExt;
 use ros2_client::dds::{Context, Node};
 use tracing::{info, warn};
+
+pub use crate::controller_options::ControllerOptions;
 
 use crate::controller_actions::{ControllerActions, CoreAccess};
 use crate::controller_core::ControllerCore;
 use crate::controller_endpoints::{Inputs, Outputs};
 use crate::controller_handlers::{lock, Handlers};
 use crate::controller_params;
-use capsule_ros_base::action::Introspection;
 use capsule_ros_base::endpoints::Wire;
-
-/// How the controller node is set up (besides the ROS settings).
-#[derive(Debug, Clone)]
-pub struct ControllerOptions {
-    /// The core, configured.
-    pub core: ControllerCore,
-    /// Stale-state check and status period.
-    pub status_period: Duration,
-    /// The ROS parameters served (see [`crate::controller_params`]).
-    pub params: ParamTable,
-    /// Publish `/diagnostics` at 1 Hz (see [`crate::controller_diagnostics`]).
-    pub diagnostics: bool,
-    /// What the actions' services publish on their `_service_event` topics.
-    pub action_introspection: Introspection,
-}
 
 /// Runs the controller node on DDS (on Zenoh if `RMW_IMPLEMENTATION` asks: `controller_zenoh`),
 /// in a participant of its own, until SIGINT/SIGTERM.

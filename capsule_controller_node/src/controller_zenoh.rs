@@ -23,10 +23,10 @@ use ros2_client::RmwRequestId;
 use tokio::sync::mpsc::UnboundedReceiver;
 use tracing::{info, warn};
 
-use crate::controller::ControllerOptions;
 use crate::controller_actions::{ControllerActions, CoreAccess};
 use crate::controller_core::ControllerCore;
 use crate::controller_diagnostics::ControllerDiag;
+use crate::controller_options::ControllerOptions;
 use crate::controller_params::{self, LiveSync};
 
 /// The wall clock as ROS time (no `/clock` on Zenoh yet).

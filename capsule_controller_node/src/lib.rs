@@ -6,6 +6,7 @@
 //!   [`controller_core`]: its decisions without DDS; [`controller_diagnostics`]: its `/diagnostics`; [`controller_params`]: its ROS
 //!   parameters; [`controller_settings`]: its settings table
 //! - [`controller_actions`]: its actions (Move, SwitchAttractor) on DDS
+//! - `controller_options`: how it is set up besides its ROS settings
 //! - `controller_zenoh` (feature `zenoh`): its core interface on Zenoh
 //! - [`command_feedback`]: whether the plant takes the controller's commands
 //! - [`plant_identity`]: which plant the controller serves (restarts, a second plant)
@@ -20,6 +21,7 @@ pub mod controller_core;
 pub mod controller_diagnostics;
 mod controller_endpoints;
 mod controller_handlers;
+mod controller_options;
 pub mod controller_params;
 pub mod controller_settings;
 #[cfg(feature = "zenoh")]
