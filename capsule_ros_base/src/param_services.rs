@@ -211,39 +211,25 @@ impl Servers {
     /// The node's services `~/NAME` of type `rcl_interfaces/srv/TYPE` on the Zenoh `node`.
     #[cfg(feature = "zenoh")]
     fn on_zenoh(node: &ros2_client::zenoh::Node, settings: &RosOptions) -> Result<Servers> {
-        fn server<
-            Q: ros2_client::Message + Send + Sync + 'static,
-            R: ros2_client::Message + Send + Sync + 'static,
-        >(
-            node: &ros2_client::zenoh::Node,
-            settings: &RosOptions,
-            name: &str,
-            ty: &str,
-        ) -> Result<Service<Q, R>> {
-            let server = node
-                .create_server(
-                    &settings.ros_name(name)?,
-                    &ServiceTypeName::new("rcl_interfaces", ty),
-                )
-                .with_context(|| format!("service {name} on Zenoh"))?;
-            Ok(Service::on_zenoh(server, &settings.resolve_name(name)))
-        }
+        let ty = |name: &str| ServiceTypeName::new("rcl_interfaces", name);
         Ok(Servers {
-            list: server(node, settings, "~/list_parameters", "ListParameters")?,
-            describe: server(
+            list: settings.zenoh_server(node, "~/list_parameters", &ty("ListParameters"))?,
+            describe: settings.zenoh_server(
                 node,
-                settings,
                 "~/describe_parameters",
-                "DescribeParameters",
+                &ty("DescribeParameters"),
             )?,
-            get: server(node, settings, "~/get_parameters", "GetParameters")?,
-            types: server(node, settings, "~/get_parameter_types", "GetParameterTypes")?,
-            set: server(node, settings, "~/set_parameters", "SetParameters")?,
-            set_atomic: server(
+            get: settings.zenoh_server(node, "~/get_parameters", &ty("GetParameters"))?,
+            types: settings.zenoh_server(
                 node,
-                settings,
+                "~/get_parameter_types",
+                &ty("GetParameterTypes"),
+            )?,
+            set: settings.zenoh_server(node, "~/set_parameters", &ty("SetParameters"))?,
+            set_atomic: settings.zenoh_server(
+                node,
                 "~/set_parameters_atomically",
-                "SetParametersAtomically",
+                &ty("SetParametersAtomically"),
             )?,
         })
     }
