@@ -21,8 +21,8 @@ pub enum NodeOn<'a> {
 
 /// A publisher on either middleware.
 pub enum AnyPublisher<M: Serialize> {
-    /// On DDS.
-    Dds(ros2_client::dds::Publisher<M>),
+    /// On DDS (boxed: a DDS publisher is twice a Zenoh one).
+    Dds(Box<ros2_client::dds::Publisher<M>>),
     /// On Zenoh.
     #[cfg(feature = "zenoh")]
     Zenoh(ros2_client::zenoh::Publisher<M>),
@@ -59,10 +59,10 @@ impl NodeOn<'_> {
         Ok(match self {
             NodeOn::Dds(node, _) => {
                 let topic = settings.topic(node, name, type_name, qos)?;
-                AnyPublisher::Dds(
+                AnyPublisher::Dds(Box::new(
                     node.create_publisher(&topic, None)
                         .with_context(|| format!("{name} publisher"))?,
-                )
+                ))
             }
             #[cfg(feature = "zenoh")]
             NodeOn::Zenoh(node) => {
