@@ -1,9 +1,10 @@
 //! The lifecycle served as rclcpp_lifecycle serves it: `~/change_state`, `~/get_state`,
 //! `~/get_available_states`, `~/get_available_transitions`, `~/get_transition_graph`
 //! (`lifecycle_msgs` types) and `~/transition_event`, on DDS or Zenoh ([`NodeOn`]: the same
-//! machine and answers on both). Served on the node's thread; the
-//! callbacks run on the sample loop's thread ([`super::loop_control`]), which answers within a
-//! sample, so `~/get_state` says `configuring` (or `activating`, ...) meanwhile.
+//! machine and answers on both). Served by tasks of their own; the steps are taken by the
+//! sample loop (its own thread on DDS, its task on Zenoh: [`super::loop_control`]), which
+//! answers within a sample, so `~/get_state` says `configuring` (or `activating`, ...)
+//! meanwhile.
 
 use std::sync::{Arc, Mutex};
 
