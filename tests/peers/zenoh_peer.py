@@ -36,13 +36,14 @@ Usage (inside a loopback-only network namespace, with a Zenoh router on 127.0.0.
                                                      _action/send_goal, get_result, cancel_goal
                                                      and the topics _action/feedback, status),
                                                      print its end, feedback and statuses
-  zenoh_peer.py estop --state-hash H --flag-hash H [--hold S]
+  zenoh_peer.py estop --state-hash H --flag-hash H [--hold S] [--send-goal-hash H]
                                                      while the controller commands: engage
                                                      /capsule_plant/emergency_stop (SetBool
                                                      true; its hash the one its token
                                                      announces), watch the state's force and
                                                      the latched /capsule/emergency_stop,
-                                                     release it, print JSON
+                                                     (with --send-goal-hash: a Move goal sent
+                                                     while engaged), release it, print JSON
   zenoh_peer.py resume --state-hash H [--hold S]      a lock-step plant started paused: read
                                                      the states it re-sends, resume it
                                                      (/capsule_plant/pause, SetBool false),
@@ -480,6 +481,11 @@ def estop(session, a):
     ok, said, took = set_bool(session, key, True, 21, a.timeout)
     engaged_at = time.monotonic()
     out = {"engage": {"success": ok, "message": said, "took_s": took}}
+    if a.send_goal_hash:
+        time.sleep(0.2)  # the controller's reader has the flag
+        r = call(session, f"{DOMAIN}/{MOVE}/send_goal/{MOVE_TYPE}_SendGoal_/{a.send_goal_hash}",
+                 os.urandom(16) + struct.pack("<ddd", 0.01, 0.0, 0.0), 23, a.timeout)
+        out["goal_accepted_while_engaged"] = bool(r.take("B", 1))
     time.sleep(a.hold)
     ok, said, took = set_bool(session, key, False, 22, a.timeout)
     released_at = time.monotonic()
@@ -608,6 +614,7 @@ def main():
     es.add_argument("--state-hash", required=True)
     es.add_argument("--flag-hash", required=True)
     es.add_argument("--hold", type=float, default=0.5)
+    es.add_argument("--send-goal-hash")
     es.add_argument("--timeout", type=float, default=10.0)
     rs = sub.add_parser("resume")
     rs.add_argument("--state-hash", required=True)

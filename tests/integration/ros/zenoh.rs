@@ -80,7 +80,7 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
                 --topic /capsule_controller/move/_action/send_goal || exit 1
             zpeer state --hash {state} --samples 300 || exit 1
             zpeer set-mode 1 0 --hash {set_mode} --status-hash {status} || exit 1
-            zpeer estop --state-hash {state} --flag-hash {flag} || exit 1
+            zpeer estop --state-hash {state} --flag-hash {flag} --send-goal-hash {goal} || exit 1
             zpeer move 0.01 {moves} || exit 1
             zpeer move 1.0 --cancel-after 0.5 {moves} || exit 1
             zpeer params --node /capsule_controller --get gain --get mode --get alpha \
@@ -92,6 +92,7 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
             set_mode = hash("capsule_msgs/srv/SetMode"),
             status = hash("capsule_msgs/msg/ControllerStatus"),
             flag = hash("std_msgs/msg/Bool"),
+            goal = hash("capsule_msgs/action/Move_SendGoal"),
             moves = move_hashes(),
         ),
     );
@@ -225,6 +226,9 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
         "commands apply after the release: {stop}"
     );
     assert_eq!(stop["flags"], serde_json::json!([true, false]), "{stop}");
+    // the controller reads the stop on Zenoh too: a goal while engaged is refused for it
+    assert_eq!(stop["goal_accepted_while_engaged"], false, "{stop}");
+    run.assert_stderr(&["goal 0.01 m refused: the plant's emergency stop is engaged"]);
     // the Move goals, as on DDS (ros::actions): +10 mm SUCCEEDED within the default tolerance
     // (1 mm), feedback at 20 Hz, the status topic EXECUTING then SUCCEEDED; 1 m cancelled
     let goals: Vec<&Value> = lines
