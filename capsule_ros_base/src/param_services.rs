@@ -269,25 +269,27 @@ impl<N: Fn() -> Time> Answering<N> {
         let mut types_rq = sv.types.requests();
         let mut set_rq = sv.set.requests();
         let mut atomic_rq = sv.set_atomic.requests();
+        // `next`, not `select_next_some`: a Zenoh server's requests end when its session
+        // closes (at shutdown), and `select_next_some` panics on an ended stream
         loop {
             tokio::select! {
-                Ok((id, rq)) = list_rq.select_next_some() => {
+                Some(Ok((id, rq))) = list_rq.next() => {
                     let result = locked(&a.table).list(&rq.prefixes, rq.depth);
                     sv.list.answer(id, rcl::ListParametersResponse { result });
                 }
-                Ok((id, rq)) = describe_rq.select_next_some() => {
+                Some(Ok((id, rq))) = describe_rq.next() => {
                     let values = locked(&a.table).describe(&rq.names);
                     sv.describe.answer(id, rcl::DescribeParametersResponse { values });
                 }
-                Ok((id, rq)) = get_rq.select_next_some() => {
+                Some(Ok((id, rq))) = get_rq.next() => {
                     let values = locked(&a.table).values(&rq.names);
                     sv.get.answer(id, rcl::GetParametersResponse { values });
                 }
-                Ok((id, rq)) = types_rq.select_next_some() => {
+                Some(Ok((id, rq))) = types_rq.next() => {
                     let values = locked(&a.table).types(&rq.names);
                     sv.types.answer(id, rcl::GetParameterTypesResponse { values });
                 }
-                Ok((id, rq)) = set_rq.select_next_some() => {
+                Some(Ok((id, rq))) = set_rq.next() => {
                     let params = from_wire(rq.parameter);
                     let (results, changed, after) = {
                         let mut t = locked(&a.table);
@@ -302,7 +304,7 @@ impl<N: Fn() -> Time> Answering<N> {
                     let results = results.into_iter().map(raw::SetParametersResult::from).collect();
                     sv.set.answer(id, rcl::SetParametersResponse { results });
                 }
-                Ok((id, rq)) = atomic_rq.select_next_some() => {
+                Some(Ok((id, rq))) = atomic_rq.next() => {
                     let params = from_wire(rq.parameter);
                     let (result, after) = {
                         let mut t = locked(&a.table);
