@@ -33,7 +33,8 @@
 # `cargo build -p capsule_nodes --features zenoh`), plant and controller as separate processes;
 # a router (capsule_zenohd on 127.0.0.1:7447) is started first unless one answers there or
 # ZENOH_SESSION_CONFIG_URI / ZENOH_CONFIG_OVERRIDE name the user's own. Not on Zenoh yet:
-# recording (give --no-record), the container, Foxglove, --secure, --managed (refused).
+# recording (give --no-record), the container, Foxglove, --secure (refused). --managed works
+# on Zenoh too (the plant serves its lifecycle there; `ros2 lifecycle set` over rmw_zenoh_cpp).
 # Also when RMW_IMPLEMENTATION=rmw_zenoh* is set already. docs/ros.md, Zenoh.
 #
 # --managed: the plant starts unconfigured and waits for its lifecycle (`ros2 lifecycle set
@@ -92,7 +93,6 @@ case "$rmw" in dds|zenoh) ;; *) die "--rmw '$rmw': dds or zenoh" ;; esac
 if [ "$rmw" = zenoh ]; then
   [ "$record" = 0 ] || die "--rmw zenoh: recording is not on Zenoh yet; give --no-record"
   [ -z "$fox_port" ] || die "--rmw zenoh: the Foxglove bridge is not on Zenoh yet"
-  [ "$autostart" = true ] || die "--rmw zenoh: the lifecycle (--managed) is not on Zenoh yet"
   [ -x "$bin/capsule_zenohd" ] || { echo "capsule_launch: --rmw zenoh: $bin/capsule_zenohd not built: the nodes need Zenoh, cargo build -p capsule_nodes --features zenoh" >&2; exit 2; }
   export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_zenoh_cpp}"
   case "$RMW_IMPLEMENTATION" in rmw_zenoh*) ;; *) die "--rmw zenoh with RMW_IMPLEMENTATION=$RMW_IMPLEMENTATION" ;; esac

@@ -17,9 +17,11 @@
 //! a task of its own that polls the action servers every 10 ms.
 //!
 //! On Zenoh (`ControllerActions::on_zenoh`, feature `zenoh`) the same goal handling serves the
-//! actions through ros2-client's Zenoh backend (`capsule_ros_base::action_zenoh`); the plant's
-//! emergency stop and lifecycle are not followed there (neither is on Zenoh yet): a goal is
-//! refused only by the core's own checks (fresh states, commands applied).
+//! actions through ros2-client's Zenoh backend (`capsule_ros_base::action_zenoh`), and the
+//! plant's emergency stop is read there too (a stop engaged before the controller started is
+//! not seen: the plant's Zenoh publisher keeps no cache for a late reader); the plant's
+//! lifecycle is not followed on Zenoh yet (its `get_state` client is DDS only): an inactive
+//! plant's goal is refused only by the core's own checks (fresh states, commands applied).
 
 use std::time::Duration;
 
@@ -43,7 +45,7 @@ use capsule_ros_base::{
     types,
 };
 use ros2_client::action::GoalId;
-use ros2_client::dds::{Context, Node, Subscription};
+use ros2_client::dds::{Context, Node};
 use tracing::{info, warn};
 
 use crate::controller_core::ControllerCore;
@@ -72,8 +74,8 @@ struct Running {
 pub struct ControllerActions {
     moves: Action<MoveGoal, MoveResult, MoveFeedback>,
     switches: Action<SwitchAttractorGoal, SwitchAttractorResult, SwitchAttractorFeedback>,
-    /// The plant's emergency stop (`None` on Zenoh).
-    estop: Option<Subscription<Wire<Bool>>>,
+    /// The plant's emergency stop: the next state it published, if any (DDS or Zenoh).
+    estop: Box<dyn FnMut() -> Option<bool> + Send>,
     estopped: bool,
     /// The plant's lifecycle (`None` on Zenoh).
     lifecycle: Option<PlantLifecycle>,
@@ -117,7 +119,10 @@ impl ControllerActions {
                 type_names::SWITCH_ATTRACTOR,
                 events,
             )?,
-            estop: Some(subscribe(node, &estop_topic, &qos::latched())?),
+            estop: {
+                let reader = subscribe::<Wire<Bool>>(node, &estop_topic, &qos::latched())?;
+                Box::new(move || reader.take().ok().flatten().map(|s| s.0 .0.data))
+            },
             estopped: false,
             lifecycle: Some(PlantLifecycle::new(settings, node)?),
             moving: None,
@@ -128,6 +133,15 @@ impl ControllerActions {
     /// The actions' endpoints on the Zenoh `node`.
     #[cfg(feature = "zenoh")]
     pub fn on_zenoh(settings: &RosOptions, node: &ros2_client::zenoh::Node) -> Result<Self> {
+        use capsule_ros_base::error::Context as _;
+        let topic = node.create_topic(
+            &settings.ros_name(topics::EMERGENCY_STOP)?,
+            types::bool(),
+            &qos::latched(),
+        );
+        let reader = node
+            .create_subscription::<Bool>(&topic, Some(qos::latched()))
+            .context("emergency stop subscription on Zenoh")?;
         Ok(ControllerActions {
             moves: Action::on_zenoh(settings, node, topics::MOVE, type_names::MOVE)?,
             switches: Action::on_zenoh(
@@ -136,7 +150,7 @@ impl ControllerActions {
                 topics::SWITCH_ATTRACTOR,
                 type_names::SWITCH_ATTRACTOR,
             )?,
-            estop: None,
+            estop: Box::new(move || reader.try_take().ok().flatten().map(|(b, _)| b.data)),
             estopped: false,
             lifecycle: None,
             moving: None,
@@ -172,9 +186,7 @@ impl ControllerActions {
     }
 
     fn read_estop(&mut self, core: &impl CoreAccess) {
-        let Some(estop) = &self.estop else { return };
-        while let Ok(Some(sample)) = estop.take() {
-            let engaged = sample.0 .0.data;
+        while let Some(engaged) = (self.estop)() {
             if engaged && !self.estopped {
                 core.with_core(|c| c.abort_move("the plant's emergency stop was engaged"));
             }

@@ -12,10 +12,9 @@ use std::sync::Arc;
 
 use capsule_msgs::names::topics;
 use capsule_msgs::std_types::Bool;
-use capsule_ros_base::error::{Context as _, Result};
-use capsule_ros_base::graph::Graph;
+use capsule_ros_base::error::Result;
+use capsule_ros_base::node_on::NodeOn;
 use capsule_ros_base::{qos, ros_options::RosOptions, types};
-use ros2_client::dds::Node;
 use tracing::{info, warn};
 
 use crate::flag_service::{serve_flag, FlagAnswers};
@@ -29,28 +28,28 @@ pub const ANSWERS: FlagAnswers = FlagAnswers {
     already_clear: "emergency stop was not engaged",
 };
 
-/// Starts serving the stop on `node`; `engaged` is the flag the sample loop reads, and
+/// Starts serving the stop on the node `on` (DDS or Zenoh); `engaged` is the flag the sample loop reads, and
 /// `stopper` (a device's) sends a zero-force frame at once, from a thread of the blocking pool,
 /// so the answer never waits for it.
 pub fn serve(
-    node: &mut Node,
-    graph: &Graph,
+    mut on: NodeOn<'_>,
     settings: &RosOptions,
     engaged: Arc<AtomicBool>,
     stopper: Option<Stopper>,
 ) -> Result<()> {
-    let topic = settings.topic(node, topics::EMERGENCY_STOP, types::bool(), &qos::latched())?;
-    let state = node
-        .create_publisher::<Bool>(&topic, None)
-        .context("emergency_stop publisher")?;
+    let state = on.publisher::<Bool>(
+        settings,
+        topics::EMERGENCY_STOP,
+        types::bool(),
+        &qos::latched(),
+    )?;
     // the state from the start, so that a late reader knows the stop is released
     if let Err(e) = state.publish(Bool { data: false }) {
-        warn!("emergency stop state not sent: {e:?}");
+        warn!("emergency stop state not sent: {e}");
     }
     let state = Arc::new(state);
     serve_flag(
-        node,
-        graph,
+        on,
         settings,
         topics::EMERGENCY_STOP_SERVICE,
         ANSWERS,
@@ -67,7 +66,7 @@ pub fn serve(
             let state = state.clone();
             async move {
                 if let Err(e) = state.async_publish(Bool { data: engage }).await {
-                    warn!("emergency stop state not sent: {e:?}");
+                    warn!("emergency stop state not sent: {e}");
                 }
             }
         },

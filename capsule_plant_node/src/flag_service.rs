@@ -1,5 +1,6 @@
 //! A flag served as `std_srvs/srv/SetBool` (true sets it, false clears it), as the emergency
-//! stop and the pause are: the answer's texts, the server and its request loop, once.
+//! stop and the pause are: the answer's texts, the server and its request loop, once, on DDS
+//! or Zenoh ([`NodeOn`]).
 //!
 //! Served by its own task, never by the sample loop, which reads the flag (one atomic) per step.
 
@@ -9,10 +10,9 @@ use std::sync::Arc;
 
 use capsule_msgs::std_types::{SetBoolRequest, SetBoolResponse};
 use capsule_ros_base::error::Result;
-use capsule_ros_base::graph::Graph;
+use capsule_ros_base::node_on::NodeOn;
 use capsule_ros_base::{endpoints::Wire, ros_options::RosOptions, types};
 use futures::StreamExt;
-use ros2_client::dds::Node;
 use tracing::warn;
 
 /// What a flag's service answers, by what was asked and what the flag was.
@@ -44,11 +44,10 @@ impl FlagAnswers {
     }
 }
 
-/// Starts serving `service` on `node`: each request swaps `flag` to what it asks, then
+/// Starts serving `service` on the node `on`: each request swaps `flag` to what it asks, then
 /// `on_set(asked, &answer)` runs, and the answer goes out once the future it returns is done.
 pub fn serve_flag<F, Fut>(
-    node: &mut Node,
-    graph: &Graph,
+    mut on: NodeOn<'_>,
     settings: &RosOptions,
     service: &'static str,
     answers: FlagAnswers,
@@ -59,9 +58,8 @@ where
     F: FnMut(bool, &SetBoolResponse) -> Fut + Send + 'static,
     Fut: Future<Output = ()> + Send,
 {
-    let server = settings.server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
-        node,
-        graph,
+    let server = on.server::<Wire<SetBoolRequest>, Wire<SetBoolResponse>>(
+        settings,
         service,
         &types::set_bool(),
     )?;

@@ -15,13 +15,16 @@ use std::sync::Arc;
 
 use capsule_msgs::names::topics;
 use capsule_ros_base::error::Result;
-use capsule_ros_base::graph::Graph;
+use capsule_ros_base::node_on::NodeOn;
 use capsule_ros_base::ros_options::RosOptions;
-use ros2_client::dds::Node;
 use tokio::sync::Notify;
 use tracing::info;
 
 use crate::flag_service::{serve_flag, FlagAnswers};
+
+/// Why `--start-paused` is refused in real time.
+pub const NEEDS_LOCKSTEP: &str =
+    "--start-paused needs lock-step pacing (a real-time plant keeps wall time)";
 
 /// What the pause answers, by what was asked and what it was.
 pub const ANSWERS: FlagAnswers = FlagAnswers {
@@ -31,18 +34,16 @@ pub const ANSWERS: FlagAnswers = FlagAnswers {
     already_clear: "was not paused",
 };
 
-/// Starts serving the pause on `node`; `paused` is the flag the sample loop reads, `woken` wakes
-/// it.
+/// Starts serving the pause on the node `on`; `paused` is the flag the sample loop reads,
+/// `woken` wakes it.
 pub fn serve(
-    node: &mut Node,
-    graph: &Graph,
+    on: NodeOn<'_>,
     settings: &RosOptions,
     paused: Arc<AtomicBool>,
     woken: Arc<Notify>,
 ) -> Result<()> {
     serve_flag(
-        node,
-        graph,
+        on,
         settings,
         topics::PAUSE_SERVICE,
         ANSWERS,

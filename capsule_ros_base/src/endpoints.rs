@@ -51,6 +51,26 @@ impl RosOptions {
             &self.resolve_name(name),
         ))
     }
+
+    /// A server of the service `name` (resolved as [`RosOptions::ros_name`]) on the Zenoh
+    /// `node`: a queryable under rmw_zenoh_cpp's key, announced with the type's hash; its
+    /// answers go at once ([`crate::service`]).
+    #[cfg(feature = "zenoh")]
+    pub fn zenoh_server<Q, R>(
+        &self,
+        node: &ros2_client::zenoh::Node,
+        name: &str,
+        type_name: &ServiceTypeName,
+    ) -> Result<Service<Q, R>>
+    where
+        Q: Message + Send + Sync + 'static,
+        R: Message + Send + Sync + 'static,
+    {
+        let server = node
+            .create_server(&self.ros_name(name)?, type_name)
+            .with_context(|| format!("service {name} on Zenoh"))?;
+        Ok(Service::on_zenoh(server, &self.resolve_name(name)))
+    }
 }
 
 /// A subscription to `topic` with `qos`; a failure names the topic.

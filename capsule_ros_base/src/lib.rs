@@ -17,7 +17,8 @@
 //! - [`params`], [`param_services`]: ROS parameters (a table and its rcl_interfaces services)
 //! - [`ports`]: the participant's RTPS ports, and the guard against losing its user port
 //! - [`affinity`]: pinning a node's threads to chosen CPUs (`--cpu-affinity`)
-//! - [`service`]: service servers whose answers wait for the client's reply reader
+//! - [`service`]: service servers whose answers wait for the client's reply reader;
+//!   [`node_on`]: a server or a publisher on either middleware, for logic written once
 //! - [`action`], [`action_goals`]: action servers as rcl_action serves them (status topic,
 //!   `get_result`, cancel policy); `action_zenoh` (feature `zenoh`): the same on Zenoh
 //! - [`middleware`]: DDS or Zenoh, as `RMW_IMPLEMENTATION` chooses; `zenoh_session` (feature
@@ -40,6 +41,7 @@ pub mod middleware;
 pub mod naming;
 pub mod node_life;
 pub mod node_main;
+pub mod node_on;
 pub mod param_services;
 pub mod params;
 pub mod participant;

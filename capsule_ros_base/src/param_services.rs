@@ -211,39 +211,25 @@ impl Servers {
     /// The node's services `~/NAME` of type `rcl_interfaces/srv/TYPE` on the Zenoh `node`.
     #[cfg(feature = "zenoh")]
     fn on_zenoh(node: &ros2_client::zenoh::Node, settings: &RosOptions) -> Result<Servers> {
-        fn server<
-            Q: ros2_client::Message + Send + Sync + 'static,
-            R: ros2_client::Message + Send + Sync + 'static,
-        >(
-            node: &ros2_client::zenoh::Node,
-            settings: &RosOptions,
-            name: &str,
-            ty: &str,
-        ) -> Result<Service<Q, R>> {
-            let server = node
-                .create_server(
-                    &settings.ros_name(name)?,
-                    &ServiceTypeName::new("rcl_interfaces", ty),
-                )
-                .with_context(|| format!("service {name} on Zenoh"))?;
-            Ok(Service::on_zenoh(server, &settings.resolve_name(name)))
-        }
+        let ty = |name: &str| ServiceTypeName::new("rcl_interfaces", name);
         Ok(Servers {
-            list: server(node, settings, "~/list_parameters", "ListParameters")?,
-            describe: server(
+            list: settings.zenoh_server(node, "~/list_parameters", &ty("ListParameters"))?,
+            describe: settings.zenoh_server(
                 node,
-                settings,
                 "~/describe_parameters",
-                "DescribeParameters",
+                &ty("DescribeParameters"),
             )?,
-            get: server(node, settings, "~/get_parameters", "GetParameters")?,
-            types: server(node, settings, "~/get_parameter_types", "GetParameterTypes")?,
-            set: server(node, settings, "~/set_parameters", "SetParameters")?,
-            set_atomic: server(
+            get: settings.zenoh_server(node, "~/get_parameters", &ty("GetParameters"))?,
+            types: settings.zenoh_server(
                 node,
-                settings,
+                "~/get_parameter_types",
+                &ty("GetParameterTypes"),
+            )?,
+            set: settings.zenoh_server(node, "~/set_parameters", &ty("SetParameters"))?,
+            set_atomic: settings.zenoh_server(
+                node,
                 "~/set_parameters_atomically",
-                "SetParametersAtomically",
+                &ty("SetParametersAtomically"),
             )?,
         })
     }
@@ -283,25 +269,27 @@ impl<N: Fn() -> Time> Answering<N> {
         let mut types_rq = sv.types.requests();
         let mut set_rq = sv.set.requests();
         let mut atomic_rq = sv.set_atomic.requests();
+        // `next`, not `select_next_some`: a Zenoh server's requests end when its session
+        // closes (at shutdown), and `select_next_some` panics on an ended stream
         loop {
             tokio::select! {
-                Ok((id, rq)) = list_rq.select_next_some() => {
+                Some(Ok((id, rq))) = list_rq.next() => {
                     let result = locked(&a.table).list(&rq.prefixes, rq.depth);
                     sv.list.answer(id, rcl::ListParametersResponse { result });
                 }
-                Ok((id, rq)) = describe_rq.select_next_some() => {
+                Some(Ok((id, rq))) = describe_rq.next() => {
                     let values = locked(&a.table).describe(&rq.names);
                     sv.describe.answer(id, rcl::DescribeParametersResponse { values });
                 }
-                Ok((id, rq)) = get_rq.select_next_some() => {
+                Some(Ok((id, rq))) = get_rq.next() => {
                     let values = locked(&a.table).values(&rq.names);
                     sv.get.answer(id, rcl::GetParametersResponse { values });
                 }
-                Ok((id, rq)) = types_rq.select_next_some() => {
+                Some(Ok((id, rq))) = types_rq.next() => {
                     let values = locked(&a.table).types(&rq.names);
                     sv.types.answer(id, rcl::GetParameterTypesResponse { values });
                 }
-                Ok((id, rq)) = set_rq.select_next_some() => {
+                Some(Ok((id, rq))) = set_rq.next() => {
                     let params = from_wire(rq.parameter);
                     let (results, changed, after) = {
                         let mut t = locked(&a.table);
@@ -316,7 +304,7 @@ impl<N: Fn() -> Time> Answering<N> {
                     let results = results.into_iter().map(raw::SetParametersResult::from).collect();
                     sv.set.answer(id, rcl::SetParametersResponse { results });
                 }
-                Ok((id, rq)) = atomic_rq.select_next_some() => {
+                Some(Ok((id, rq))) = atomic_rq.next() => {
                     let params = from_wire(rq.parameter);
                     let (result, after) = {
                         let mut t = locked(&a.table);

@@ -36,6 +36,26 @@ Usage (inside a loopback-only network namespace, with a Zenoh router on 127.0.0.
                                                      _action/send_goal, get_result, cancel_goal
                                                      and the topics _action/feedback, status),
                                                      print its end, feedback and statuses
+  zenoh_peer.py estop --state-hash H --flag-hash H [--hold S] [--send-goal-hash H]
+                                                     while the controller commands: engage
+                                                     /capsule_plant/emergency_stop (SetBool
+                                                     true; its hash the one its token
+                                                     announces), watch the state's force and
+                                                     the latched /capsule/emergency_stop,
+                                                     (with --send-goal-hash: a Move goal sent
+                                                     while engaged), release it, print JSON
+  zenoh_peer.py resume --state-hash H [--hold S]      a lock-step plant started paused: read
+                                                     the states it re-sends, resume it
+                                                     (/capsule_plant/pause, SetBool false),
+                                                     read on, print the sequence numbers seen
+  zenoh_peer.py lifecycle --event-hash H [--node /NS/NAME] [--transition ID...]
+                                                     a managed node: get_state, then each
+                                                     transition through change_state with
+                                                     get_state after it, the available states
+                                                     and transitions at the end, the
+                                                     transition_event topic all along; the
+                                                     services' hashes the ones their tokens
+                                                     announce; print JSON
   zenoh_peer.py params --node /NS/NAME [--get NAME...] [--set NAME=JSON...]
                                                      call the node's get_parameters with the
                                                      names, then set_parameters once per --set;
@@ -425,6 +445,148 @@ def params(session, a):
     print(json.dumps(out))
 
 
+def set_bool(session, key, data, seq, timeout):
+    """std_srvs/SetBool: (answer's success, message, seconds the call took)."""
+    started = time.monotonic()
+    r = call(session, key, struct.pack("<B", 1 if data else 0), seq, timeout)
+    return bool(r.take("B", 1)), r.string(), time.monotonic() - started
+
+
+def estop(session, a):
+    """Engage the plant's emergency stop while the controller commands, release it.
+
+    Every state is kept with the time it arrived; the stop promises zero force from the
+    plant's next sample on, so the states arriving from 50 ms after the answer until the
+    release must all carry zero force, and some before the engage and after the release not.
+    """
+    states, flags = [], []
+
+    def on_state(sample):
+        states.append((time.monotonic(), decode_state(sample.payload.to_bytes())["actuator_force"]))
+
+    def on_flag(sample):
+        r = Cdr(sample.payload.to_bytes())
+        flags.append(bool(r.take("B", 1)))
+
+    subs = [
+        session.declare_subscriber(f"{DOMAIN}/capsule/state/{STATE_TYPE}/{a.state_hash}",
+                                   on_state),
+        session.declare_subscriber(
+            f"{DOMAIN}/capsule/emergency_stop/std_msgs::msg::dds_::Bool_/{a.flag_hash}", on_flag),
+    ]
+    service = "/capsule_plant/emergency_stop"
+    dds_type = "std_srvs::srv::dds_::SetBool_"
+    key = f"{DOMAIN}{service}/{dds_type}/{service_hash(session, service, dds_type, a.timeout)}"
+    time.sleep(a.hold)  # the controller commands meanwhile
+    ok, said, took = set_bool(session, key, True, 21, a.timeout)
+    engaged_at = time.monotonic()
+    out = {"engage": {"success": ok, "message": said, "took_s": took}}
+    if a.send_goal_hash:
+        time.sleep(0.2)  # the controller's reader has the flag
+        r = call(session, f"{DOMAIN}/{MOVE}/send_goal/{MOVE_TYPE}_SendGoal_/{a.send_goal_hash}",
+                 os.urandom(16) + struct.pack("<ddd", 0.01, 0.0, 0.0), 23, a.timeout)
+        out["goal_accepted_while_engaged"] = bool(r.take("B", 1))
+    time.sleep(a.hold)
+    ok, said, took = set_bool(session, key, False, 22, a.timeout)
+    released_at = time.monotonic()
+    out["release"] = {"success": ok, "message": said, "took_s": took}
+    time.sleep(a.hold)
+    del subs
+    before = [f for t, f in states if t < engaged_at - took]
+    held = [f for t, f in states if engaged_at + 0.05 <= t < released_at - took]
+    after = [f for t, f in states if t >= released_at + 0.05]
+    out.update(
+        states_before=len(before), nonzero_before=sum(f != 0.0 for f in before),
+        states_held=len(held), nonzero_held=sum(f != 0.0 for f in held),
+        states_after=len(after), nonzero_after=sum(f != 0.0 for f in after),
+        flags=flags)
+    print(json.dumps({"estop": out}))
+
+
+def resume(session, a):
+    """A paused lock-step plant re-sends its sample and takes no step until resumed."""
+    seqs = []
+
+    def on_state(sample):
+        seqs.append((time.monotonic(), decode_state(sample.payload.to_bytes())["seq"]))
+
+    sub = session.declare_subscriber(f"{DOMAIN}/capsule/state/{STATE_TYPE}/{a.state_hash}",
+                                     on_state)
+    service = "/capsule_plant/pause"
+    dds_type = "std_srvs::srv::dds_::SetBool_"
+    key = f"{DOMAIN}{service}/{dds_type}/{service_hash(session, service, dds_type, a.timeout)}"
+    time.sleep(a.hold)
+    ok, said, took = set_bool(session, key, False, 31, a.timeout)
+    resumed_at = time.monotonic() - took
+    time.sleep(a.hold)
+    del sub
+    paused = sorted({s for t, s in seqs if t < resumed_at})
+    after = [s for t, s in seqs if t >= resumed_at]
+    print(json.dumps({"resume": {"success": ok, "message": said, "seqs_paused": paused,
+                                 "states_paused": sum(t < resumed_at for t, _ in seqs),
+                                 "last_seq": max(after, default=None)}}))
+
+
+def take_lifecycle_state(r):
+    """lifecycle_msgs/State (or Transition): [id, label]."""
+    return [r.take("B", 1), r.string()]
+
+
+def lifecycle(session, a):
+    """Drive a managed node through `a.transition` as `ros2 lifecycle set` does."""
+    node = a.node.strip("/")
+    events = []
+
+    def on_event(sample):
+        r = Cdr(sample.payload.to_bytes())
+        r.take("Q", 8)
+        events.append([take_lifecycle_state(r)[0], take_lifecycle_state(r)[0],
+                       take_lifecycle_state(r)[0]])
+
+    sub = session.declare_subscriber(
+        f"{DOMAIN}/{node}/transition_event/lifecycle_msgs::msg::dds_::TransitionEvent_/"
+        f"{a.event_hash}", on_event)
+    keys = {}
+    for service, ty in [("get_state", "GetState"), ("change_state", "ChangeState"),
+                        ("get_available_states", "GetAvailableStates"),
+                        ("get_available_transitions", "GetAvailableTransitions")]:
+        dds_type = f"lifecycle_msgs::srv::dds_::{ty}_"
+        h = service_hash(session, f"/{node}/{service}", dds_type, a.timeout)
+        keys[service] = f"{DOMAIN}/{node}/{service}/{dds_type}/{h}"
+    time.sleep(0.3)  # the subscription reaches the router before the first transition
+    seq = 40
+
+    def get_state():
+        nonlocal seq
+        seq += 1
+        return take_lifecycle_state(call(session, keys["get_state"], b"\x00", seq, a.timeout))
+
+    out = {"lifecycle": {"first": get_state(), "steps": []}}
+    for transition in a.transition:
+        w = CdrOut()
+        w.put("B", 1, transition)
+        w.string("")
+        seq += 1
+        r = call(session, keys["change_state"], bytes(w.data), seq, a.timeout)
+        out["lifecycle"]["steps"].append({"transition": transition,
+                                          "success": bool(r.take("B", 1)),
+                                          "state": get_state()})
+    seq += 1
+    r = call(session, keys["get_available_states"], b"\x00", seq, a.timeout)
+    out["lifecycle"]["available_states"] = [take_lifecycle_state(r)[0]
+                                            for _ in range(r.take("I", 4))]
+    seq += 1
+    r = call(session, keys["get_available_transitions"], b"\x00", seq, a.timeout)
+    found = []
+    for _ in range(r.take("I", 4)):
+        found.append([take_lifecycle_state(r)[0] for _ in range(3)])
+    out["lifecycle"]["available_transitions"] = found
+    time.sleep(0.3)  # the last events
+    del sub
+    out["lifecycle"]["events"] = events
+    print(json.dumps(out))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -448,6 +610,21 @@ def main():
         mv.add_argument(f"--{h}-hash", required=True)
     mv.add_argument("--cancel-after", type=float)
     mv.add_argument("--timeout", type=float, default=10.0)
+    es = sub.add_parser("estop")
+    es.add_argument("--state-hash", required=True)
+    es.add_argument("--flag-hash", required=True)
+    es.add_argument("--hold", type=float, default=0.5)
+    es.add_argument("--send-goal-hash")
+    es.add_argument("--timeout", type=float, default=10.0)
+    rs = sub.add_parser("resume")
+    rs.add_argument("--state-hash", required=True)
+    rs.add_argument("--hold", type=float, default=0.5)
+    rs.add_argument("--timeout", type=float, default=10.0)
+    lc = sub.add_parser("lifecycle")
+    lc.add_argument("--event-hash", required=True)
+    lc.add_argument("--node", default="/capsule_plant")
+    lc.add_argument("--transition", type=int, action="append", default=[])
+    lc.add_argument("--timeout", type=float, default=10.0)
     pa = sub.add_parser("params")
     pa.add_argument("--node", required=True)
     pa.add_argument("--get", action="append", default=[])
@@ -461,6 +638,12 @@ def main():
             state(session, a.hash, a.samples, a.timeout)
         elif a.cmd == "params":
             params(session, a)
+        elif a.cmd == "estop":
+            estop(session, a)
+        elif a.cmd == "lifecycle":
+            lifecycle(session, a)
+        elif a.cmd == "resume":
+            resume(session, a)
         elif a.cmd == "move":
             move(session, a.distance, a)
         else:

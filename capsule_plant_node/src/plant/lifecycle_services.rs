@@ -1,8 +1,10 @@
 //! The lifecycle served as rclcpp_lifecycle serves it: `~/change_state`, `~/get_state`,
 //! `~/get_available_states`, `~/get_available_transitions`, `~/get_transition_graph`
-//! (`lifecycle_msgs` types) and `~/transition_event`. Served on the node's thread; the
-//! callbacks run on the sample loop's thread ([`super::loop_control`]), which answers within a
-//! sample, so `~/get_state` says `configuring` (or `activating`, ...) meanwhile.
+//! (`lifecycle_msgs` types) and `~/transition_event`, on DDS or Zenoh ([`NodeOn`]: the same
+//! machine and answers on both). Served by tasks of their own; the steps are taken by the
+//! sample loop (its own thread on DDS, its task on Zenoh: [`super::loop_control`]), which
+//! answers within a sample, so `~/get_state` says `configuring` (or `activating`, ...)
+//! meanwhile.
 
 use std::sync::{Arc, Mutex};
 
@@ -12,12 +14,11 @@ use capsule_msgs::std_types::{
     ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
     GetAvailableTransitionsResponse, GetStateResponse, LifecycleTransition, TransitionEvent,
 };
-use capsule_ros_base::error::{Context as _, Result};
-use capsule_ros_base::graph::Graph;
+use capsule_ros_base::error::Result;
+use capsule_ros_base::node_on::{AnyPublisher, NodeOn};
 use capsule_ros_base::service::Service;
 use capsule_ros_base::{endpoints::Wire, qos, ros_options::RosOptions};
 use futures::{Future, StreamExt};
-use ros2_client::dds::Node;
 use ros2_client::{MessageTypeName, ServiceTypeName};
 use serde::{de::DeserializeOwned, Serialize};
 use tokio::sync::{mpsc, oneshot};
@@ -31,7 +32,7 @@ use super::loop_control::Request;
 pub struct Lifecycle {
     state: Arc<Mutex<State>>,
     to_loop: mpsc::UnboundedSender<Request>,
-    events: Arc<ros2_client::dds::Publisher<TransitionEvent>>,
+    events: Arc<AnyPublisher<TransitionEvent>>,
     /// One transition at a time.
     busy: Arc<tokio::sync::Mutex<()>>,
 }
@@ -58,7 +59,7 @@ impl Lifecycle {
             goal_state: d.goal_state,
         };
         if let Err(e) = self.events.publish(event) {
-            warn!("transition event not sent: {e:?}");
+            warn!("transition event not sent: {e}");
         }
     }
 
@@ -148,8 +149,7 @@ fn serve_with<Req, Resp, F, Fut>(
 
 /// A server of the lifecycle service `(name, type)`.
 fn server<Req, Resp>(
-    node: &mut Node,
-    graph: &Graph,
+    on: &mut NodeOn<'_>,
     settings: &RosOptions,
     (name, full): Endpoint,
 ) -> Result<Service<Wire<Req>, Wire<Resp>>>
@@ -158,21 +158,22 @@ where
     Resp: Serialize + DeserializeOwned + Send + Sync + 'static,
 {
     let (package, ty) = type_names::split(full);
-    settings.server(node, graph, name, &ServiceTypeName::new(package, ty))
+    on.server(settings, name, &ServiceTypeName::new(package, ty))
 }
 
-/// Serves the lifecycle on `node`; the loop takes its steps from the receiver.
+/// Serves the lifecycle on the node `on`; the loop takes its steps from the receiver.
 pub fn serve(
-    node: &mut Node,
-    graph: &Graph,
+    mut on: NodeOn<'_>,
     settings: &RosOptions,
 ) -> Result<(Lifecycle, mpsc::UnboundedReceiver<Request>)> {
     let (name, full) = names::TRANSITION_EVENT;
     let (package, ty) = type_names::split(full);
-    let topic = settings.topic(node, name, MessageTypeName::new(package, ty), &qos::data())?;
-    let events = node
-        .create_publisher::<TransitionEvent>(&topic, None)
-        .context("transition_event publisher")?;
+    let events = on.publisher::<TransitionEvent>(
+        settings,
+        name,
+        MessageTypeName::new(package, ty),
+        &qos::data(),
+    )?;
     let (to_loop, requests) = mpsc::unbounded_channel();
     let lc = Lifecycle {
         state: Arc::new(Mutex::new(State::Unconfigured)),
@@ -180,12 +181,8 @@ pub fn serve(
         events: Arc::new(events),
         busy: Arc::default(),
     };
-    let change = server::<ChangeStateRequest, ChangeStateResponse>(
-        node,
-        graph,
-        settings,
-        names::CHANGE_STATE,
-    )?;
+    let change =
+        server::<ChangeStateRequest, ChangeStateResponse>(&mut on, settings, names::CHANGE_STATE)?;
     let l = lc.clone();
     serve_with(change, "change_state", move |req: ChangeStateRequest| {
         let l = l.clone();
@@ -195,15 +192,14 @@ pub fn serve(
             }
         }
     });
-    let get = server::<EmptyRequest, GetStateResponse>(node, graph, settings, names::GET_STATE)?;
+    let get = server::<EmptyRequest, GetStateResponse>(&mut on, settings, names::GET_STATE)?;
     let l = lc.clone();
     serve_with(get, "get_state", move |_| {
         let current_state = l.state().msg();
         async move { GetStateResponse { current_state } }
     });
     let states = server::<EmptyRequest, GetAvailableStatesResponse>(
-        node,
-        graph,
+        &mut on,
         settings,
         names::GET_AVAILABLE_STATES,
     )?;
@@ -221,9 +217,8 @@ pub fn serve(
         ),
         (names::GET_TRANSITION_GRAPH, "get_transition_graph", true),
     ] {
-        let srv = server::<EmptyRequest, GetAvailableTransitionsResponse>(
-            node, graph, settings, endpoint,
-        )?;
+        let srv =
+            server::<EmptyRequest, GetAvailableTransitionsResponse>(&mut on, settings, endpoint)?;
         let l = lc.clone();
         serve_with(srv, what, move |_| {
             let available_transitions = if whole {

@@ -15,6 +15,7 @@ use capsule_msgs::names::topics;
 use capsule_msgs::{CapsuleState, Time};
 use capsule_ros_base::error::{bail, chain, Context as _, Result};
 use capsule_ros_base::node_life::{self, NodeLife, Seat};
+use capsule_ros_base::node_on::NodeOn;
 use capsule_ros_base::{conflicts, graph::Graph, ros_options::RosOptions};
 use tokio::sync::{oneshot, Notify};
 use tracing::{info, warn};
@@ -128,8 +129,7 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
             Endpoints::create(&mut node, &settings, &graph, &opts, core.rate_hz, transport)?;
         let conflicts = conflicts::watch(graph.clone(), rules);
         crate::emergency_stop::serve(
-            &mut node,
-            &graph,
+            NodeOn::Dds(&mut node, &graph),
             &settings,
             core.emergency_stop(),
             core.stopper(),
@@ -144,13 +144,19 @@ impl<H: CapsuleHardware + 'static> NodeLife for PlantNode<H> {
             capsule_ros_base::params::no_rules,
             || Time::from_nanos(capsule_record::writer::now_ns() as i64),
         )?;
-        let (lifecycle, requests) = lifecycle_services::serve(&mut node, &graph, &settings)?;
+        let (lifecycle, requests) =
+            lifecycle_services::serve(NodeOn::Dds(&mut node, &graph), &settings)?;
         let (woken, paused) = (Arc::new(Notify::new()), Arc::new(AtomicBool::new(false)));
         if opts.pacing == Pacing::Lockstep {
             paused.store(opts.start_paused, Ordering::SeqCst);
-            crate::pause::serve(&mut node, &graph, &settings, paused.clone(), woken.clone())?;
+            crate::pause::serve(
+                NodeOn::Dds(&mut node, &graph),
+                &settings,
+                paused.clone(),
+                woken.clone(),
+            )?;
         } else if opts.start_paused {
-            bail!("--start-paused needs lock-step pacing (a real-time plant keeps wall time)");
+            bail!("{}", crate::pause::NEEDS_LOCKSTEP);
         }
         let recording = match (file, &opts.record) {
             (Some(rec), Some(r)) if composed => {

@@ -1,22 +1,30 @@
-//! The plant on Zenoh (rmw_zenoh_cpp's protocol, through ros2-client's Zenoh backend), its core
-//! interface: the state out on `/capsule/state`, the force command in, the same [`PlantCore`]
-//! as on DDS, in real time or in lock-step (each step waits for the command answering the last
-//! sample, re-sending it, as on DDS: [`super::silence`]), its parameters served read-only as on
-//! DDS. What is not ported yet is refused by name before any work ([`refuse_unported`]);
-//! `/clock`, the views, the emergency stop and the lifecycle services are not served on Zenoh
-//! yet, which the log says at start.
+//! The plant on Zenoh (rmw_zenoh_cpp's protocol, through ros2-client's Zenoh backend): the
+//! state out on `/capsule/state`, the force command in, the same [`PlantCore`] as on DDS, in
+//! real time or in lock-step (each step waits for the command answering the last sample,
+//! re-sending it, as on DDS: [`super::silence`]). Served by their own tasks with the same logic
+//! as on DDS ([`NodeOn`]): the parameters (read-only), the emergency stop
+//! ([`crate::emergency_stop`]), the pause in lock-step ([`crate::pause`]) and the lifecycle
+//! (`lifecycle_services`: the loop takes its steps between samples, as on DDS). What is not
+//! ported yet is refused by name before any work ([`refuse_unported`]); `/clock` and the views
+//! are not served on Zenoh yet, which the log says at start.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use capsule_hardware::throttle::Throttle;
 use capsule_msgs::names::topics;
 use capsule_msgs::{ActuatorForce, CapsuleState};
 use capsule_ros_base::error::{bail, Context as _, Result};
+use capsule_ros_base::node_on::NodeOn;
 use capsule_ros_base::{qos, ros_options::RosOptions, types};
 use ros2_client::zenoh::{Node, Publisher, Subscription};
+use tokio::sync::{mpsc, Notify};
 use tracing::{info, warn};
 
 use super::endpoints::{log_refused, log_undecodable, MATCH_GRACE};
+use super::lifecycle_services;
+use super::loop_control::{apply, apply_unconfigured, Exit, Request};
 use super::silence::{Silence, Verdict, Waiting};
 use super::simulator_loop::Wall;
 use super::{CommandOutcome, LoopStats, Pacing, PlantCore, PlantOptions};
@@ -28,7 +36,6 @@ fn refuse_unported(settings: &RosOptions, opts: &PlantOptions) -> Result<()> {
     let asked = [
         (opts.record.is_some(), "--record"),
         (opts.joint_commands, "--joint-commands"),
-        (!opts.autostart, "the lifecycle (a plant not autostarted)"),
         (settings.use_sim_time, "--use-sim-time"),
     ];
     for (_, what) in asked.iter().filter(|(on, _)| *on) {
@@ -122,38 +129,122 @@ pub(super) async fn run<H: CapsuleHardware>(
         capsule_ros_base::params::no_rules,
         || capsule_msgs::Time::from_nanos(capsule_record::writer::now_ns() as i64),
     )?;
+    // the emergency stop: its own task answers, the loop reads the flag each step
+    crate::emergency_stop::serve(
+        NodeOn::Zenoh(&io.node),
+        &settings,
+        core.emergency_stop(),
+        core.stopper(),
+    )?;
+    // the lifecycle: its own tasks answer, the loop takes the steps between samples
+    let (lifecycle, requests) = lifecycle_services::serve(NodeOn::Zenoh(&io.node), &settings)?;
+    // the pause (lock-step): its own task answers, the loop holds while the flag is set
+    let mut control = Control {
+        paused: Arc::new(AtomicBool::new(opts.start_paused)),
+        woken: Arc::new(Notify::new()),
+        requests,
+    };
+    match opts.pacing {
+        Pacing::Lockstep => crate::pause::serve(
+            NodeOn::Zenoh(&io.node),
+            &settings,
+            control.paused.clone(),
+            control.woken.clone(),
+        )?,
+        Pacing::Realtime if opts.start_paused => bail!("{}", crate::pause::NEEDS_LOCKSTEP),
+        Pacing::Realtime => {}
+    }
     info!(
-        "{}: {:?} at {} Hz, state {} <- force {}, parameters; not on Zenoh yet: /clock, \
-         views, emergency stop, lifecycle services, recording",
+        "{}: {:?} at {} Hz, state {} <- force {}, parameters, emergency stop, pause \
+         (lock-step), lifecycle{}; not on Zenoh yet: /clock, views, recording",
         settings.describe(),
         opts.pacing,
         core.rate_hz,
         settings.resolve_name(topics::STATE),
         settings.resolve_name(topics::FORCE),
+        if opts.autostart {
+            ""
+        } else {
+            " (unconfigured until `ros2 lifecycle set` configures it)"
+        }
     );
-    core.configure().context("the plant's hardware")?;
-    core.activate().context("the plant's hardware")?;
     let end = capsule_ros_base::signals::shutdown();
     tokio::pin!(end);
     let stopped = tokio::select! {
         stopped = &mut end => stopped,
         waited = io.wait_subscribers(&settings, opts.wait_subscribers, opts.startup_timeout) => {
             waited?;
-            let paced = async {
-                match opts.pacing {
-                    Pacing::Realtime => realtime(&mut core, &io, &opts).await,
-                    Pacing::Lockstep => lockstep(&mut core, &io, &opts).await,
+            // --autostart: configure and activate, through the lifecycle as on DDS
+            let started = async {
+                if opts.autostart {
+                    lifecycle.autostart().await?;
                 }
+                std::future::pending::<Result<()>>().await
             };
             tokio::select! {
                 stopped = &mut end => stopped,
-                over = paced => over,
+                over = drive(&mut core, &io, &opts, &mut control) => over,
+                failed = started => failed,
             }
         }
     };
+    let _ = core.cleanup();
     core.stats.finish();
     info!("loop: {} samples on Zenoh", core.stats.published);
     stopped.map(|()| (core.stats.clone(), core.state()))
+}
+
+/// What reaches the loop from the services: the pause (its flag, and the wake-up when it
+/// changes) and the lifecycle's steps.
+struct Control {
+    paused: Arc<AtomicBool>,
+    woken: Arc<Notify>,
+    requests: mpsc::UnboundedReceiver<Request>,
+}
+
+impl Control {
+    /// Whether the plant is paused.
+    fn paused(&self) -> bool {
+        self.paused.load(Ordering::SeqCst)
+    }
+
+    /// Applies the lifecycle steps waiting, without waiting for any; `Some` when the pacing
+    /// loop must return.
+    fn poll<H: CapsuleHardware>(&mut self, core: &mut PlantCore<H>) -> Option<Exit> {
+        while let Ok(r) = self.requests.try_recv() {
+            if let Some(exit) = apply(core, r) {
+                return Some(exit);
+            }
+        }
+        None
+    }
+}
+
+/// The plant's life, as on DDS: unconfigured until configured, then the pacing loop until a
+/// cleanup (unconfigured again) or the end.
+async fn drive<H: CapsuleHardware>(
+    core: &mut PlantCore<H>,
+    io: &Io,
+    opts: &PlantOptions,
+    control: &mut Control,
+) -> Result<()> {
+    loop {
+        let Some(request) = control.requests.recv().await else {
+            return Ok(());
+        };
+        match apply_unconfigured(core, request) {
+            Some(Exit::Over) => return Ok(()),
+            Some(Exit::CleanedUp) => continue,
+            None => {}
+        }
+        let exit = match opts.pacing {
+            Pacing::Realtime => realtime(core, io, opts, control).await?,
+            Pacing::Lockstep => lockstep(core, io, opts, control).await?,
+        };
+        if exit == Exit::Over {
+            return Ok(());
+        }
+    }
 }
 
 /// Sends the current sample; true when it was the last one (`--until-s`), said in the log.
@@ -175,21 +266,26 @@ async fn publish<H: CapsuleHardware>(
     over
 }
 
-/// Real time: sample `k` out at `start + k / rate`, the commands received meanwhile taken, step.
+/// Real time: sample `k` out at `start + k / rate`, the lifecycle's steps and the commands
+/// received meanwhile taken, step (zero force unless active).
 async fn realtime<H: CapsuleHardware>(
     core: &mut PlantCore<H>,
     io: &Io,
     opts: &PlantOptions,
-) -> Result<()> {
+    control: &mut Control,
+) -> Result<Exit> {
     let period = Duration::from_secs_f64(1.0 / core.rate_hz);
     let (start, wall) = (Instant::now(), Wall::start());
     let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
     loop {
         if publish(core, io, opts, wall).await {
-            return Ok(());
+            return Ok(Exit::Over);
         }
         let due = start + period.mul_f64(core.stats.published as f64);
         tokio::time::sleep_until(due.into()).await;
+        if let Some(exit) = control.poll(core) {
+            return Ok(exit);
+        }
         loop {
             match io.forces.try_take() {
                 Ok(Some((cmd, _))) => match core.on_command(&cmd, wall.now(), false) {
@@ -216,12 +312,14 @@ async fn realtime<H: CapsuleHardware>(
 /// Lock-step: publish sample `k`, wait for the command answering it (re-sending the sample
 /// every `retransmit`), step with it; never a step without its answer unless
 /// `--lockstep-on-silence zero-force` asks; the controller gone (its force publisher's token
-/// withdrawn, or silent for `lockstep_give_up_s`) ends the run with an error.
+/// withdrawn, or silent for `lockstep_give_up_s`) ends the run with an error. Paused, it is
+/// answered but takes no step: the sample is re-sent, sim time stands still; so while inactive.
 async fn lockstep<H: CapsuleHardware>(
     core: &mut PlantCore<H>,
     io: &Io,
     opts: &PlantOptions,
-) -> Result<()> {
+    control: &mut Control,
+) -> Result<Exit> {
     let wall = Wall::start();
     let silence = Silence::of(opts, core.command_timeout);
     let mut resend = tokio::time::interval(opts.retransmit);
@@ -230,12 +328,19 @@ async fn lockstep<H: CapsuleHardware>(
     let (mut refused, mut undecodable) = (Throttle::default(), Throttle::default());
     loop {
         if publish(core, io, opts, wall).await {
-            return Ok(());
+            return Ok(Exit::Over);
         }
-        let sent = wall.now();
+        let mut sent = wall.now();
         resend.reset();
-        while !core.answered() {
+        while !core.answered() || !core.active() || control.paused() {
+            let woken = control.woken.clone();
             tokio::select! {
+                _ = woken.notified() => {}
+                Some(r) = control.requests.recv() => {
+                    if let Some(exit) = apply(core, r) {
+                        return Ok(exit);
+                    }
+                }
                 msg = io.forces.async_take() => match msg {
                     Ok((cmd, _)) => match core.on_command(&cmd, wall.now(), true) {
                         CommandOutcome::Accepted => ever_commanded = true,
@@ -245,6 +350,14 @@ async fn lockstep<H: CapsuleHardware>(
                     Err(e) => log_undecodable(&mut undecodable, &e),
                 },
                 _ = resend.tick() => {
+                    if !core.active() || control.paused() {
+                        // sim time stands still while inactive or paused: the wait counts from
+                        // activation (or resumption)
+                        sent = wall.now();
+                        core.stats.resent += 1;
+                        io.send(core.state()).await;
+                        continue;
+                    }
                     let waiting = Waiting {
                         seq: core.seq(),
                         waited_s: wall.now() - sent,

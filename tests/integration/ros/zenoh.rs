@@ -69,7 +69,8 @@ fn move_hashes() -> String {
 }
 
 #[test]
-fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_sets_parameters() {
+fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_and_sets_parameters()
+{
     let run = with_router(
         120,
         &format!(
@@ -79,6 +80,7 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_set
                 --topic /capsule_controller/move/_action/send_goal || exit 1
             zpeer state --hash {state} --samples 300 || exit 1
             zpeer set-mode 1 0 --hash {set_mode} --status-hash {status} || exit 1
+            zpeer estop --state-hash {state} --flag-hash {flag} --send-goal-hash {goal} || exit 1
             zpeer move 0.01 {moves} || exit 1
             zpeer move 1.0 --cancel-after 0.5 {moves} || exit 1
             zpeer params --node /capsule_controller --get gain --get mode --get alpha \
@@ -89,10 +91,15 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_set
             state = hash("capsule_msgs/msg/CapsuleState"),
             set_mode = hash("capsule_msgs/srv/SetMode"),
             status = hash("capsule_msgs/msg/ControllerStatus"),
+            flag = hash("std_msgs/msg/Bool"),
+            goal = hash("capsule_msgs/action/Move_SendGoal"),
             moves = move_hashes(),
         ),
     );
     run.assert_ok();
+    // stopped by SIGTERM: the nodes' logs end without a panic (a parameter server's requests
+    // end when the Zenoh session closes)
+    assert!(!run.stderr.contains("panicked"), "{}", run.all());
     let lines = json_lines(&run);
     let entity = |node: &str, kind: &str, topic: &str| {
         lines
@@ -107,6 +114,20 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_set
             "/capsule/state",
             "capsule_msgs/msg/CapsuleState",
             "capsule_msgs::msg::dds_::CapsuleState_",
+        ),
+        (
+            "capsule_plant",
+            "SS",
+            "/capsule_plant/emergency_stop",
+            "std_srvs/srv/SetBool",
+            "std_srvs::srv::dds_::SetBool_",
+        ),
+        (
+            "capsule_plant",
+            "MP",
+            "/capsule/emergency_stop",
+            "std_msgs/msg/Bool",
+            "std_msgs::msg::dds_::Bool_",
         ),
         (
             "capsule_controller",
@@ -177,6 +198,40 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_moves_and_set
         .find(|l| l.get("status_mode").is_some())
         .unwrap_or_else(|| panic!("no status\n{}", run.all()));
     assert_eq!(status["mode_name"], "FORWARD", "{status}");
+    // the emergency stop, as on DDS (ros::device): engaged while the controller drives
+    // FORWARD, zero force on every state from 50 ms after the answer to the release, the
+    // latched flag following; released, the commands apply again
+    let stop = lines
+        .iter()
+        .find_map(|l| l.get("estop"))
+        .unwrap_or_else(|| panic!("no emergency stop report\n{}", run.all()));
+    let said = |step: &str| {
+        stop[step]["message"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string()
+    };
+    assert_eq!(stop["engage"]["success"], true, "{stop}");
+    assert!(said("engage").contains("emergency stop engaged"), "{stop}");
+    assert!(
+        said("release").contains("emergency stop released"),
+        "{stop}"
+    );
+    let count = |key: &str| stop[key].as_u64().unwrap_or(0);
+    assert!(
+        count("nonzero_before") > 0,
+        "the controller commands first: {stop}"
+    );
+    assert!(count("states_held") >= 100, "states while engaged: {stop}");
+    assert_eq!(count("nonzero_held"), 0, "zero force while engaged: {stop}");
+    assert!(
+        count("nonzero_after") > 0,
+        "commands apply after the release: {stop}"
+    );
+    assert_eq!(stop["flags"], serde_json::json!([true, false]), "{stop}");
+    // the controller reads the stop on Zenoh too: a goal while engaged is refused for it
+    assert_eq!(stop["goal_accepted_while_engaged"], false, "{stop}");
+    run.assert_stderr(&["goal 0.01 m refused: the plant's emergency stop is engaged"]);
     // the Move goals, as on DDS (ros::actions): +10 mm SUCCEEDED within the default tolerance
     // (1 mm), feedback at 20 Hz, the status topic EXECUTING then SUCCEEDED; 1 m cancelled
     let goals: Vec<&Value> = lines
@@ -293,6 +348,101 @@ fn the_lockstep_demo_on_zenoh_prints_the_figures_of_dds() {
     ] {
         assert!(zenoh.contains(line), "{line:?} missing\n{}", run.all());
     }
+}
+
+#[test]
+fn on_zenoh_a_lockstep_plant_started_paused_holds_its_sample_until_resumed() {
+    // as on DDS (crate::pause): paused, the plant is answered but takes no step and re-sends
+    // its sample; resumed through `~/pause` (false), it steps again
+    let run = with_router(
+        60,
+        &format!(
+            "start_plant --pacing lockstep --start-paused --until-s 5 2> \"$TMP/plant.log\"
+            start_controller 2> \"$TMP/controller.log\"
+            zpeer resume --state-hash {state} || exit 1
+            stop $C $P
+            cat \"$TMP/plant.log\" >&2",
+            state = hash("capsule_msgs/msg/CapsuleState"),
+        ),
+    );
+    run.assert_ok();
+    let lines = json_lines(&run);
+    let resumed = lines
+        .iter()
+        .find_map(|l| l.get("resume"))
+        .unwrap_or_else(|| panic!("no resume report\n{}", run.all()));
+    assert_eq!(resumed["success"], true, "{resumed}");
+    let said = resumed["message"].as_str().unwrap_or_default();
+    assert!(said.contains("resumed"), "{resumed}");
+    let held = resumed["seqs_paused"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(held.len(), 1, "one sample while paused: {resumed}");
+    assert!(
+        resumed["states_paused"].as_u64().unwrap_or(0) >= 2,
+        "re-sent while paused: {resumed}"
+    );
+    let (held, last) = (held[0].as_u64(), resumed["last_seq"].as_u64());
+    let (held, last) = (held.unwrap_or(u64::MAX), last.unwrap_or(0));
+    assert!(
+        last > held.saturating_add(10),
+        "steps after the resume: {resumed}"
+    );
+}
+
+#[test]
+fn on_zenoh_a_plant_not_autostarted_is_driven_through_its_lifecycle_by_an_rmw_zenoh_peer() {
+    // as `ros2 lifecycle set` over rmw_zenoh_cpp: activate refused while unconfigured, then
+    // configure and activate; the states flow once configured
+    let run = with_router(
+        60,
+        &format!(
+            "start_plant --autostart false --until-s 30 2> \"$TMP/plant.log\"
+            zpeer lifecycle --event-hash {event} --transition 3 --transition 1 --transition 3 \
+                || exit 1
+            zpeer state --hash {state} --samples 100 || exit 1
+            stop $P
+            cat \"$TMP/plant.log\" >&2",
+            event = hash("lifecycle_msgs/msg/TransitionEvent"),
+            state = hash("capsule_msgs/msg/CapsuleState"),
+        ),
+    );
+    run.assert_ok();
+    let lines = json_lines(&run);
+    let lc = lines
+        .iter()
+        .find_map(|l| l.get("lifecycle"))
+        .unwrap_or_else(|| panic!("no lifecycle report\n{}", run.all()));
+    assert_eq!(lc["first"], serde_json::json!([1, "unconfigured"]), "{lc}");
+    let steps = serde_json::json!([
+        {"transition": 3, "success": false, "state": [1, "unconfigured"]},
+        {"transition": 1, "success": true, "state": [2, "inactive"]},
+        {"transition": 3, "success": true, "state": [3, "active"]},
+    ]);
+    assert_eq!(lc["steps"], steps, "{lc}");
+    assert_eq!(
+        lc["available_states"].as_array().map(Vec::len),
+        Some(10),
+        "{lc}"
+    );
+    // from active: deactivate (4) and shutdown (7)
+    assert_eq!(
+        lc["available_transitions"],
+        serde_json::json!([[4, 3, 14], [7, 3, 12]]),
+        "{lc}"
+    );
+    // every step on ~/transition_event: (transition, from, to)
+    assert_eq!(
+        lc["events"],
+        serde_json::json!([[1, 1, 10], [10, 10, 2], [3, 2, 13], [30, 13, 3]]),
+        "{lc}"
+    );
+    let state = lines
+        .iter()
+        .find(|l| l.get("samples").is_some())
+        .unwrap_or_else(|| panic!("no state report\n{}", run.all()));
+    assert_eq!(state["samples"], 100, "{state}");
 }
 
 #[test]
