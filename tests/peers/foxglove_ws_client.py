@@ -87,6 +87,8 @@ async def run(args):
             subs[i] = topic
         await ws.send(json.dumps({"op": "subscribe", "subscriptions": [
             {"id": i, "channelId": channels[t]["id"]} for i, t in subs.items()]}))
+        # for a test that must act only once the client listens (a goal's feedback)
+        print("foxglove_ws_client: subscribed", file=sys.stderr, flush=True)
         got = {t: [] for t in args.topics}
         log_times = {t: [] for t in args.topics}
         end = time.monotonic() + args.seconds

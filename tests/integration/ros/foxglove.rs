@@ -40,7 +40,9 @@ fn client_decodes_the_live_graph(flags: &str, goal: bool) -> Run {
     let (feedback, move_goal) = if goal {
         (
             MOVE_FEEDBACK,
-            "sleep 0.5; $B/capsule_ros move 0.004 > $TMP/move.out || exit 1",
+            // the goal once the client listens: a loaded host can start it after a short goal ended
+            "for i in $(seq 600); do grep -q subscribed $TMP/client.err && break; sleep 0.1; done
+            $B/capsule_ros move 0.004 > $TMP/move.out || exit 1",
         )
     } else {
         ("", "")
@@ -56,9 +58,11 @@ fn client_decodes_the_live_graph(flags: &str, goal: bool) -> Run {
             URL=$(sed -n 's/^capsule_foxglove: serving //p' $TMP/fox.out)
             echo "url $URL"
             python3 {client} "$URL" --topics {STATE} {STATUS} {FRAME} {FORCE} {feedback} \
-                --seconds 3 --min 5 --timeout 90 > $TMP/client.out & W=$!
+                --seconds 3 --min 5 --timeout 90 > $TMP/client.out 2> $TMP/client.err & W=$!
             {move_goal}
-            wait $W || exit 1
+            wait $W; S=$?
+            cat $TMP/client.err >&2
+            [ $S -eq 0 ] || exit 1
             cat $TMP/client.out
             KIDS=$(pgrep -P $L)
             echo "KIDS $(for k in $KIDS; do cat /proc/$k/comm; done | sort | tr '\n' ' ')"

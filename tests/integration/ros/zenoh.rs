@@ -101,6 +101,15 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
     // end when the Zenoh session closes)
     assert!(!run.stderr.contains("panicked"), "{}", run.all());
     let lines = json_lines(&run);
+    announced_with_rosidls_hashes(&run, &lines);
+    states_and_set_mode(&run, &lines);
+    emergency_stop(&run, &lines);
+    move_goals(&run, &lines);
+    parameters(&run, &lines);
+}
+
+/// The peer's graph: each entity of ours with its DDS type name and rosidl's hash.
+fn announced_with_rosidls_hashes(run: &Run, lines: &[Value]) {
     let entity = |node: &str, kind: &str, topic: &str| {
         lines
             .iter()
@@ -176,6 +185,10 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
         assert_eq!(e["type"], dds, "{e}");
         assert_eq!(e["hash"], hash(type_name), "{e}");
     }
+}
+
+/// The states at 1 kHz from one publisher, and set_mode FORWARD shown in the status.
+fn states_and_set_mode(run: &Run, lines: &[Value]) {
     let state = lines
         .iter()
         .find(|l| l.get("samples").is_some())
@@ -198,6 +211,10 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
         .find(|l| l.get("status_mode").is_some())
         .unwrap_or_else(|| panic!("no status\n{}", run.all()));
     assert_eq!(status["mode_name"], "FORWARD", "{status}");
+}
+
+/// The emergency stop as the peer drove it.
+fn emergency_stop(run: &Run, lines: &[Value]) {
     // the emergency stop, as on DDS (ros::device): engaged while the controller drives
     // FORWARD, zero force on every state from 50 ms after the answer to the release, the
     // latched flag following; released, the commands apply again
@@ -232,6 +249,10 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
     // the controller reads the stop on Zenoh too: a goal while engaged is refused for it
     assert_eq!(stop["goal_accepted_while_engaged"], false, "{stop}");
     run.assert_stderr(&["goal 0.01 m refused: the plant's emergency stop is engaged"]);
+}
+
+/// The Move goals: one reached, one cancelled.
+fn move_goals(run: &Run, lines: &[Value]) {
     // the Move goals, as on DDS (ros::actions): +10 mm SUCCEEDED within the default tolerance
     // (1 mm), feedback at 20 Hz, the status topic EXECUTING then SUCCEEDED; 1 m cancelled
     let goals: Vec<&Value> = lines
@@ -263,6 +284,10 @@ fn an_rmw_zenoh_peer_sees_the_nodes_reads_states_switches_the_mode_stops_moves_a
         "{g}"
     );
     assert!(g["feedback"].as_u64().unwrap_or(0) > 0, "{g}");
+}
+
+/// The parameters of both nodes.
+fn parameters(run: &Run, lines: &[Value]) {
     // the parameters, served with the table and the rules of DDS (ros::params)
     let params: Vec<&Value> = lines.iter().filter(|l| l.get("hashes").is_some()).collect();
     assert_eq!(params.len(), 2, "{}", run.all());
